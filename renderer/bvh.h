@@ -1,0 +1,78 @@
+#pragma once
+// The canonical BVH: what the builders return and what the CPU reference traces. The GPU traces a
+// layout converted from it explicitly (renderer/gpu_layout.h).
+#include "renderer/aabb.h"
+
+#include <atomic>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace raypack {
+
+// 32 bytes: two float3 corners, each with a packed 32-bit word in its fourth lane.
+//  inner node: count == 0, index = left child; the right child is index + 1 (siblings adjacent,
+//              so a packet visiting a node fetches both children with one read)
+//  leaf:       count > 0,  index = first entry in Bvh::primIndices, count entries
+// nodes[0] is the root; an empty scene has a root leaf with count 0 and an empty box.
+struct BvhNode {
+    glm::vec3 lo;
+    uint32_t index;
+    glm::vec3 hi;
+    uint32_t count;
+    bool isLeaf() const { return count != 0 || index == 0; }
+};
+static_assert(sizeof(BvhNode) == 32, "BvhNode must be 32 bytes");
+
+enum class BvhBuilder {
+    SahExact,  // the report's builder: every centroid a candidate, three presorted lists
+};
+
+struct BvhBuildOptions {
+    BvhBuilder builder = BvhBuilder::SahExact;
+    uint32_t leafSize = 2;          // a node with at most this many primitives becomes a leaf
+    float traversalCost = 1.0f;     // C_trav of the SAH
+    float intersectionCost = 1.0f;  // C_isect of the SAH
+};
+
+// Table 1 of the report, plus what raypack adds.
+struct BvhStats {
+    uint32_t nodeCount = 0;
+    uint32_t leafCount = 0;        // N_L
+    double avgLeafDepth = 0.0;     // D_AVG (root at depth 0)
+    uint32_t maxLeafDepth = 0;     // D_MAX
+    double avgPrimsPerLeaf = 0.0;  // O_AVG
+    double buildSeconds = 0.0;     // T_B
+    double sahCost = 0.0;          // SAH cost of the whole tree, relative to the root's area
+    size_t bytes = 0;              // nodes + primitive indices
+};
+
+struct Bvh {
+    std::vector<BvhNode> nodes;
+    std::vector<uint32_t> primIndices;  // leaf ranges index this; entries are triangle indices
+    BvhBuildOptions options;
+    BvhStats stats;
+};
+
+// Progress and cancellation for a build on a worker thread. `placed` counts primitives that have
+// reached a leaf; `total` is set by the builder at its start. Setting `cancel` makes the builder
+// throw BuildCancelled soon after.
+struct BuildProgress {
+    std::atomic<uint64_t> placed{0};
+    std::atomic<uint64_t> total{0};
+    std::atomic<bool> cancel{false};
+};
+
+struct BuildCancelled {};
+
+// Builds over the given primitive bounds (one per triangle, in triangle order). Deterministic: the
+// same input and options give the same tree on any thread count.
+Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options,
+             BuildProgress* progress = nullptr);
+
+// Statistics of a built tree (everything but buildSeconds).
+BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options);
+
+const char* toString(BvhBuilder builder);
+
+}  // namespace raypack

@@ -1,0 +1,48 @@
+#pragma once
+// Everything that decides what a frame looks like and how it is traced, as one value: the CLI fills
+// it from flags, the viewer's panel edits it, the tracers read it. No file-scope toggles.
+#include "renderer/camera.h"
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <string>
+
+namespace raypack {
+
+struct PhongParams {
+    float ambient = 0.15f;
+    float diffuse = 0.75f;
+    float specular = 0.25f;
+    float shininess = 32.0f;
+};
+
+enum class KernelKind { Packet, Single };
+enum class ViewMode { Shaded, HeatTraversal, HeatIntersections };
+
+struct PacketShape {
+    uint32_t width = 8;
+    uint32_t height = 4;
+    uint32_t rays() const { return width * height; }
+    bool operator==(const PacketShape&) const = default;
+};
+
+struct RenderSettings {
+    uint32_t width = 800;
+    uint32_t height = 800;
+    Camera camera;
+    float lightHeight = 0.25f;  // multiple of the scene's height above the camera (report 2.3)
+    bool shadows = true;
+    PhongParams phong;
+    glm::vec3 background{0.08f, 0.09f, 0.11f};
+    // GPU path only.
+    KernelKind kernel = KernelKind::Packet;
+    PacketShape packet;
+    bool collectCounters = false;  // per-ray N_TR / N_IT (statistics variant of the kernel)
+    ViewMode view = ViewMode::Shaded;
+};
+
+const char* toString(KernelKind kind);
+const char* toString(ViewMode mode);
+
+}  // namespace raypack
