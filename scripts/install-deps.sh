@@ -7,7 +7,7 @@ packages=(
   libtbb-dev libgtest-dev
   libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-validationlayers
   libglfw3-dev libimgui-dev xvfb xauth
-  libembree-dev python3 python3-matplotlib
+  libembree-dev python3 python3-matplotlib ccache
 )
 missing=()
 for p in "${packages[@]}"; do
