@@ -1,0 +1,18 @@
+#pragma once
+// raypack-cli's subcommands. Each add*Command declares its options on `app` and returns what runs
+// it once the command line has been parsed; main() runs the one the user chose and turns a
+// raypack::Error into one line on stderr and exit code 2.
+#include <CLI/CLI.hpp>
+
+#include <functional>
+
+namespace raypack::cli {
+
+// Exit codes shared by every subcommand (documented in --help and README.md).
+constexpr int kExitOk = 0;
+constexpr int kExitDiffer = 1;  // `diff` only: the images differ beyond the threshold
+constexpr int kExitError = 2;   // bad arguments, unreadable file, no device, ...
+
+using CommandRunner = std::function<int()>;
+
+}  // namespace raypack::cli

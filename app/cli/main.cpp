@@ -1,0 +1,47 @@
+// raypack-cli: the headless front end of raypack (render, stats, diff, generate, bench).
+#include "app/cli/commands.h"
+#include "renderer/error.h"
+
+#include <cstdio>
+#include <exception>
+#include <utility>
+#include <vector>
+
+int main(int argc, char** argv) {
+    using namespace raypack::cli;
+    CLI::App app{
+        "raypack-cli: headless front end of raypack, a ray tracer for triangle scenes (SAH BVH, "
+        "Vulkan compute packet tracer, CPU reference).\n"
+        "Exit codes: 0 success, 1 `diff` found differing images, 2 any error (bad argument, "
+        "unreadable file, no device); errors are one line on stderr.",
+        "raypack-cli"};
+    app.require_subcommand(1);
+    app.set_help_all_flag("--help-all", "Print the help of every subcommand and exit");
+
+    std::vector<std::pair<CLI::App*, CommandRunner>> commands;
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        std::fprintf(stderr, "raypack-cli: %s (see raypack-cli --help)\n", e.what());
+        return kExitError;
+    }
+    try {
+        for (auto& [subcommand, run] : commands)
+            if (subcommand->parsed()) return run();
+    } catch (const raypack::Error& e) {
+        std::fprintf(stderr, "raypack-cli: %s\n", e.what());
+        return kExitError;
+    } catch (const std::bad_alloc&) {
+        std::fprintf(stderr, "raypack-cli: out of memory\n");
+        return kExitError;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "raypack-cli: unexpected error: %s\n", e.what());
+        return kExitError;
+    }
+    return kExitError;
+}

@@ -1,0 +1,141 @@
+#include "app/cli/statistics.h"
+
+#include <algorithm>
+
+namespace raypack::cli {
+
+Spread spreadOf(std::vector<double> values) {
+    Spread s;
+    if (values.empty()) return s;
+    std::sort(values.begin(), values.end());
+    const size_t n = values.size();
+    s.min = values.front();
+    s.max = values.back();
+    s.median = n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
+    return s;
+}
+
+nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh,
+                          const BvhBuildOptions& options) {
+    const double triangles = double(scene.triangles);
+    return {
+        {"scene", scene.spec},
+        {"triangles", scene.triangles},
+        {"degenerate_triangles", scene.degenerateTriangles},
+        {"t_load_s", scene.loadSeconds},
+        {"input_bytes", scene.inputBytes},
+        {"load_mb_s", scene.loadMegabytesPerSecond()},
+        {"builder", toString(options.builder)},
+        {"leaf_size", options.leafSize},
+        {"n_l_leaves", bvh.leafCount},
+        {"d_avg_leaf_depth", bvh.avgLeafDepth},
+        {"d_max_leaf_depth", bvh.maxLeafDepth},
+        {"o_avg_prims_per_leaf", bvh.avgPrimsPerLeaf},
+        {"t_b_s", bvh.buildSeconds},
+        {"nodes", bvh.nodeCount},
+        {"sah_cost", bvh.sahCost},
+        {"bvh_bytes", uint64_t(bvh.bytes)},
+        {"bvh_bytes_per_triangle", triangles > 0 ? double(bvh.bytes) / triangles : 0.0},
+    };
+}
+
+void printTable1(std::FILE* out, const SceneInfo& scene, const BvhStats& bvh,
+                 const BvhBuildOptions& options) {
+    std::fprintf(out, "scene      %s\n", scene.spec.c_str());
+    std::fprintf(out, "triangles  %llu (%llu degenerate)\n", (unsigned long long)scene.triangles,
+                 (unsigned long long)scene.degenerateTriangles);
+    std::fprintf(out, "load       %.3f s, %.1f MB/s (%llu bytes)\n", scene.loadSeconds,
+                 scene.loadMegabytesPerSecond(), (unsigned long long)scene.inputBytes);
+    std::fprintf(out, "BVH        builder %s, leaf size %u\n", toString(options.builder),
+                 options.leafSize);
+    std::fprintf(out, "Table 1    %10s %8s %6s %7s %9s\n", "N_L", "D_AVG", "D_MAX", "O_AVG",
+                 "T_B[s]");
+    std::fprintf(out, "           %10u %8.3f %6u %7.3f %9.3f\n", bvh.leafCount, bvh.avgLeafDepth,
+                 bvh.maxLeafDepth, bvh.avgPrimsPerLeaf, bvh.buildSeconds);
+    std::fprintf(out, "           nodes %u, SAH cost %.3f, %.2f MB (%.1f bytes/triangle)\n",
+                 bvh.nodeCount, bvh.sahCost, double(bvh.bytes) / 1e6,
+                 scene.triangles ? double(bvh.bytes) / double(scene.triangles) : 0.0);
+}
+
+FrameStats summarizeRuns(const CounterSummary& counters, const std::vector<FrameTimings>& timedRuns,
+                         double uploadSeconds) {
+    FrameStats stats;
+    stats.repeats = uint32_t(timedRuns.size());
+    std::vector<double> primary, shadow, frame;
+    for (const FrameTimings& t : timedRuns) {
+        primary.push_back(t.primarySeconds);
+        shadow.push_back(t.shadowSeconds);
+        frame.push_back(t.totalSeconds);
+    }
+    stats.primary.rays = counters.primaryRays;
+    stats.primary.nodesPerRay = counters.primaryNodes;
+    stats.primary.testsPerRay = counters.primaryTests;
+    stats.primary.kernelSeconds = spreadOf(primary);
+    stats.primary.uploadSeconds = uploadSeconds;
+    stats.shadow.rays = counters.shadowRays;
+    stats.shadow.nodesPerRay = counters.shadowNodes;
+    stats.shadow.testsPerRay = counters.shadowTests;
+    stats.shadow.kernelSeconds = spreadOf(shadow);
+    stats.shadow.uploadSeconds = uploadSeconds;
+    stats.frameSeconds = spreadOf(frame);
+    return stats;
+}
+
+nlohmann::json toJson(const RayKindStats& s) {
+    return {
+        {"n_q_rays", s.rays},
+        {"n_tr_nodes_per_ray", s.nodesPerRay},
+        {"n_it_tests_per_ray", s.testsPerRay},
+        {"t_r_us_per_ray", s.microsecondsPerRay()},
+        {"t_f_s", s.traversalSeconds()},
+        {"t_cu_s", s.uploadSeconds},
+        {"t_k_s", s.kernelSeconds.median},
+        {"t_k_min_s", s.kernelSeconds.min},
+        {"t_k_max_s", s.kernelSeconds.max},
+        {"perf_mrays_s", s.mraysPerSecond()},
+        {"perf_with_upload_mrays_s", s.mraysPerSecondWithUpload()},
+    };
+}
+
+nlohmann::json toJson(const FrameStats& s) {
+    return {
+        {"device", s.device},
+        {"width_px", s.width},
+        {"height_px", s.height},
+        {"repeats", s.repeats},
+        {"frame_s", s.frameSeconds.median},
+        {"frame_min_s", s.frameSeconds.min},
+        {"frame_max_s", s.frameSeconds.max},
+        {"primary", toJson(s.primary)},
+        {"shadow", toJson(s.shadow)},
+    };
+}
+
+void printTable2(std::FILE* out, const FrameStats& s) {
+    std::fprintf(out, "device     %s\n", s.device.c_str());
+    std::fprintf(out, "image      %ux%u, %u timed run%s after 1 warm-up; times are medians\n",
+                 s.width, s.height, s.repeats, s.repeats == 1 ? "" : "s");
+    std::fprintf(out, "Table 2    %-8s %12s %8s %8s %10s %9s %9s %9s %12s %12s\n", "rays",
+                 "T_R[us/ray]", "N_IT", "N_TR", "N_Q", "T_F[s]", "T_CU[s]", "T_K[s]",
+                 "PERF[Mray/s]", "+T_CU[Mray/s]");
+    const auto row = [&](const char* name, const RayKindStats& r) {
+        std::fprintf(out, "           %-8s %12.4f %8.2f %8.2f %10llu %9.4f %9.4f %9.4f %12.3f %12.3f\n",
+                     name, r.microsecondsPerRay(), r.testsPerRay, r.nodesPerRay,
+                     (unsigned long long)r.rays, r.traversalSeconds(), r.uploadSeconds,
+                     r.kernelSeconds.median, r.mraysPerSecond(), r.mraysPerSecondWithUpload());
+    };
+    row("primary", s.primary);
+    if (s.shadow.rays) row("shadow", s.shadow);
+    else std::fprintf(out, "           %-8s (no shadow rays)\n", "shadow");
+    if (s.repeats > 1)
+        std::fprintf(out,
+                     "           T_K min/max [s]: primary %.4f / %.4f, shadow %.4f / %.4f; "
+                     "frame %.4f s (min %.4f, max %.4f)\n",
+                     s.primary.kernelSeconds.min, s.primary.kernelSeconds.max,
+                     s.shadow.kernelSeconds.min, s.shadow.kernelSeconds.max,
+                     s.frameSeconds.median, s.frameSeconds.min, s.frameSeconds.max);
+    else
+        std::fprintf(out, "           frame %.4f s\n", s.frameSeconds.median);
+}
+
+}  // namespace raypack::cli

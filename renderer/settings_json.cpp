@@ -1,0 +1,242 @@
+#include "renderer/settings_json.h"
+
+#include "renderer/error.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace raypack {
+namespace {
+
+using nlohmann::json;
+
+json toJson(const glm::vec3& v) { return json::array({v.x, v.y, v.z}); }
+
+[[noreturn]] void badKey(const std::string& key, const std::string& what) {
+    throw Error("settings JSON: \"" + key + "\" " + what);
+}
+
+// Readers for one optional key: leave `out` as it is when the key is absent.
+const json* find(const json& object, const char* key) {
+    auto it = object.find(key);
+    return it == object.end() ? nullptr : &*it;
+}
+
+void readFloat(const json& object, const char* key, const std::string& path, float& out) {
+    const json* value = find(object, key);
+    if (!value) return;
+    if (!value->is_number()) badKey(path + key, "must be a number, got " + value->dump());
+    const double d = value->get<double>();
+    if (!std::isfinite(d)) badKey(path + key, "must be finite");
+    out = float(d);
+}
+
+void readUint(const json& object, const char* key, const std::string& path, uint32_t& out) {
+    const json* value = find(object, key);
+    if (!value) return;
+    if (!value->is_number_integer() || value->get<int64_t>() < 0 ||
+        value->get<int64_t>() > int64_t(UINT32_MAX))
+        badKey(path + key, "must be a non-negative integer, got " + value->dump());
+    out = uint32_t(value->get<int64_t>());
+}
+
+void readBool(const json& object, const char* key, const std::string& path, bool& out) {
+    const json* value = find(object, key);
+    if (!value) return;
+    if (!value->is_boolean()) badKey(path + key, "must be true or false, got " + value->dump());
+    out = value->get<bool>();
+}
+
+void readVec3(const json& object, const char* key, const std::string& path, glm::vec3& out) {
+    const json* value = find(object, key);
+    if (!value) return;
+    if (!value->is_array() || value->size() != 3)
+        badKey(path + key, "must be an array of 3 numbers, got " + value->dump());
+    for (int i = 0; i < 3; ++i) {
+        const json& c = (*value)[i];
+        if (!c.is_number() || !std::isfinite(c.get<double>()))
+            badKey(path + key, "must be an array of 3 finite numbers, got " + value->dump());
+        out[i] = float(c.get<double>());
+    }
+}
+
+const json* readObject(const json& object, const char* key, const std::string& path) {
+    const json* value = find(object, key);
+    if (value && !value->is_object()) badKey(path + key, "must be an object, got " + value->dump());
+    return value;
+}
+
+std::string readString(const json& object, const char* key, const std::string& path) {
+    const json* value = find(object, key);
+    if (!value) return {};
+    if (!value->is_string()) badKey(path + key, "must be a string, got " + value->dump());
+    return value->get<std::string>();
+}
+
+void requireObject(const json& json, const char* what) {
+    if (!json.is_object())
+        throw Error(std::string("settings JSON: the ") + what + " must be a JSON object, got " +
+                    json.type_name());
+}
+
+// The builder whose toString is `name`.
+std::optional<BvhBuilder> builderFromName(const std::string& name) {
+    for (BvhBuilder b : {BvhBuilder::SahExact})
+        if (name == toString(b)) return b;
+    return std::nullopt;
+}
+
+}  // namespace
+
+const char* jsonName(KernelKind kind) { return kind == KernelKind::Packet ? "packet" : "single"; }
+
+const char* jsonName(ViewMode mode) {
+    switch (mode) {
+        case ViewMode::Shaded: return "shaded";
+        case ViewMode::HeatTraversal: return "nodes";
+        case ViewMode::HeatIntersections: return "tests";
+    }
+    return "shaded";
+}
+
+std::optional<KernelKind> parseKernelKind(const std::string& name) {
+    if (name == "packet") return KernelKind::Packet;
+    if (name == "single") return KernelKind::Single;
+    return std::nullopt;
+}
+
+std::optional<ViewMode> parseViewMode(const std::string& name) {
+    if (name == "shaded") return ViewMode::Shaded;
+    if (name == "nodes") return ViewMode::HeatTraversal;
+    if (name == "tests") return ViewMode::HeatIntersections;
+    return std::nullopt;
+}
+
+nlohmann::json toJson(const RenderSettings& s) {
+    json j;
+    j["width"] = s.width;
+    j["height"] = s.height;
+    j["camera"] = {{"eye", toJson(s.camera.eye)},
+                   {"at", toJson(s.camera.at)},
+                   {"up", toJson(s.camera.up)},
+                   {"fov_y_degrees", s.camera.fovYDegrees}};
+    j["light_height"] = s.lightHeight;
+    j["shadows"] = s.shadows;
+    j["phong"] = {{"ambient", s.phong.ambient},
+                  {"diffuse", s.phong.diffuse},
+                  {"specular", s.phong.specular},
+                  {"shininess", s.phong.shininess}};
+    j["background"] = toJson(s.background);
+    j["kernel"] = jsonName(s.kernel);
+    j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
+    j["collect_counters"] = s.collectCounters;
+    j["view"] = jsonName(s.view);
+    return j;
+}
+
+nlohmann::json toJson(const BvhBuildOptions& o) {
+    return {{"builder", toString(o.builder)},
+            {"leaf_size", o.leafSize},
+            {"traversal_cost", o.traversalCost},
+            {"intersection_cost", o.intersectionCost}};
+}
+
+nlohmann::json toJson(const RenderSetup& setup) {
+    json j = toJson(setup.settings);
+    j["scene"] = setup.scene;
+    j["bvh"] = toJson(setup.bvh);
+    return j;
+}
+
+RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
+    requireObject(j, "settings");
+    RenderSettings s;
+    readUint(j, "width", "", s.width);
+    readUint(j, "height", "", s.height);
+    if (s.width == 0 || s.height == 0) badKey("width/height", "must both be at least 1");
+    if (const json* camera = readObject(j, "camera", "")) {
+        readVec3(*camera, "eye", "camera.", s.camera.eye);
+        readVec3(*camera, "at", "camera.", s.camera.at);
+        readVec3(*camera, "up", "camera.", s.camera.up);
+        readFloat(*camera, "fov_y_degrees", "camera.", s.camera.fovYDegrees);
+        if (!(s.camera.fovYDegrees > 0.0f && s.camera.fovYDegrees < 180.0f))
+            badKey("camera.fov_y_degrees", "must be in (0, 180) degrees");
+    }
+    readFloat(j, "light_height", "", s.lightHeight);
+    readBool(j, "shadows", "", s.shadows);
+    if (const json* phong = readObject(j, "phong", "")) {
+        readFloat(*phong, "ambient", "phong.", s.phong.ambient);
+        readFloat(*phong, "diffuse", "phong.", s.phong.diffuse);
+        readFloat(*phong, "specular", "phong.", s.phong.specular);
+        readFloat(*phong, "shininess", "phong.", s.phong.shininess);
+    }
+    readVec3(j, "background", "", s.background);
+    if (const std::string kernel = readString(j, "kernel", ""); !kernel.empty()) {
+        const auto parsed = parseKernelKind(kernel);
+        if (!parsed) badKey("kernel", "must be \"packet\" or \"single\", got \"" + kernel + "\"");
+        s.kernel = *parsed;
+    }
+    if (const json* packet = readObject(j, "packet", "")) {
+        readUint(*packet, "width", "packet.", s.packet.width);
+        readUint(*packet, "height", "packet.", s.packet.height);
+        if (s.packet.width == 0 || s.packet.height == 0)
+            badKey("packet", "width and height must both be at least 1");
+    }
+    readBool(j, "collect_counters", "", s.collectCounters);
+    if (const std::string view = readString(j, "view", ""); !view.empty()) {
+        const auto parsed = parseViewMode(view);
+        if (!parsed)
+            badKey("view", "must be \"shaded\", \"nodes\" or \"tests\", got \"" + view + "\"");
+        s.view = *parsed;
+    }
+    return s;
+}
+
+BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
+    requireObject(j, "bvh options");
+    BvhBuildOptions o;
+    if (const std::string builder = readString(j, "builder", "bvh."); !builder.empty()) {
+        const auto parsed = builderFromName(builder);
+        if (!parsed) badKey("bvh.builder", "names no known builder: \"" + builder + "\"");
+        o.builder = *parsed;
+    }
+    readUint(j, "leaf_size", "bvh.", o.leafSize);
+    if (o.leafSize == 0) badKey("bvh.leaf_size", "must be at least 1");
+    readFloat(j, "traversal_cost", "bvh.", o.traversalCost);
+    readFloat(j, "intersection_cost", "bvh.", o.intersectionCost);
+    if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
+        badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
+    return o;
+}
+
+RenderSetup renderSetupFromJson(const nlohmann::json& j) {
+    RenderSetup setup;
+    setup.settings = renderSettingsFromJson(j);
+    setup.scene = readString(j, "scene", "");
+    if (const json* bvh = readObject(j, "bvh", "")) setup.bvh = bvhBuildOptionsFromJson(*bvh);
+    return setup;
+}
+
+nlohmann::json readJsonFile(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error(path + ": cannot open the JSON file");
+    std::stringstream text;
+    text << in.rdbuf();
+    if (in.bad()) throw Error(path + ": cannot read the JSON file");
+    try {
+        return json::parse(text.str());
+    } catch (const json::parse_error& e) {
+        throw Error(path + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
+    }
+}
+
+void writeJsonFile(const std::string& path, const nlohmann::json& json) {
+    std::ofstream out(path, std::ios::binary);
+    if (!out) throw Error(path + ": cannot create the JSON file");
+    out << json.dump(2) << '\n';
+    out.close();
+    if (!out) throw Error(path + ": cannot write the JSON file");
+}
+
+}  // namespace raypack
