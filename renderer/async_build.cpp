@@ -1,0 +1,194 @@
+#include "renderer/async_build.h"
+
+#include "renderer/error.h"
+
+#include <exception>
+#include <vector>
+
+namespace raypack {
+
+namespace {
+
+double secondsSince(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+}  // namespace
+
+const char* toString(BuildPhase phase) {
+    switch (phase) {
+        case BuildPhase::Idle: return "idle";
+        case BuildPhase::Loading: return "loading";
+        case BuildPhase::Building: return "building";
+    }
+    return "?";
+}
+
+AsyncSceneBuilder::AsyncSceneBuilder(SceneLoader loader)
+    : loader_(std::move(loader)), worker_([this] { workerLoop(); }) {
+    RAYPACK_CHECK(loader_);
+}
+
+AsyncSceneBuilder::~AsyncSceneBuilder() {
+    {
+        std::lock_guard lock(mutex_);
+        shutdown_ = true;
+        waiting_.reset();
+        cancelRunningLocked();
+    }
+    wake_.notify_all();
+    worker_.join();
+}
+
+void AsyncSceneBuilder::cancelRunningLocked() {
+    if (running_) {
+        running_->buildProgress.cancel = true;
+        running_->loadTicker.cancel = true;
+    }
+}
+
+uint64_t AsyncSceneBuilder::requestLoad(const std::string& path, const BvhBuildOptions& options) {
+    uint64_t id;
+    {
+        std::lock_guard lock(mutex_);
+        id = nextId_++;
+        waiting_ = Request{id, path, nullptr, options, /*reuseLoaded=*/false};
+        outstandingLoadPath_ = path;
+        cancelRunningLocked();
+    }
+    wake_.notify_all();
+    return id;
+}
+
+uint64_t AsyncSceneBuilder::requestRebuild(std::shared_ptr<const Scene> scene,
+                                           const BvhBuildOptions& options) {
+    uint64_t id;
+    {
+        std::lock_guard lock(mutex_);
+        id = nextId_++;
+        if (!outstandingLoadPath_.empty())
+            waiting_ = Request{id, outstandingLoadPath_, nullptr, options, /*reuseLoaded=*/true};
+        else {
+            RAYPACK_CHECK(scene);
+            waiting_ = Request{id, {}, std::move(scene), options, false};
+        }
+        cancelRunningLocked();
+    }
+    wake_.notify_all();
+    return id;
+}
+
+std::optional<SceneBuild> AsyncSceneBuilder::takeFinished() {
+    std::lock_guard lock(mutex_);
+    std::optional<SceneBuild> taken = std::move(finished_);
+    finished_.reset();
+    // Once the render thread holds the newest loaded scene, later rebuilds apply to its copy.
+    if (taken && !taken->scenePath.empty() && taken->scenePath == outstandingLoadPath_ &&
+        !waiting_ && !running_)
+        outstandingLoadPath_.clear();
+    return taken;
+}
+
+std::optional<BuildFailure> AsyncSceneBuilder::takeFailure() {
+    std::lock_guard lock(mutex_);
+    std::optional<BuildFailure> taken = std::move(failure_);
+    failure_.reset();
+    return taken;
+}
+
+BuildStatus AsyncSceneBuilder::status() const {
+    std::lock_guard lock(mutex_);
+    BuildStatus status;
+    status.requestWaiting = waiting_.has_value();
+    if (running_) {
+        status.phase = running_->phase;
+        status.requestId = running_->id;
+        status.scenePath = running_->path;
+        status.loadFraction = running_->loadTicker.fraction.load();
+        status.placed = running_->buildProgress.placed.load();
+        status.total = running_->buildProgress.total.load();
+        status.elapsedSeconds = secondsSince(running_->start);
+    }
+    return status;
+}
+
+bool AsyncSceneBuilder::idle() const {
+    std::lock_guard lock(mutex_);
+    return !running_ && !waiting_;
+}
+
+void AsyncSceneBuilder::waitIdle() {
+    std::unique_lock lock(mutex_);
+    idleCv_.wait(lock, [&] { return !running_ && !waiting_; });
+}
+
+void AsyncSceneBuilder::workerLoop() {
+    std::unique_lock lock(mutex_);
+    for (;;) {
+        wake_.wait(lock, [&] { return shutdown_ || waiting_.has_value(); });
+        if (shutdown_) break;
+        const Request request = std::move(*waiting_);
+        waiting_.reset();
+        auto job = std::make_shared<RunningJob>();
+        job->id = request.id;
+        job->path = request.path;
+        job->phase = request.path.empty() ? BuildPhase::Building : BuildPhase::Loading;
+        job->start = std::chrono::steady_clock::now();
+        running_ = job;
+        lock.unlock();
+        run(request, *job);
+        lock.lock();
+        running_.reset();
+        idleCv_.notify_all();
+    }
+    running_.reset();
+    idleCv_.notify_all();
+}
+
+void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
+    const bool isLoad = !request.path.empty();
+    try {
+        std::shared_ptr<const Scene> scene = request.scene;
+        double loadSeconds = 0.0;
+        if (isLoad) {
+            {
+                std::lock_guard lock(mutex_);
+                if (request.reuseLoaded && lastLoadedPath_ == request.path) scene = lastLoadedScene_;
+            }
+            if (!scene) {
+                const auto loadStart = std::chrono::steady_clock::now();
+                scene = std::make_shared<const Scene>(loader_(request.path, job.loadTicker));
+                loadSeconds = secondsSince(loadStart);
+                std::lock_guard lock(mutex_);
+                // Kept even when this job was cancelled: the request that cancelled it is often a
+                // rebuild of this very file.
+                lastLoadedPath_ = request.path;
+                lastLoadedScene_ = scene;
+            }
+            if (job.loadTicker.cancel) return;
+            std::lock_guard lock(mutex_);
+            job.phase = BuildPhase::Building;
+        }
+
+        std::vector<Aabb> bounds(scene->triangleCount());
+        for (uint32_t tri = 0; tri < bounds.size(); ++tri) bounds[tri] = scene->triangleBounds(tri);
+        const auto buildStart = std::chrono::steady_clock::now();
+        auto bvh = std::make_shared<const Bvh>(buildBvh(bounds, request.options, &job.buildProgress));
+        const double buildSeconds = secondsSince(buildStart);
+
+        std::lock_guard lock(mutex_);
+        if (job.buildProgress.cancel) return;
+        finished_ = SceneBuild{request.id, std::move(scene), std::move(bvh), request.path,
+                               loadSeconds, buildSeconds};
+    } catch (const BuildCancelled&) {
+        // Superseded by a newer request: nothing to hand back.
+    } catch (const std::exception& e) {
+        std::lock_guard lock(mutex_);
+        if (job.buildProgress.cancel || job.loadTicker.cancel) return;
+        failure_ = BuildFailure{request.id, request.path, e.what()};
+        if (isLoad && request.path == outstandingLoadPath_ && !waiting_)
+            outstandingLoadPath_.clear();  // the current scene stays; rebuilds apply to it again
+    }
+}
+
+}  // namespace raypack

@@ -1,0 +1,137 @@
+#pragma once
+// Loading scenes and building BVHs on a worker thread, for the viewer: the render thread asks,
+// keeps rendering what it has, and once per frame takes whatever finished as a value and swaps it
+// in at the frame boundary. It never waits on a build (see ../shared/STYLE.md, "Builders are
+// functions ... the viewer's worker thread hands back a finished value").
+//
+// Requests replace one another: there is at most one running job and one waiting request. A new
+// request cancels the running job (through BuildProgress::cancel, so buildBvh throws
+// BuildCancelled soon after) and takes the waiting slot, so rapid slider changes end in the tree
+// of the last request, and nothing in between is handed back once it is superseded.
+#include "renderer/bvh.h"
+#include "renderer/scene.h"
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+namespace raypack {
+
+// What a scene loader reports while it reads a file: the share read so far in [0, 1] (0 when the
+// loader cannot tell), and the flag that asks it to stop early (it then throws anything; the result
+// is dropped).
+struct LoadTicker {
+    std::atomic<double> fraction{0.0};
+    std::atomic<bool> cancel{false};
+};
+
+// The renderer library does not depend on the loaders (scenes/ links renderer/), so the caller
+// passes the function that reads a file; it throws raypack::Error for a bad file.
+using SceneLoader = std::function<Scene(const std::string& path, LoadTicker& ticker)>;
+
+// A finished job: the scene and the tree built over it, ready to be uploaded and traced.
+struct SceneBuild {
+    uint64_t requestId = 0;
+    std::shared_ptr<const Scene> scene;
+    std::shared_ptr<const Bvh> bvh;
+    std::string scenePath;      // the file it came from (empty for a rebuild of a scene in memory)
+    double loadSeconds = 0.0;   // 0 when the scene was not read in this job
+    double buildSeconds = 0.0;  // wall clock of buildBvh
+};
+
+// A job that stopped with an error (a bad file, a scene too large); the current scene stays.
+struct BuildFailure {
+    uint64_t requestId = 0;
+    std::string scenePath;
+    std::string message;
+};
+
+enum class BuildPhase { Idle, Loading, Building };
+
+// A snapshot for the progress bar.
+struct BuildStatus {
+    BuildPhase phase = BuildPhase::Idle;
+    uint64_t requestId = 0;
+    std::string scenePath;
+    double loadFraction = 0.0;    // of the file read (Loading)
+    uint64_t placed = 0;          // primitives placed in leaves (Building)
+    uint64_t total = 0;           // primitives in the scene (Building)
+    double elapsedSeconds = 0.0;  // since the job started
+    bool requestWaiting = false;  // a newer request waits for the running job to stop
+};
+
+const char* toString(BuildPhase phase);
+
+class AsyncSceneBuilder {
+public:
+    explicit AsyncSceneBuilder(SceneLoader loader);
+    // Cancels the running job, drops the waiting one and joins the worker.
+    ~AsyncSceneBuilder();
+    AsyncSceneBuilder(const AsyncSceneBuilder&) = delete;
+    AsyncSceneBuilder& operator=(const AsyncSceneBuilder&) = delete;
+
+    // Read `path` and build over it. Returns the request's id.
+    uint64_t requestLoad(const std::string& path, const BvhBuildOptions& options);
+    // Build over `scene` with new options. When a load is still outstanding (waiting, running, or
+    // finished but not yet taken), the rebuild applies to that newer scene instead, so a slider
+    // moved while a file loads does not bring the old scene back.
+    uint64_t requestRebuild(std::shared_ptr<const Scene> scene, const BvhBuildOptions& options);
+
+    // Non-blocking; called by the render thread once per frame. The newest finished build that no
+    // later request has superseded, if any, and the newest failure, if any.
+    std::optional<SceneBuild> takeFinished();
+    std::optional<BuildFailure> takeFailure();
+
+    BuildStatus status() const;
+    // True when no job runs or waits.
+    bool idle() const;
+    // Blocks until idle. For scripted runs and tests only: the render loop never calls it.
+    void waitIdle();
+
+private:
+    struct Request {
+        uint64_t id = 0;
+        std::string path;                    // non-empty: read this file first
+        std::shared_ptr<const Scene> scene;  // otherwise build over this scene
+        BvhBuildOptions options;
+        bool reuseLoaded = false;  // a path repeated by a rebuild may reuse the scene just read
+    };
+    struct RunningJob {
+        uint64_t id = 0;
+        std::string path;
+        BuildPhase phase = BuildPhase::Idle;
+        std::chrono::steady_clock::time_point start;
+        LoadTicker loadTicker;
+        BuildProgress buildProgress;
+    };
+
+    void workerLoop();
+    void run(const Request& request, RunningJob& job);
+    void cancelRunningLocked();
+
+    SceneLoader loader_;
+    mutable std::mutex mutex_;
+    std::condition_variable wake_;    // a request arrived, or shutdown
+    std::condition_variable idleCv_;  // a job ended
+    std::optional<Request> waiting_;
+    std::shared_ptr<RunningJob> running_;
+    std::optional<SceneBuild> finished_;
+    std::optional<BuildFailure> failure_;
+    // The path of the latest load request until its scene is taken by the render thread.
+    std::string outstandingLoadPath_;
+    // The last scene read, so that a rebuild that arrives during a load does not read it again.
+    std::string lastLoadedPath_;
+    std::shared_ptr<const Scene> lastLoadedScene_;
+    uint64_t nextId_ = 1;
+    bool shutdown_ = false;
+    std::thread worker_;  // last: started once everything above is initialised
+};
+
+}  // namespace raypack
