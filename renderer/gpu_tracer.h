@@ -1,0 +1,80 @@
+#pragma once
+// The Vulkan compute tracer: the report's packet traversal with a stack in shared memory
+// (Gunther, Popov, Seidel 2007, "Realtime Ray Tracing on GPU with BVH-based Packet Traversal";
+// ../shared/reference/gpu-packet-traversal-report.txt 2.2, 2.3, 3.3-3.5) and, beside it, the
+// single-ray while-while kernel (Aila and Laine 2009) on the same node layout.
+//
+// Data flow: Scene + Bvh --makeGpuLayout--> GpuLayout --upload--> device buffers; per frame
+// RenderSettings --render / recordFrame--> two dispatches (primary rays, then shadow rays that
+// also shade) --> RGBA8 buffer (+ hits, counters).
+//
+// The tracer owns its pipelines (one per kernel x packet shape x statistics x view x pass, built on
+// first use from specialization constants and cached), the scene buffers and the frame buffers.
+// It does not own the VulkanContext, which must outlive it.
+#include "renderer/bvh.h"
+#include "renderer/frame.h"
+#include "renderer/scene.h"
+#include "renderer/settings.h"
+#include "renderer/vk/context.h"
+
+#include <memory>
+#include <optional>
+
+namespace raypack {
+
+// Options of a recorded frame that concern only how the output is consumed.
+struct GpuRecordOptions {
+    // Write the output as B8G8R8A8 instead of R8G8B8A8, for copying into a BGRA swapchain image.
+    bool bgra = false;
+};
+
+class GpuTracer {
+public:
+    explicit GpuTracer(const vk::VulkanContext& context);
+    ~GpuTracer();
+    GpuTracer(const GpuTracer&) = delete;
+    GpuTracer& operator=(const GpuTracer&) = delete;
+
+    // Converts `bvh` over `scene` to the GPU layout (renderer/gpu_layout.h), creates the device
+    // buffers and uploads them, replacing the previous scene (after waiting for the queue to go
+    // idle). Returns T_CU: seconds for conversion, creation and upload, measured on the host.
+    // Throws raypack::Error when the device is out of memory or the tree is too deep for the
+    // stack the device's shared memory can hold.
+    double upload(const Scene& scene, const Bvh& bvh);
+    bool hasScene() const;
+
+    // Everything synchronously: records both passes, submits, waits and reads back what `request`
+    // asks for. Frame::timings.primarySeconds / shadowSeconds are kernel times (T_K) from
+    // timestamp queries, totalSeconds the host's wall time for the call (T_F).
+    // Throws raypack::Error for a packet shape the device cannot run (more rays than
+    // maxComputeWorkGroupInvocations) or when no scene is uploaded.
+    Frame render(const RenderSettings& settings, const FrameRequest& request = {});
+
+    // For the viewer: records the frame into `cmd`, a command buffer the caller owns, begun and not
+    // yet ended, on the context's queue. Starts with a barrier against earlier frames on the queue
+    // (so one tracer's frames may be in flight back to back) and ends with a barrier making
+    // outputBuffer() readable by transfer (VK_PIPELINE_STAGE_TRANSFER_BIT,
+    // VK_ACCESS_TRANSFER_READ_BIT): copy it into the swapchain image with
+    // vkCmdCopyBufferToImage (tightly packed, width x height texels, row 0 at the top).
+    // A change of image size re-creates the frame buffers after vkQueueWaitIdle.
+    void recordFrame(VkCommandBuffer cmd, const RenderSettings& settings,
+                     const GpuRecordOptions& options = {});
+    VkBuffer outputBuffer() const;
+    VkDeviceSize outputBytes() const;
+
+    // Kernel times of the newest recorded frame whose timestamps are available (not waiting for
+    // the GPU); nullopt before the first one completes or when the queue has no timestamps.
+    std::optional<FrameTimings> lastKernelTimes();
+
+    // Stack entries the kernels are compiled with: the uploaded tree's maximal depth + 1.
+    uint32_t stackEntries() const;
+    // Shared memory one packet of `shape` needs (stack + vote partial sums), in bytes.
+    uint32_t sharedMemoryBytes(PacketShape shape) const;
+    const vk::DeviceInfo& device() const;
+
+private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
+}  // namespace raypack

@@ -1,0 +1,110 @@
+#pragma once
+// Vulkan set-up, kept small and apart from the tracer (../shared/STYLE.md; the scope of
+// vk-bootstrap and of niagara's device.cpp): instance, optional validation, device choice, one
+// queue, plain buffers and one-shot command submission. No window code: the viewer passes its
+// surface extensions and a present-support callback through VulkanContextOptions.
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace raypack::vk {
+
+// Throws raypack::Error naming `what` and the VkResult when `result` is an error.
+void check(VkResult result, const char* what);
+const char* resultName(VkResult result);
+
+struct VulkanContextOptions {
+    // "" = automatic (discrete > integrated > virtual > CPU), a decimal index into the list of
+    // devices, or a case-insensitive substring of the device name ("llvmpipe", "H100").
+    std::string device;
+    // VK_LAYER_KHRONOS_validation plus a debug messenger that prints and counts every message.
+    bool validation = false;
+    std::vector<std::string> instanceExtensions;  // e.g. glfwGetRequiredInstanceExtensions()
+    std::vector<std::string> deviceExtensions;    // e.g. VK_KHR_swapchain
+    // When set, the queue family must also present: called with the instance, a candidate
+    // physical device and a queue family index. Devices without such a family are skipped.
+    std::function<bool(VkInstance, VkPhysicalDevice, uint32_t)> presentSupport;
+    std::string applicationName = "raypack";
+};
+
+// What the tracer and the panel need to know about the chosen device.
+struct DeviceInfo {
+    uint32_t index = 0;  // position in vkEnumeratePhysicalDevices
+    std::string name;
+    VkPhysicalDeviceType type = VK_PHYSICAL_DEVICE_TYPE_OTHER;
+    std::string driver;  // driver name and info (VkPhysicalDeviceDriverProperties)
+    uint32_t apiVersion = 0;
+    uint32_t subgroupSize = 0;
+    uint32_t maxSharedMemoryBytes = 0;            // maxComputeSharedMemorySize
+    uint32_t maxWorkgroupInvocations = 0;         // maxComputeWorkGroupInvocations
+    uint32_t maxWorkgroupSize[3] = {0, 0, 0};     // maxComputeWorkGroupSize
+    uint32_t maxWorkgroupCount[3] = {0, 0, 0};    // maxComputeWorkGroupCount
+    float timestampPeriodNs = 0.0f;               // nanoseconds per timestamp tick
+    bool timestamps = false;                      // the queue family writes timestamps
+    uint64_t deviceLocalBytes = 0;                // size of the largest device-local heap
+};
+
+const char* toString(VkPhysicalDeviceType type);
+// "NAME (TYPE, DRIVER, subgroup N)": the line the CLI prints and the viewer shows.
+std::string describe(const DeviceInfo& info);
+
+// Validation messages seen so far; tests fail when count > 0.
+struct ValidationLog {
+    std::mutex mutex;
+    uint32_t count = 0;
+    std::vector<std::string> messages;
+};
+
+struct VulkanContext {
+    VkInstance instance = VK_NULL_HANDLE;
+    VkDebugUtilsMessengerEXT messenger = VK_NULL_HANDLE;
+    VkPhysicalDevice physicalDevice = VK_NULL_HANDLE;
+    VkDevice device = VK_NULL_HANDLE;
+    uint32_t queueFamily = 0;
+    VkQueue queue = VK_NULL_HANDLE;
+    bool universalQueue = false;  // the family does graphics and compute
+    VkPhysicalDeviceMemoryProperties memoryProperties{};
+    DeviceInfo info;
+    std::unique_ptr<ValidationLog> validation;  // null when validation is off
+};
+
+// Throws raypack::Error when there is no Vulkan loader or driver, no usable device, or the
+// requested device is not found (the message lists the devices).
+VulkanContext createVulkanContext(const VulkanContextOptions& options);
+void destroyVulkanContext(VulkanContext& context);
+
+// Every device the loader reports, for `--device` help and error messages.
+std::vector<DeviceInfo> listDevices(const VulkanContextOptions& options = {});
+
+uint32_t validationMessageCount(const VulkanContext& context);
+
+// ---- Buffers (niagara's Buffer / createBuffer): a plain struct, created and destroyed by functions.
+struct Buffer {
+    VkBuffer buffer = VK_NULL_HANDLE;
+    VkDeviceMemory memory = VK_NULL_HANDLE;
+    void* mapped = nullptr;  // host-visible buffers stay mapped
+    VkDeviceSize size = 0;
+};
+
+// Throws raypack::Error naming the device, `what` and the size on out-of-memory.
+Buffer createBuffer(const VulkanContext& context, VkDeviceSize size, VkBufferUsageFlags usage,
+                    VkMemoryPropertyFlags properties, const char* what);
+void destroyBuffer(const VulkanContext& context, Buffer& buffer);
+
+// Records with `record` into a fresh command buffer from `pool`, submits it and waits.
+void submitAndWait(const VulkanContext& context, VkCommandPool pool,
+                   const std::function<void(VkCommandBuffer)>& record);
+
+// Copies `bytes` from host memory into a device-local buffer through a staging buffer.
+void uploadToBuffer(const VulkanContext& context, VkCommandPool pool, const Buffer& destination,
+                    const void* data, VkDeviceSize bytes);
+
+VkShaderModule createShaderModule(const VulkanContext& context, const uint32_t* code,
+                                  size_t codeBytes, const char* name);
+
+}  // namespace raypack::vk

@@ -1,0 +1,87 @@
+// What the GPU kernels read, defined once for GLSL and C++ (../shared/STYLE.md, "One definition of
+// what the GPU reads"). Built on the CPU by makeGpuLayout (renderer/gpu_layout.h) from the canonical
+// Bvh and Scene: the BVH that is built is not the BVH that is traced.
+#ifndef RAYPACK_SHADERS_GPU_TYPES_H
+#define RAYPACK_SHADERS_GPU_TYPES_H
+#include "common.h"
+#include "camera.h"
+
+RP_BEGIN_NAMESPACE
+
+// 32 bytes, the report's node size (2 x 16):
+//   lo.xyz, hi.xyz: the box
+//   lo.w (uint bits): inner node: index of the left child; the right child is index + 1, so the
+//                     two children a packet tests are one 64-byte read
+//                     leaf: index of its first triangle in GpuTriangle order (leaf order)
+//   hi.w (uint bits): 0 for an inner node, the triangle count for a leaf
+// Node 0 is the root. An empty scene has a root leaf with count 0 and an empty box (lo > hi),
+// which no ray hits.
+struct GpuNode {
+    vec4 lo;
+    vec4 hi;
+};
+RP_CHECK_SIZE(GpuNode, 32);
+RP_CHECK_OFFSET(GpuNode, hi, 16);
+
+// 48 bytes: the three corners, gathered in leaf order so that a leaf's triangles are contiguous
+// and the watertight test (Woop, Benthin, Wald 2013) reads its vertices without an index fetch.
+//   v0.w (uint bits): the triangle's index in file order (HitRecord::prim)
+//   v1.w (uint bits): material index (0 when the scene has no materials)
+//   v2.w: 0
+struct GpuTriangle {
+    vec4 v0;
+    vec4 v1;
+    vec4 v2;
+};
+RP_CHECK_SIZE(GpuTriangle, 48);
+
+// 48 bytes, leaf order, present only when the scene has vertex normals: the normals at v0, v1, v2.
+struct GpuTriangleNormals {
+    vec4 n0;
+    vec4 n1;
+    vec4 n2;
+};
+RP_CHECK_SIZE(GpuTriangleNormals, 48);
+
+// Bits of GpuFrameParams::frame.z.
+const uint kFrameWriteHits = 1u;     // write HitRecords
+const uint kFrameBgra = 2u;          // output bytes in B, G, R, A order
+const uint kFrameHasNormals = 4u;    // the normals buffer holds real data
+const uint kFrameHasMaterials = 8u;  // the materials buffer holds real data
+
+// 128 bytes: the push constants of every pass (the guaranteed minimum of maxPushConstantsSize).
+struct GpuFrameParams {
+    GpuCamera camera;  // 64 bytes, shaders/camera.h
+    vec4 light;        // xyz: point light position, w: 0
+    vec4 background;   // rgb: colour of a miss, w: heat-map scale (value shown as full red)
+    vec4 phong;        // ambient, diffuse, specular, shininess
+    uvec4 frame;       // x: width, y: height, z: kFrame* bits, w: packets per image row
+};
+RP_CHECK_SIZE(GpuFrameParams, 128);
+RP_CHECK_OFFSET(GpuFrameParams, light, 64);
+RP_CHECK_OFFSET(GpuFrameParams, frame, 112);
+
+// 16 bytes per pixel: what the primary pass hands the shadow pass.
+//   x: t (+inf on a miss), y (uint bits): triangle in leaf order or kNoHit, z, w: barycentrics u, v
+struct GpuPrimaryHit {
+    vec4 data;
+};
+RP_CHECK_SIZE(GpuPrimaryHit, 16);
+
+// Values of the kernel specialization constants (constant_id in shaders/trace.comp).
+const uint kKernelPacket = 0u;
+const uint kKernelSingle = 1u;
+const uint kPassPrimary = 0u;         // trace primary rays, keep the hits for the shadow pass
+const uint kPassPrimaryShade = 1u;    // trace primary rays and shade (shadows off)
+const uint kPassShadowShade = 2u;     // trace shadow rays for the kept hits and shade
+const uint kViewShaded = 0u;
+const uint kViewHeatTraversal = 1u;
+const uint kViewHeatIntersections = 2u;
+
+// Status word written by the kernels (should stay 0): set when a stack would overflow, which the
+// host's sizing from the tree's depth rules out; checked after every synchronous frame.
+const uint kStatusStackOverflow = 1u;
+
+RP_END_NAMESPACE
+
+#endif  // RAYPACK_SHADERS_GPU_TYPES_H
