@@ -1,0 +1,227 @@
+// Ray/triangle, ray/box and shadow-ray code shared by the GPU kernels and the CPU reference
+// (renderer/cpu_tracer.cpp): both compile this very text, so a ray that one path hits the other
+// hits too (see common.h for the GLSL/C++ rules).
+//
+// Robustness (issue 3): no ray may slip through a shared edge or vertex of a closed mesh, and rays
+// with zero direction components must behave. Hence
+//  - the watertight ray/triangle test of Woop, Benthin and Wald 2013 ("Watertight Ray/Triangle
+//    Intersection", JCGT 2(1)), edges inclusive, no back-face culling;
+//  - the conservative slab test of Ize 2013 ("Robust BVH Ray Traversal", JCGT 2(2)), with axes the
+//    ray is parallel to handled explicitly instead of through 0 * inf;
+//  - one shadow-ray rule (makeShadowRay) used by every tracer.
+#ifndef RAYPACK_SHADERS_INTERSECT_H
+#define RAYPACK_SHADERS_INTERSECT_H
+#include "common.h"
+
+// `precise` forbids the GLSL compiler from fusing a*b - c*d into an FMA. Watertightness rests on
+// the edge function of a shared edge being computed from the same two rounded products by both
+// triangles (then one triangle's value is exactly the negation of the other's); a fused
+// multiply-add rounds one product differently in each triangle and re-opens the crack. C++ needs
+// nothing: raypack builds as ISO C++ (-ffp-contract=off).
+#ifndef RP_PRECISE
+#ifdef __cplusplus
+#define RP_PRECISE
+#else
+#define RP_PRECISE precise
+#endif
+#endif
+
+RP_BEGIN_NAMESPACE
+
+#ifdef __cplusplus
+using glm::step;
+#endif
+
+// Largest finite value we use in place of infinity: GLSL does not promise IEEE infinities.
+const float kFloatHuge = 3.402823466e38f;
+// Ize 2013, Robust BVH Ray Traversal: widen each slab's far distance by 1 + 2*gamma(3), with
+// gamma(n) = n*u / (1 - n*u) and u = 2^-24 (unit roundoff of float). This covers the rounding of
+// (bound - origin) * invDir in both the near and the far distance.
+const float kSlabFarWiden = 1.0000003576278687f;  // 1 + 2 * 3u/(1-3u), rounded up
+// A direction component smaller than this in magnitude counts as zero (the ray is parallel to that
+// slab): 1/x would overflow to infinity, and 0 * infinity is NaN, whose min/max GLSL leaves
+// undefined. FLT_MIN also covers denormals, which GPUs may flush to zero anyway.
+const float kParallelEpsilon = 1.175494351e-38f;
+
+// Everything a ray needs for box and triangle tests, computed once per ray (makeTraceRay). A local
+// value only, never stored in a buffer, so vec3 members are fine here.
+struct TraceRay {
+    vec3 org;
+    vec3 dir;
+    // Slab test.
+    vec3 invDir;    // 1/dir, 0 on parallel axes
+    vec3 parallel;  // 1.0 on axes the ray is parallel to, else 0.0
+    vec3 farBias;   // kFloatHuge on parallel axes so they never limit the far distance
+    bool anyParallel;
+    // Watertight triangle test: kz is the axis of largest |dir|, kx and ky the other two, swapped
+    // when dir[kz] < 0 to keep the triangle's winding; the shear maps the ray onto +z.
+    int kx;
+    int ky;
+    int kz;
+    float shearX;
+    float shearY;
+    float shearZ;
+};
+
+// dir need not be normalized (shadow rays use p - light), but must not be zero.
+RP_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
+    TraceRay r;
+    r.org = org;
+    r.dir = dir;
+    const vec3 absDir = abs(dir);
+    r.parallel = vec3(0.0f);
+    r.anyParallel = false;
+    for (int axis = 0; axis < 3; ++axis) {
+        if (absDir[axis] < kParallelEpsilon) {
+            r.parallel[axis] = 1.0f;
+            r.invDir[axis] = 0.0f;
+            r.anyParallel = true;
+        } else {
+            r.invDir[axis] = 1.0f / dir[axis];
+        }
+    }
+    r.farBias = r.parallel * kFloatHuge;
+
+    // Ties go to the lower axis, the same on both sides.
+    int kz = 0;
+    if (absDir.y > absDir[kz]) kz = 1;
+    if (absDir.z > absDir[kz]) kz = 2;
+    int kx = kz + 1;
+    if (kx == 3) kx = 0;
+    int ky = kx + 1;
+    if (ky == 3) ky = 0;
+    if (dir[kz] < 0.0f) {
+        const int swapped = kx;
+        kx = ky;
+        ky = swapped;
+    }
+    r.kx = kx;
+    r.ky = ky;
+    r.kz = kz;
+    r.shearX = dir[kx] / dir[kz];
+    r.shearY = dir[ky] / dir[kz];
+    r.shearZ = 1.0f / dir[kz];
+    return r;
+}
+
+// Conservative slab test against [lo, hi] for t in [0, tmax]. Returns whether the ray may touch the
+// box; tEntry is the entry distance (clamped to 0). Boxes are closed: a ray lying in a face plane,
+// or parallel to an axis and inside that slab, hits.
+RP_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
+    const vec3 tLo = (lo - r.org) * r.invDir;
+    const vec3 tHi = (hi - r.org) * r.invDir;
+    const vec3 tNear3 = min(tLo, tHi);
+    vec3 tFar3 = max(tLo, tHi);
+    if (r.anyParallel) {
+        // On a parallel axis tLo = tHi = 0: the axis must not limit the far distance, and the ray
+        // misses unless its origin lies in the slab (bounds inclusive).
+        tFar3 = tFar3 + r.farBias;
+        const vec3 inSlab = step(lo, r.org) * step(r.org, hi);
+        if (dot(r.parallel, vec3(1.0f) - inSlab) > 0.0f) {
+            tEntry = 0.0f;
+            return false;
+        }
+    }
+    const float tNear = max(max(tNear3.x, tNear3.y), max(tNear3.z, 0.0f));
+    const float tFar = min(min(tFar3.x, tFar3.y), tFar3.z) * kSlabFarWiden;
+    tEntry = tNear;
+    return tNear <= min(tFar, tmax);
+}
+
+// Watertight ray/triangle test (Woop, Benthin, Wald 2013), edges and vertices inclusive, both faces.
+// On a hit with 0 <= t <= tmax returns true with t and the barycentric weights of v1 and v2 (the
+// weight of v0 is 1 - bary.x - bary.y).
+//
+// The paper recomputes the edge functions in double precision when one of them is exactly 0. We do
+// not, on either side: GLSL doubles are optional (and slow where present), and the CPU reference
+// must decide exactly as the GPU does. Watertightness does not need the fallback: a shared edge's
+// edge function is the difference of the same two rounded products in both triangles, so it is
+// exactly negated between them; with inclusive edges a ray on the edge hits at least one of them.
+// What the fallback would add is only the exact sign of a product difference that rounds to 0, i.e.
+// which of two triangles sharing an edge a ray grazing that edge reports (both lie at the same t).
+// Cost of leaving it out: a triangle whose sheared 2D coordinates are so small that their products
+// underflow (below ~1e-19 relative to the ray origin's distance on FTZ GPUs, ~1e-22 with denormals
+// on the CPU) is treated as degenerate and missed.
+RP_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax,
+                               RP_OUT(float) t, RP_OUT(vec2) bary) {
+    t = 0.0f;
+    bary = vec2(0.0f);
+    // Vertices relative to the ray origin.
+    RP_PRECISE const vec3 a = v0 - r.org;
+    RP_PRECISE const vec3 b = v1 - r.org;
+    RP_PRECISE const vec3 c = v2 - r.org;
+    // Shear and scale so the ray is the +z axis through the origin.
+    RP_PRECISE const float ax = a[r.kx] - r.shearX * a[r.kz];
+    RP_PRECISE const float ay = a[r.ky] - r.shearY * a[r.kz];
+    RP_PRECISE const float bx = b[r.kx] - r.shearX * b[r.kz];
+    RP_PRECISE const float by = b[r.ky] - r.shearY * b[r.kz];
+    RP_PRECISE const float cx = c[r.kx] - r.shearX * c[r.kz];
+    RP_PRECISE const float cy = c[r.ky] - r.shearY * c[r.kz];
+    // Scaled barycentric coordinates (2D edge functions).
+    RP_PRECISE const float u = cx * by - cy * bx;
+    RP_PRECISE const float v = ax * cy - ay * cx;
+    RP_PRECISE const float w = bx * ay - by * ax;
+    // Inclusive edges: reject only when the signs disagree strictly.
+    if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
+    RP_PRECISE const float det = u + v + w;
+    if (det == 0.0f) return false;  // degenerate triangle, or the ray lies in its plane
+    RP_PRECISE const float az = r.shearZ * a[r.kz];
+    RP_PRECISE const float bz = r.shearZ * b[r.kz];
+    RP_PRECISE const float cz = r.shearZ * c[r.kz];
+    RP_PRECISE const float scaledT = u * az + v * bz + w * cz;
+    // Same sign as det means t >= 0; the division is done once the sign test passed.
+    if (det > 0.0f ? scaledT < 0.0f : scaledT > 0.0f) return false;
+    RP_PRECISE const float invDet = 1.0f / det;
+    const float hitT = scaledT * invDet;
+    if (!(hitT <= tmax)) return false;
+    t = hitT;
+    bary = vec2(v * invDet, w * invDet);
+    return true;
+}
+
+// The order of closest hits: nearer t first, and among equal t (coplanar or shared-edge triangles)
+// the lower triangle index. With it the closest hit is independent of traversal order, so the
+// CPU reference, a brute-force loop and the GPU kernels agree on `prim` even at ties.
+RP_FUNC bool isCloserHit(float t, uint prim, float bestT, uint bestPrim) {
+    return t < bestT || (t == bestT && prim < bestPrim);
+}
+
+// The hit point org + t * dir, computed the same way everywhere (shadow rays start from it).
+RP_FUNC vec3 hitPosition(vec3 org, vec3 dir, float t) {
+    RP_PRECISE const vec3 p = org + t * dir;
+    return p;
+}
+
+// Shadow rays (report 3.5): traced from the light towards the hit point p, ignoring what lies at or
+// beyond p. The ray is light + s * (p - light); p itself is at s = 1. Two rules together:
+//  - the triangle that p lies on is skipped: a planar triangle cannot occlude its own points from a
+//    point light, and skipping it is exact, unlike any epsilon;
+//  - intersections at s > 1 - kShadowRayGap are ignored, so that the neighbours of the hit
+//    triangle (which meet it at p's edge, at s = 1 up to rounding) do not cast acne at concave
+//    edges. The gap is relative to the light distance: 1e-4 of it (a millimetre at 10 m) is far
+//    below a pixel at the distances the report's scenes are viewed from, yet far above the
+//    rounding of p (a few ulps of the scene's size), even at grazing angles down to ~1 degree.
+// A tracer must treat p == light (zero direction) as lit without tracing.
+const float kShadowRayGap = 1.0e-4f;
+
+struct ShadowRay {
+    vec3 org;       // the light
+    vec3 dir;       // p - light, not normalized
+    float tmax;     // 1 - kShadowRayGap
+    uint skipPrim;  // the triangle p lies on
+};
+
+RP_FUNC ShadowRay makeShadowRay(vec3 light, vec3 hitPoint, uint hitPrim) {
+    ShadowRay s;
+    s.org = light;
+    s.dir = hitPoint - light;
+    s.tmax = 1.0f - kShadowRayGap;
+    s.skipPrim = hitPrim;
+    return s;
+}
+
+RP_FUNC bool isDegenerateShadowRay(ShadowRay s) { return s.dir == vec3(0.0f); }
+
+RP_END_NAMESPACE
+
+#endif  // RAYPACK_SHADERS_INTERSECT_H

@@ -1,0 +1,101 @@
+// Shading shared by the GPU kernels, the CPU reference and the viewer: the normal at a hit, Phong,
+// RGBA8 packing and the heat-map ramp of the N_TR / N_IT views (see common.h for the GLSL/C++
+// rules). One text for all, so images compare pixel for pixel up to the GPU's arithmetic.
+#ifndef RAYPACK_SHADERS_SHADING_H
+#define RAYPACK_SHADERS_SHADING_H
+#include "common.h"
+#include "intersect.h"  // RP_PRECISE
+
+RP_BEGIN_NAMESPACE
+
+#ifdef __cplusplus
+using glm::floor;
+#endif
+
+// The geometric normal of a triangle, unit length and facing the viewer (against rayDir). A
+// triangle the watertight test hits has non-zero area in the ray's projection, so the cross product
+// is non-zero; a zero one (which only a caller bypassing that test could produce) gives -rayDir.
+RP_FUNC vec3 geometricNormal(vec3 v0, vec3 v1, vec3 v2, vec3 rayDir) {
+    vec3 n = cross(v1 - v0, v2 - v0);
+    if (dot(n, n) == 0.0f) return -normalize(rayDir);
+    n = normalize(n);
+    return dot(n, rayDir) > 0.0f ? -n : n;
+}
+
+// The shading normal: the vertex normals interpolated with the hit's barycentric weights (bary.x
+// for n1, bary.y for n2), flipped to face the viewer; the geometric normal when their blend is zero.
+RP_FUNC vec3 interpolatedNormal(vec3 n0, vec3 n1, vec3 n2, vec2 bary, vec3 geometric,
+                                vec3 rayDir) {
+    const vec3 n = (1.0f - bary.x - bary.y) * n0 + bary.x * n1 + bary.y * n2;
+    if (dot(n, n) == 0.0f) return geometric;
+    const vec3 unit = normalize(n);
+    return dot(unit, rayDir) > 0.0f ? -unit : unit;
+}
+
+// Phong (ambient + diffuse + specular) for a white point light without falloff.
+//  phong:      x ambient, y diffuse, z specular, w shininess (RenderSettings::phong)
+//  normal:     unit, facing the viewer
+//  toViewer:   unit, from the hit point towards the ray origin
+//  toLight:    unit, from the hit point towards the light
+//  lit:        false when the shadow ray found an occluder: ambient only
+// The specular highlight is white; the result is clamped to [0, 1].
+RP_FUNC vec3 shadePhong(vec4 phong, vec3 diffuseColor, vec3 normal, vec3 toViewer, vec3 toLight,
+                        bool lit) {
+    vec3 color = phong.x * diffuseColor;
+    const float cosLight = dot(normal, toLight);
+    if (lit && cosLight > 0.0f) {
+        color = color + phong.y * cosLight * diffuseColor;
+        const vec3 reflected = reflect(-toLight, normal);
+        const float cosView = max(dot(reflected, toViewer), 0.0f);
+        if (cosView > 0.0f) color = color + vec3(phong.z * pow(cosView, phong.w));
+    }
+    return clamp(color, vec3(0.0f), vec3(1.0f));
+}
+
+// RGBA8 with R in the low byte (the byte order of VK_FORMAT_R8G8B8A8_UNORM in memory). Each channel
+// is clamp(c, 0, 1) * 255 rounded half up; `precise` keeps the GPU from fusing the multiply-add so
+// the rounding matches the CPU's.
+RP_FUNC uint packChannel(float c) {
+    RP_PRECISE const float scaled = clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
+    return uint(floor(scaled));
+}
+
+RP_FUNC uint packRgba8(vec4 c) {
+    return packChannel(c.x) | (packChannel(c.y) << 8u) | (packChannel(c.z) << 16u) |
+           (packChannel(c.w) << 24u);
+}
+
+RP_FUNC vec4 unpackRgba8(uint packed) {
+    return vec4(float(packed & 255u), float((packed >> 8u) & 255u), float((packed >> 16u) & 255u),
+                float(packed >> 24u)) /
+           255.0f;
+}
+
+// Heat-map views: the per-pixel work (primary + shadow ray) divided by a fixed full-scale value, so
+// that every tracer and every frame maps the same count to the same colour (no per-frame maximum
+// the GPU would need a second pass for). Full scale: nodes visited (N_TR) and triangle tests (N_IT).
+const float kHeatFullScaleNodes = 256.0f;
+const float kHeatFullScaleTests = 128.0f;
+
+// Ramp from dark blue (0) through blue, cyan-green and yellow to red (1); values outside [0, 1] are
+// clamped. Piecewise linear through five stops.
+RP_FUNC vec3 heatColor(float value) {
+    const float x = clamp(value, 0.0f, 1.0f) * 4.0f;
+    const vec3 c0 = vec3(0.0f, 0.0f, 0.25f);
+    const vec3 c1 = vec3(0.0f, 0.35f, 1.0f);
+    const vec3 c2 = vec3(0.0f, 0.85f, 0.45f);
+    const vec3 c3 = vec3(1.0f, 0.9f, 0.0f);
+    const vec3 c4 = vec3(1.0f, 0.0f, 0.0f);
+    if (x < 1.0f) return mix(c0, c1, x);
+    if (x < 2.0f) return mix(c1, c2, x - 1.0f);
+    if (x < 3.0f) return mix(c2, c3, x - 2.0f);
+    return mix(c3, c4, x - 3.0f);
+}
+
+RP_FUNC vec3 heatColorForCount(uint count, float fullScale) {
+    return heatColor(float(count) / fullScale);
+}
+
+RP_END_NAMESPACE
+
+#endif  // RAYPACK_SHADERS_SHADING_H
