@@ -2,6 +2,7 @@
 
 #include "renderer/camera.h"
 #include "renderer/error.h"
+#include "shaders/intersect.h"
 
 #ifdef RAYPACK_HAVE_EMBREE
 #include <embree3/rtcore.h>
@@ -34,10 +35,6 @@ bool embreeAvailable() { return true; }
 namespace {
 
 constexpr uint32_t kTile = 8;  // tiles of 8x8 pixels; rtcIntersect8 packets are 4x2 of a tile
-// A shadow ray goes from the light to the hit point and ignores intersections at or beyond the
-// point (report 3.5): its far end stops this fraction short of the point so that the surface the
-// point lies on does not occlude itself.
-constexpr float kShadowFarFraction = 1.0f - 1e-4f;
 
 using Clock = std::chrono::steady_clock;
 double secondsSince(Clock::time_point start) {
@@ -226,12 +223,18 @@ EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const 
                     for (uint32_t x = x0; x < x1; ++x) {
                         const size_t pixel = size_t(y) * rays.width + x;
                         if (!std::isfinite(hitT[pixel])) continue;
-                        const glm::vec3 point = rays.eye + hitT[pixel] * rays.direction(x, y);
-                        const glm::vec3 d = point - light;
-                        ray.org_x = light.x, ray.org_y = light.y, ray.org_z = light.z;
-                        ray.dir_x = d.x, ray.dir_y = d.y, ray.dir_z = d.z;
+                        // raypack's shadow-ray rule (shaders/intersect.h): from the light to
+                        // the hit point, ignoring what lies within kShadowRayGap of the point.
+                        // Embree does not skip the hit triangle itself as raypack does; the gap
+                        // keeps a planar triangle from occluding its own points all the same.
+                        const gpu::ShadowRay shadow = gpu::makeShadowRay(
+                            light, gpu::hitPosition(rays.eye, rays.direction(x, y), hitT[pixel]),
+                            0);
+                        if (gpu::isDegenerateShadowRay(shadow)) continue;  // p == light: lit
+                        ray.org_x = shadow.org.x, ray.org_y = shadow.org.y, ray.org_z = shadow.org.z;
+                        ray.dir_x = shadow.dir.x, ray.dir_y = shadow.dir.y, ray.dir_z = shadow.dir.z;
                         ray.tnear = 0.0f;
-                        ray.tfar = kShadowFarFraction;
+                        ray.tfar = shadow.tmax;
                         ray.time = 0.0f;
                         ray.mask = 0xFFFFFFFFu;
                         ray.id = 0;
