@@ -72,8 +72,10 @@ public:
     uint32_t sharedMemoryBytes(PacketShape shape) const;
     const vk::DeviceInfo& device() const;
 
-private:
+    // Opaque: pipelines, buffers and queries, defined in gpu_tracer.cpp.
     struct State;
+
+private:
     std::unique_ptr<State> state_;
 };
 

@@ -1,0 +1,608 @@
+#include "renderer/gpu_tracer.h"
+
+#include "renderer/camera.h"
+#include "renderer/error.h"
+#include "renderer/gpu_layout.h"
+#include "shaders/gpu_types.h"
+
+#include "trace.spv.h"
+
+#include <array>
+#include <chrono>
+#include <cstring>
+#include <map>
+#include <tuple>
+
+namespace raypack {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double secondsSince(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Timestamp slots: frames the viewer may have in flight before it reads one back.
+constexpr uint32_t kQuerySlots = 4;
+constexpr uint32_t kQueriesPerFrame = 4;  // primary begin/end, shadow begin/end
+
+enum Binding : uint32_t {
+    kBindNodes,
+    kBindTriangles,
+    kBindNormals,
+    kBindMaterials,
+    kBindPrimaryHits,
+    kBindOutput,
+    kBindHits,
+    kBindCounters,
+    kBindStatus,
+    kBindingCount
+};
+
+// The specialization constants of shaders/trace.comp, in constant_id order.
+struct SpecializationData {
+    uint32_t packetWidth;
+    uint32_t packetHeight;
+    uint32_t kernel;
+    uint32_t pass;
+    VkBool32 statistics;
+    uint32_t view;
+    uint32_t packetStackEntries;
+    uint32_t rayStackEntries;
+    uint32_t partialSlots;
+};
+
+// One pipeline per combination, built on first use.
+struct PipelineKey {
+    KernelKind kernel;
+    uint32_t packetWidth;
+    uint32_t packetHeight;
+    uint32_t pass;
+    bool statistics;
+    uint32_t view;
+    uint32_t stackEntries;
+    auto tie() const {
+        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries);
+    }
+    bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
+};
+
+uint32_t viewConstant(ViewMode view) {
+    switch (view) {
+    case ViewMode::HeatTraversal:
+        return gpu::kViewHeatTraversal;
+    case ViewMode::HeatIntersections:
+        return gpu::kViewHeatIntersections;
+    default:
+        return gpu::kViewShaded;
+    }
+}
+
+}  // namespace
+
+struct GpuTracer::State {
+    const vk::VulkanContext& ctx;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
+    VkShaderModule module = VK_NULL_HANDLE;
+    VkPipelineCache pipelineCache = VK_NULL_HANDLE;
+    std::map<PipelineKey, VkPipeline> pipelines;
+    VkQueryPool queries = VK_NULL_HANDLE;
+    uint32_t frameCounter = 0;     // frames recorded, selects the timestamp slot
+    std::array<bool, kQuerySlots> slotShadow{};  // whether the slot's frame had a shadow pass
+    std::array<uint64_t, kQuerySlots> slotFrame{};
+    VkCommandBuffer syncCommands = VK_NULL_HANDLE;
+    VkFence syncFence = VK_NULL_HANDLE;
+
+    // Scene.
+    vk::Buffer nodes, triangles, normals, materials, dummy;
+    bool hasScene = false, hasNormals = false, hasMaterials = false;
+    uint32_t stackEntries = 1;
+    Aabb sceneBounds;
+
+    // Frame.
+    uint32_t width = 0, height = 0;
+    vk::Buffer primaryHits, output, hits, counters, status;
+    vk::Buffer readback;  // host-visible copy target of render()
+
+    explicit State(const vk::VulkanContext& context) : ctx(context) {}
+};
+
+namespace {
+void destroyState(GpuTracer::State& s);
+}  // namespace
+
+GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique<State>(context)) {
+    State& s = *state_;
+    const VkDevice device = context.device;
+    try {
+        VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+        poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+        poolInfo.queueFamilyIndex = context.queueFamily;
+        vk::check(vkCreateCommandPool(device, &poolInfo, nullptr, &s.pool), "vkCreateCommandPool");
+
+        std::array<VkDescriptorSetLayoutBinding, kBindingCount> bindings{};
+        for (uint32_t b = 0; b < kBindingCount; ++b)
+            bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT,
+                           nullptr};
+        VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+        setInfo.bindingCount = kBindingCount;
+        setInfo.pBindings = bindings.data();
+        vk::check(vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &s.setLayout),
+                  "vkCreateDescriptorSetLayout");
+
+        VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::GpuFrameParams)};
+        VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+        layoutInfo.setLayoutCount = 1;
+        layoutInfo.pSetLayouts = &s.setLayout;
+        layoutInfo.pushConstantRangeCount = 1;
+        layoutInfo.pPushConstantRanges = &push;
+        vk::check(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &s.pipelineLayout),
+                  "vkCreatePipelineLayout");
+
+        VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBindingCount};
+        VkDescriptorPoolCreateInfo descriptorPoolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+        descriptorPoolInfo.maxSets = 1;
+        descriptorPoolInfo.poolSizeCount = 1;
+        descriptorPoolInfo.pPoolSizes = &poolSize;
+        vk::check(vkCreateDescriptorPool(device, &descriptorPoolInfo, nullptr, &s.descriptorPool),
+                  "vkCreateDescriptorPool");
+        VkDescriptorSetAllocateInfo allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+        allocate.descriptorPool = s.descriptorPool;
+        allocate.descriptorSetCount = 1;
+        allocate.pSetLayouts = &s.setLayout;
+        vk::check(vkAllocateDescriptorSets(device, &allocate, &s.descriptorSet),
+                  "vkAllocateDescriptorSets");
+
+        s.module = vk::createShaderModule(context, trace_spv, sizeof(trace_spv), "trace.comp");
+        VkPipelineCacheCreateInfo cacheInfo{VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO};
+        vk::check(vkCreatePipelineCache(device, &cacheInfo, nullptr, &s.pipelineCache),
+                  "vkCreatePipelineCache");
+
+        if (context.info.timestamps) {
+            VkQueryPoolCreateInfo queryInfo{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+            queryInfo.queryType = VK_QUERY_TYPE_TIMESTAMP;
+            queryInfo.queryCount = kQuerySlots * kQueriesPerFrame;
+            vk::check(vkCreateQueryPool(device, &queryInfo, nullptr, &s.queries),
+                      "vkCreateQueryPool");
+        }
+
+        VkCommandBufferAllocateInfo commandInfo{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+        commandInfo.commandPool = s.pool;
+        commandInfo.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+        commandInfo.commandBufferCount = 1;
+        vk::check(vkAllocateCommandBuffers(device, &commandInfo, &s.syncCommands),
+                  "vkAllocateCommandBuffers");
+        VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+        vk::check(vkCreateFence(device, &fenceInfo, nullptr, &s.syncFence), "vkCreateFence");
+
+        // Bound where the scene has no normals or materials: the kernels never read it then.
+        s.dummy = vk::createBuffer(context, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                   VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "an unused binding");
+        s.status = vk::createBuffer(
+            context, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+            VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+            "the status word");
+    } catch (...) {
+        destroyState(s);
+        throw;
+    }
+}
+
+GpuTracer::~GpuTracer() {
+    if (state_) destroyState(*state_);
+}
+
+namespace {
+void destroyState(GpuTracer::State& s) {
+    const VkDevice device = s.ctx.device;
+    if (device) vkDeviceWaitIdle(device);
+    for (auto& [key, pipeline] : s.pipelines) vkDestroyPipeline(device, pipeline, nullptr);
+    s.pipelines.clear();
+    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.dummy,
+                          &s.primaryHits, &s.output, &s.hits, &s.counters, &s.status, &s.readback})
+        vk::destroyBuffer(s.ctx, *b);
+    if (s.syncFence) vkDestroyFence(device, s.syncFence, nullptr);
+    if (s.queries) vkDestroyQueryPool(device, s.queries, nullptr);
+    if (s.pipelineCache) vkDestroyPipelineCache(device, s.pipelineCache, nullptr);
+    if (s.module) vkDestroyShaderModule(device, s.module, nullptr);
+    if (s.descriptorPool) vkDestroyDescriptorPool(device, s.descriptorPool, nullptr);
+    if (s.pipelineLayout) vkDestroyPipelineLayout(device, s.pipelineLayout, nullptr);
+    if (s.setLayout) vkDestroyDescriptorSetLayout(device, s.setLayout, nullptr);
+    if (s.pool) vkDestroyCommandPool(device, s.pool, nullptr);
+    s.pool = VK_NULL_HANDLE;
+}
+}  // namespace
+
+namespace {
+
+void writeDescriptors(GpuTracer::State& s);
+
+}  // namespace
+
+double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
+    State& s = *state_;
+    const auto start = Clock::now();
+    const GpuLayout layout = makeGpuLayout(scene, bvh);
+
+    // Deepest leaf at depth D needs at most D pending siblings; one more for safety margin in the
+    // entry count's arithmetic (a root leaf still gets a stack of one).
+    const uint32_t entries = layout.maxDepth + 1;
+    const uint64_t packetStackBytes = uint64_t(entries) * 8u;
+    if (packetStackBytes + 2u * 4u > s.ctx.info.maxSharedMemoryBytes)
+        throw Error("GPU: the BVH is " + std::to_string(layout.maxDepth) +
+                    " levels deep; its packet stack needs " + std::to_string(packetStackBytes) +
+                    " bytes of shared memory but " + s.ctx.info.name + " has " +
+                    std::to_string(s.ctx.info.maxSharedMemoryBytes) +
+                    " (build with a larger leaf size or use the CPU tracer)");
+
+    vkQueueWaitIdle(s.ctx.queue);
+    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials})
+        vk::destroyBuffer(s.ctx, *b);
+    s.hasScene = false;
+
+    const VkBufferUsageFlags usage =
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    auto make = [&](vk::Buffer& buffer, const void* data, size_t bytes, const char* what) {
+        buffer = vk::createBuffer(s.ctx, bytes, usage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+        vk::uploadToBuffer(s.ctx, s.pool, buffer, data, bytes);
+    };
+    make(s.nodes, layout.nodes.data(), layout.nodes.size() * sizeof(gpu::GpuNode), "BVH nodes");
+    make(s.triangles, layout.triangles.data(), layout.triangles.size() * sizeof(gpu::GpuTriangle),
+         "triangles");
+    s.hasNormals = !layout.normals.empty();
+    s.hasMaterials = !layout.materials.empty();
+    if (s.hasNormals)
+        make(s.normals, layout.normals.data(),
+             layout.normals.size() * sizeof(gpu::GpuTriangleNormals), "vertex normals");
+    if (s.hasMaterials)
+        make(s.materials, layout.materials.data(), layout.materials.size() * sizeof(glm::vec4),
+             "materials");
+    s.stackEntries = entries;
+    s.sceneBounds = scene.bounds();
+    s.hasScene = true;
+    if (s.width > 0) writeDescriptors(s);
+    return secondsSince(start);
+}
+
+bool GpuTracer::hasScene() const { return state_->hasScene; }
+uint32_t GpuTracer::stackEntries() const { return state_->stackEntries; }
+const vk::DeviceInfo& GpuTracer::device() const { return state_->ctx.info; }
+VkBuffer GpuTracer::outputBuffer() const { return state_->output.buffer; }
+VkDeviceSize GpuTracer::outputBytes() const {
+    return VkDeviceSize(state_->width) * state_->height * 4u;
+}
+
+uint32_t GpuTracer::sharedMemoryBytes(PacketShape shape) const {
+    // Stack entries of 8 bytes, plus two halves of one 4-byte partial sum per possible subgroup.
+    return state_->stackEntries * 8u + 2u * 4u * shape.rays();
+}
+
+namespace {
+
+void writeDescriptors(GpuTracer::State& s) {
+    const vk::Buffer* buffers[kBindingCount] = {
+        &s.nodes,       &s.triangles, s.hasNormals ? &s.normals : &s.dummy,
+        s.hasMaterials ? &s.materials : &s.dummy,
+        &s.primaryHits, &s.output,    &s.hits,
+        &s.counters,    &s.status};
+    std::array<VkDescriptorBufferInfo, kBindingCount> infos{};
+    std::array<VkWriteDescriptorSet, kBindingCount> writes{};
+    for (uint32_t b = 0; b < kBindingCount; ++b) {
+        infos[b] = {buffers[b]->buffer, 0, VK_WHOLE_SIZE};
+        writes[b] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+        writes[b].dstSet = s.descriptorSet;
+        writes[b].dstBinding = b;
+        writes[b].descriptorCount = 1;
+        writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        writes[b].pBufferInfo = &infos[b];
+    }
+    vkUpdateDescriptorSets(s.ctx.device, kBindingCount, writes.data(), 0, nullptr);
+}
+
+// (Re-)creates the per-pixel buffers for a width x height frame.
+void ensureFrameBuffers(GpuTracer::State& s, uint32_t width, uint32_t height) {
+    if (s.width == width && s.height == height) return;
+    vkQueueWaitIdle(s.ctx.queue);
+    for (vk::Buffer* b : {&s.primaryHits, &s.output, &s.hits, &s.counters, &s.readback})
+        vk::destroyBuffer(s.ctx, *b);
+    s.width = s.height = 0;
+    const VkDeviceSize pixels = VkDeviceSize(width) * height;
+    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
+                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    s.primaryHits = vk::createBuffer(s.ctx, pixels * sizeof(gpu::GpuPrimaryHit), usage, local,
+                                     "the primary hits of a frame");
+    s.output = vk::createBuffer(s.ctx, pixels * 4u, usage, local, "the output image");
+    s.hits = vk::createBuffer(s.ctx, pixels * sizeof(HitRecord), usage, local, "the hit records");
+    s.counters = vk::createBuffer(s.ctx, pixels * sizeof(RayCounters), usage, local,
+                                  "the ray counters");
+    s.width = width;
+    s.height = height;
+    if (s.hasScene) writeDescriptors(s);
+}
+
+void ensureReadback(GpuTracer::State& s, VkDeviceSize bytes) {
+    if (s.readback.buffer && s.readback.size >= bytes) return;
+    vk::destroyBuffer(s.ctx, s.readback);
+    // Cached host memory reads back fast; fall back to plain host-visible memory.
+    const VkMemoryPropertyFlags coherent =
+        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    try {
+        s.readback = vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                      coherent | VK_MEMORY_PROPERTY_HOST_CACHED_BIT,
+                                      "the read-back buffer");
+    } catch (const Error&) {
+        s.readback = vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, coherent,
+                                      "the read-back buffer");
+    }
+}
+
+VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
+    if (auto found = s.pipelines.find(key); found != s.pipelines.end()) return found->second;
+    const bool packet = key.kernel == KernelKind::Packet;
+    const uint32_t rays = key.packetWidth * key.packetHeight;
+    const SpecializationData data{key.packetWidth,
+                                  key.packetHeight,
+                                  packet ? gpu::kKernelPacket : gpu::kKernelSingle,
+                                  key.pass,
+                                  key.statistics ? VK_TRUE : VK_FALSE,
+                                  key.view,
+                                  packet ? key.stackEntries : 1u,
+                                  packet ? 1u : key.stackEntries,
+                                  packet ? rays : 1u};
+    std::array<VkSpecializationMapEntry, 9> entries{};
+    for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {i, i * 4u, 4u};
+    VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data,
+                                        &data};
+    VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    info.stage.module = s.module;
+    info.stage.pName = "main";
+    info.stage.pSpecializationInfo = &specialization;
+    info.layout = s.pipelineLayout;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    const VkResult result =
+        vkCreateComputePipelines(s.ctx.device, s.pipelineCache, 1, &info, nullptr, &pipeline);
+    if (result < 0)
+        throw Error(std::string("GPU: could not build the ") + toString(key.kernel) +
+                    " kernel for packet " + std::to_string(key.packetWidth) + "x" +
+                    std::to_string(key.packetHeight) + " on " + s.ctx.info.name + ": " +
+                    vk::resultName(result));
+    s.pipelines.emplace(key, pipeline);
+    return pipeline;
+}
+
+void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
+    if (!s.hasScene) throw Error("GPU: no scene uploaded");
+    if (settings.width == 0 || settings.height == 0)
+        throw Error("GPU: the image is empty (" + std::to_string(settings.width) + "x" +
+                    std::to_string(settings.height) + ")");
+    const vk::DeviceInfo& d = s.ctx.info;
+    const PacketShape shape = settings.packet;
+    const std::string name = std::to_string(shape.width) + "x" + std::to_string(shape.height);
+    if (shape.width == 0 || shape.height == 0)
+        throw Error("GPU: packet " + name + " is empty");
+    if (shape.rays() > d.maxWorkgroupInvocations || shape.width > d.maxWorkgroupSize[0] ||
+        shape.height > d.maxWorkgroupSize[1])
+        throw Error("GPU: packet " + name + " exceeds " + d.name + "'s workgroup limit (" +
+                    std::to_string(d.maxWorkgroupInvocations) + " invocations, " +
+                    std::to_string(d.maxWorkgroupSize[0]) + "x" +
+                    std::to_string(d.maxWorkgroupSize[1]) + ")");
+    const uint64_t shared = uint64_t(s.stackEntries) * 8u + 2u * 4u * shape.rays();
+    if (settings.kernel == KernelKind::Packet && shared > d.maxSharedMemoryBytes)
+        throw Error("GPU: packet " + name + " with a stack of " +
+                    std::to_string(s.stackEntries) + " entries needs " + std::to_string(shared) +
+                    " bytes of shared memory; " + d.name + " has " +
+                    std::to_string(d.maxSharedMemoryBytes));
+    const uint64_t groupsX = (settings.width + shape.width - 1) / shape.width;
+    const uint64_t groupsY = (settings.height + shape.height - 1) / shape.height;
+    if (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1])
+        throw Error("GPU: " + std::to_string(settings.width) + "x" +
+                    std::to_string(settings.height) + " in packets of " + name + " needs " +
+                    std::to_string(groupsX) + "x" + std::to_string(groupsY) +
+                    " workgroups, more than " + d.name + " dispatches");
+}
+
+gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings& settings,
+                                const GpuRecordOptions& options, bool writeHits, glm::vec3* light) {
+    gpu::GpuFrameParams p{};
+    p.camera = makeGpuCamera(settings.camera, settings.width, settings.height);
+    *light = lightPosition(settings.camera, s.sceneBounds, settings.lightHeight);
+    p.light = glm::vec4(*light, 0.0f);
+    p.background = glm::vec4(settings.background, 0.0f);
+    p.phong = glm::vec4(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular,
+                        settings.phong.shininess);
+    const uint32_t packetsPerRow = (settings.width + settings.packet.width - 1) / settings.packet.width;
+    p.frame = glm::uvec4(settings.width, settings.height,
+                         (writeHits ? gpu::kFrameWriteHits : 0u) |
+                             (options.bgra ? gpu::kFrameBgra : 0u) |
+                             (s.hasNormals ? gpu::kFrameHasNormals : 0u) |
+                             (s.hasMaterials ? gpu::kFrameHasMaterials : 0u),
+                         packetsPerRow);
+    return p;
+}
+
+void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,
+                   VkPipelineStageFlags dstStage, VkAccessFlags dstAccess) {
+    VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    barrier.srcAccessMask = srcAccess;
+    barrier.dstAccessMask = dstAccess;
+    vkCmdPipelineBarrier(cmd, srcStage, dstStage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+}
+
+// Records both passes; returns the light position.
+glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSettings& settings,
+                       const GpuRecordOptions& options, bool writeHits, bool statistics) {
+    checkSettings(s, settings);
+    ensureFrameBuffers(s, settings.width, settings.height);
+    glm::vec3 light;
+    const gpu::GpuFrameParams params = frameParams(s, settings, options, writeHits, &light);
+    const uint32_t view = viewConstant(settings.view);
+    statistics = statistics || settings.collectCounters || view != gpu::kViewShaded;
+    const uint32_t slot = s.frameCounter % kQuerySlots;
+    const uint32_t firstQuery = slot * kQueriesPerFrame;
+    s.slotShadow[slot] = settings.shadows;
+    s.slotFrame[slot] = ++s.frameCounter;
+
+    // Earlier frames on this queue read or wrote the same buffers (copies of the output, the
+    // shaders): finish them first.
+    vkCmdFillBuffer(cmd, s.status.buffer, 0, VK_WHOLE_SIZE, 0u);
+    if (s.queries) vkCmdResetQueryPool(cmd, s.queries, firstQuery, kQueriesPerFrame);
+    memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                  VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1,
+                            &s.descriptorSet, 0, nullptr);
+    vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params,
+                       &params);
+    const PacketShape shape = settings.packet;
+    const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
+    const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
+    PipelineKey key{settings.kernel, shape.width, shape.height, 0u, statistics, view,
+                    s.stackEntries};
+
+    key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
+    if (s.queries)
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery);
+    vkCmdDispatch(cmd, groupsX, groupsY, 1);
+    if (s.queries)
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 1);
+
+    if (settings.shadows) {
+        memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        key.pass = gpu::kPassShadowShade;
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
+        if (s.queries)
+            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries,
+                                firstQuery + 2);
+        vkCmdDispatch(cmd, groupsX, groupsY, 1);
+        if (s.queries)
+            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries,
+                                firstQuery + 3);
+    } else if (s.queries) {
+        // Keep the slot's four queries written so that availability reads stay simple.
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 2);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 3);
+    }
+    memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_HOST_BIT,
+                  VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_HOST_READ_BIT);
+    return light;
+}
+
+// Kernel times of a slot, when its queries are available (or waiting for them).
+std::optional<FrameTimings> slotTimings(GpuTracer::State& s, uint32_t slot, bool wait) {
+    if (!s.queries) return std::nullopt;
+    uint64_t values[kQueriesPerFrame * 2] = {};
+    VkQueryResultFlags flags = VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT;
+    if (wait) flags |= VK_QUERY_RESULT_WAIT_BIT;
+    const VkResult result =
+        vkGetQueryPoolResults(s.ctx.device, s.queries, slot * kQueriesPerFrame, kQueriesPerFrame,
+                              sizeof values, values, 2 * sizeof(uint64_t), flags);
+    if (result != VK_SUCCESS) return std::nullopt;
+    for (uint32_t q = 0; q < kQueriesPerFrame; ++q)
+        if (values[2 * q + 1] == 0) return std::nullopt;
+    const double tick = double(s.ctx.info.timestampPeriodNs) * 1e-9;
+    FrameTimings t;
+    t.primarySeconds = double(values[2] - values[0]) * tick;
+    if (s.slotShadow[slot]) t.shadowSeconds = double(values[6] - values[4]) * tick;
+    return t;
+}
+
+}  // namespace
+
+void GpuTracer::recordFrame(VkCommandBuffer cmd, const RenderSettings& settings,
+                            const GpuRecordOptions& options) {
+    recordPasses(*state_, cmd, settings, options, false, false);
+}
+
+std::optional<FrameTimings> GpuTracer::lastKernelTimes() {
+    State& s = *state_;
+    // Newest slot first.
+    for (uint32_t back = 0; back < kQuerySlots && back < s.frameCounter; ++back) {
+        const uint32_t slot = (s.frameCounter - 1 - back) % kQuerySlots;
+        if (auto t = slotTimings(s, slot, false)) return t;
+    }
+    return std::nullopt;
+}
+
+Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& request) {
+    State& s = *state_;
+    const auto start = Clock::now();
+    checkSettings(s, settings);
+    ensureFrameBuffers(s, settings.width, settings.height);
+    const VkDeviceSize pixels = VkDeviceSize(settings.width) * settings.height;
+    const VkDeviceSize imageBytes = request.image ? pixels * 4u : 0u;
+    const VkDeviceSize hitBytes = request.hits ? pixels * sizeof(HitRecord) : 0u;
+    const VkDeviceSize counterBytes = request.counters ? pixels * sizeof(RayCounters) : 0u;
+    ensureReadback(s, std::max<VkDeviceSize>(imageBytes + hitBytes + counterBytes, 16));
+
+    vk::check(vkResetCommandBuffer(s.syncCommands, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vk::check(vkBeginCommandBuffer(s.syncCommands, &begin), "vkBeginCommandBuffer");
+    const glm::vec3 light =
+        recordPasses(s, s.syncCommands, settings, {}, request.hits, request.counters);
+    const uint32_t slot = (s.frameCounter - 1) % kQuerySlots;
+    VkDeviceSize offset = 0;
+    auto copy = [&](const vk::Buffer& from, VkDeviceSize bytes) {
+        if (bytes == 0) return;
+        VkBufferCopy region{0, offset, bytes};
+        vkCmdCopyBuffer(s.syncCommands, from.buffer, s.readback.buffer, 1, &region);
+        offset += bytes;
+    };
+    copy(s.output, imageBytes);
+    copy(s.hits, hitBytes);
+    copy(s.counters, counterBytes);
+    memoryBarrier(s.syncCommands, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                  VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+    vk::check(vkEndCommandBuffer(s.syncCommands), "vkEndCommandBuffer");
+
+    vk::check(vkResetFences(s.ctx.device, 1, &s.syncFence), "vkResetFences");
+    VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &s.syncCommands;
+    vk::check(vkQueueSubmit(s.ctx.queue, 1, &submit, s.syncFence), "vkQueueSubmit");
+    vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX),
+              "vkWaitForFences");
+
+    const uint32_t status = *static_cast<const uint32_t*>(s.status.mapped);
+    RAYPACK_CHECK_MSG(status == 0, "a GPU traversal stack overflowed despite its sizing");
+
+    Frame frame;
+    frame.width = settings.width;
+    frame.height = settings.height;
+    frame.light = light;
+    const auto* bytes = static_cast<const uint8_t*>(s.readback.mapped);
+    if (request.image) {
+        frame.rgba.resize(pixels);
+        std::memcpy(frame.rgba.data(), bytes, imageBytes);
+    }
+    if (request.hits) {
+        frame.hits.resize(pixels);
+        std::memcpy(frame.hits.data(), bytes + imageBytes, hitBytes);
+    }
+    if (request.counters) {
+        frame.counters.resize(pixels);
+        std::memcpy(frame.counters.data(), bytes + imageBytes + hitBytes, counterBytes);
+    }
+    if (auto t = slotTimings(s, slot, true)) {
+        frame.timings.primarySeconds = t->primarySeconds;
+        frame.timings.shadowSeconds = t->shadowSeconds;
+    }
+    frame.timings.totalSeconds = secondsSince(start);
+    return frame;
+}
+
+}  // namespace raypack

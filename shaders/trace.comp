@@ -1,0 +1,386 @@
+#version 460
+// raypack's tracing kernels: the packet traversal with a shared stack of Gunther, Popov and Seidel
+// 2007 as the report describes it (../shared/reference/gpu-packet-traversal-report.txt 2.2, 2.3,
+// 3.3-3.5), and the single-ray while-while traversal of Aila and Laine 2009 ("Understanding the
+// Efficiency of Ray Traversal on GPUs") on the same nodes. Which kernel, which pass, the packet
+// shape (the workgroup size), the statistics variant, the view and the stack sizes are
+// specialization constants: the host builds one pipeline per combination from this one module.
+//
+// Passes (two dispatches, so that each has its own timestamps, T_K primary and T_K shadow):
+//   kPassPrimary       primary rays; the hits go to primaryHits for the shadow pass
+//   kPassPrimaryShade  primary rays, then shading without shadows
+//   kPassShadowShade   shadow rays from the light to each kept hit (report 2.3), then shading
+// Intersection, the shadow-ray rule and shading are shaders/intersect.h and shaders/shading.h, the
+// text the CPU reference compiles too.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+
+#include "gpu_types.h"
+#include "frame_types.h"
+#include "intersect.h"
+#include "shading.h"
+
+// Packet shape PW x PH: one workgroup is one packet covering a PW x PH tile, one invocation a ray.
+layout(local_size_x_id = 0, local_size_y_id = 1, local_size_z = 1) in;
+layout(constant_id = 2) const uint kKernel = kKernelPacket;
+layout(constant_id = 3) const uint kPass = kPassPrimaryShade;
+layout(constant_id = 4) const bool kStatistics = false;  // per-ray N_TR / N_IT counters
+layout(constant_id = 5) const uint kView = kViewShaded;
+// The packet's shared stack; 1 for the single-ray kernel. Sized by the host from the tree's
+// maximal depth (the report's fixed 50 entries overflow on deep trees).
+layout(constant_id = 6) const uint kPacketStackEntries = 64;
+// Each ray's own stack in the single-ray kernel; 1 for the packet kernel.
+layout(constant_id = 7) const uint kRayStackEntries = 1;
+// Per-subgroup partial sums of the vote: the packet's ray count (enough for subgroups of one).
+layout(constant_id = 8) const uint kPartialSlots = 32;
+
+layout(push_constant) uniform Params { GpuFrameParams params; };
+
+layout(std430, set = 0, binding = 0) readonly buffer Nodes { GpuNode nodes[]; };
+layout(std430, set = 0, binding = 1) readonly buffer Triangles { GpuTriangle triangles[]; };
+layout(std430, set = 0, binding = 2) readonly buffer Normals { GpuTriangleNormals normals[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Materials { vec4 materials[]; };
+layout(std430, set = 0, binding = 4) buffer PrimaryHits { GpuPrimaryHit primaryHits[]; };
+layout(std430, set = 0, binding = 5) writeonly buffer Output { uint outputRgba[]; };
+layout(std430, set = 0, binding = 6) writeonly buffer Hits { HitRecord hitRecords[]; };
+layout(std430, set = 0, binding = 7) buffer Counters { RayCounters counters[]; };
+layout(std430, set = 0, binding = 8) buffer Status { uint status; };
+
+// (node index, count) of the nodes the packet still has to visit; written by invocation 0 only.
+shared uvec2 sStack[kPacketStackEntries];
+// Double-buffered per-subgroup vote sums: a vote writes one half while the previous vote's half may
+// still be read, so one barrier per vote suffices.
+shared uint sPartial[2 * kPartialSlots];
+
+// +inf: the t of a miss (HitRecord). GLSL has no infinity literal; 1.0 / 0.0 folds to +inf.
+const float kInfinity = 1.0f / 0.0f;
+
+// One ray's state during a traversal.
+struct RayQuery {
+    TraceRay ray;
+    float tmax;      // nearest hit so far (closest hit), or the shadow ray's limit
+    uint leafTri;    // nearest triangle in leaf order, kNoHit while none
+    uint fileTri;    // the same in file order (ties go to the lower file index: isCloserHit)
+    vec2 bary;
+    bool anyHit;     // shadow ray: stop at the first occluder
+    uint skipFile;   // shadow ray: the triangle the shaded point lies on
+    bool isActive;   // takes part in the traversal (and in the vote)
+    uint nodes;      // N_TR
+    uint tests;      // N_IT
+};
+
+RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, bool tracing) {
+    RayQuery q;
+    q.ray = makeTraceRay(org, dir);
+    q.tmax = tmax;
+    q.leafTri = kNoHit;
+    q.fileTri = kNoHit;
+    q.bary = vec2(0.0f);
+    q.anyHit = anyHit;
+    q.skipFile = skipFile;
+    q.isActive = tracing;
+    q.nodes = 0u;
+    q.tests = 0u;
+    return q;
+}
+
+uvec2 nodeEntry(GpuNode n) { return uvec2(floatBitsToUint(n.lo.w), floatBitsToUint(n.hi.w)); }
+
+// Tests the `count` triangles from `first` (leaf order). Shadow rays stop at the first occluder
+// and then leave the traversal: a ray that has found one stops voting (report 2.3).
+void intersectLeaf(inout RayQuery q, uint first, uint count) {
+    for (uint i = first; i < first + count; ++i) {
+        const GpuTriangle tri = triangles[i];
+        const uint file = floatBitsToUint(tri.v0.w);
+        if (kStatistics) q.tests += 1u;
+        if (q.anyHit && file == q.skipFile) continue;
+        float t;
+        vec2 bary;
+        if (!intersectTriangle(q.ray, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, q.tmax, t, bary)) continue;
+        if (q.anyHit) {
+            q.leafTri = i;
+            q.fileTri = file;
+            q.isActive = false;
+            return;
+        }
+        if (isCloserHit(t, file, q.tmax, q.fileTri)) {
+            q.tmax = t;
+            q.leafTri = i;
+            q.fileTri = file;
+            q.bary = bary;
+        }
+    }
+}
+
+// The packet's vote over one inner node (report 2.2): each ray contributes "left first",
+// "right first" (the nearer of the children it hits), whether it wants both, and whether it is
+// still active. Summed within each subgroup by subgroupAdd (8 bits a field: a subgroup has at most
+// 128 invocations), then across subgroups through shared memory, so the result is right for any
+// subgroup size and any packet size.
+uvec4 packetVote(bool leftFirst, bool rightFirst, bool both, bool tracing, inout uint parity) {
+    const uint mine = (leftFirst ? 1u : 0u) | (rightFirst ? 0x100u : 0u) | (both ? 0x10000u : 0u) |
+                      (tracing ? 0x1000000u : 0u);
+    const uint subgroupSum = subgroupAdd(mine);
+    if (gl_NumSubgroups == 1u) {
+        // Orders invocation 0's stack writes before the other lanes' later reads.
+        subgroupBarrier();
+        return uvec4(subgroupSum & 0xFFu, (subgroupSum >> 8u) & 0xFFu, (subgroupSum >> 16u) & 0xFFu,
+                     subgroupSum >> 24u);
+    }
+    const uint base = parity * kPartialSlots;
+    if (subgroupElect()) sPartial[base + gl_SubgroupID] = subgroupSum;
+    barrier();
+    uvec4 total = uvec4(0u);
+    for (uint s = 0u; s < gl_NumSubgroups; ++s) {
+        const uint p = sPartial[base + s];
+        total += uvec4(p & 0xFFu, (p >> 8u) & 0xFFu, (p >> 16u) & 0xFFu, p >> 24u);
+    }
+    parity ^= 1u;
+    return total;
+}
+
+// Packet traversal with a stack in shared memory, shared by the packet (report 2.2, 3.3, 3.4).
+// Every invocation of the workgroup runs this loop in lockstep, padding and finished rays included
+// (report 3.5): all control flow depends only on packet-uniform values (votes and the stack).
+void tracePacket(inout RayQuery q) {
+    const GpuNode root = nodes[0];
+    float entry;
+    bool wantCurrent = q.isActive && intersectBox(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+    q.isActive = wantCurrent;
+    uvec2 current = nodeEntry(root);
+    uint parity = 0u;
+    uint stackSize = 0u;
+    uint wantedBits = 0u;  // bit s: this ray wanted stack entry s (s < 32; deeper entries: assumed)
+    // Whether any ray hits the root: a vote with all fields but "active" empty.
+    if (packetVote(false, false, false, q.isActive, parity).w == 0u) return;
+
+    while (true) {
+        bool haveNext = false;  // a sibling to visit right after a leaf, instead of a push + pop
+        uvec2 next = uvec2(0u);
+        bool wantNext = false;
+        if (current.y == 0u) {
+            // Inner node: both children in one 64-byte read (siblings are adjacent).
+            const GpuNode left = nodes[current.x];
+            const GpuNode right = nodes[current.x + 1u];
+            float entryLeft = kInfinity, entryRight = kInfinity;
+            bool hitLeft = false, hitRight = false;
+            if (q.isActive) {
+                if (kStatistics) q.nodes += 1u;
+                // A child whose entry distance lies beyond the nearest hit counts as missed.
+                hitLeft = intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
+                hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
+            }
+            const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
+            const bool leftFirst = hitLeft && !rightFirst;
+            const uvec4 votes = packetVote(leftFirst, rightFirst, hitLeft && hitRight, q.isActive, parity);
+            if (votes.w == 0u) break;  // no ray left to trace (all shadow rays occluded)
+            if (votes.x + votes.y != 0u) {
+                // Sum of +1 (right first) and -1 (left first): left when the sum is below 1. The
+                // child that more rays want first is entered; the other is visited later when at
+                // least one ray wants it (the report's order, not the paper's swapped pseudocode).
+                const bool goRight = int(votes.y) - int(votes.x) >= 1;
+                const bool otherWanted = votes.z != 0u || (goRight ? votes.x != 0u : votes.y != 0u);
+                const GpuNode chosen = goRight ? right : left;
+                const GpuNode other = goRight ? left : right;
+                const bool wantChosen = goRight ? hitRight : hitLeft;
+                const bool wantOther = goRight ? hitLeft : hitRight;
+                current = nodeEntry(chosen);
+                wantCurrent = wantChosen;
+                if (otherWanted) {
+                    if (current.y != 0u) {
+                        // The chosen child is a leaf: visit the other right after it.
+                        haveNext = true;
+                        next = nodeEntry(other);
+                        wantNext = wantOther;
+                    } else {
+                        if (stackSize == kPacketStackEntries) {
+                            // Cannot happen with the host's sizing; never overflow silently.
+                            if (gl_LocalInvocationIndex == 0u) atomicOr(status, kStatusStackOverflow);
+                            break;
+                        }
+                        if (gl_LocalInvocationIndex == 0u) sStack[stackSize] = nodeEntry(other);
+                        if (stackSize < 32u) {
+                            const uint bit = 1u << stackSize;
+                            wantedBits = wantOther ? (wantedBits | bit) : (wantedBits & ~bit);
+                        }
+                        ++stackSize;
+                    }
+                }
+                if (current.y == 0u) continue;  // descend into the chosen inner child
+            } else {
+                current = uvec2(0u);  // no ray wants either child: pop
+            }
+        }
+        if (current.y != 0u) {
+            // Leaf: the rays that wanted it test its triangles.
+            if (q.isActive && wantCurrent) {
+                if (kStatistics) q.nodes += 1u;
+                intersectLeaf(q, current.x, current.y);
+            }
+            if (haveNext) {
+                current = next;
+                wantCurrent = wantNext;
+                continue;
+            }
+        }
+        // Pop. The entry was written before at least one vote (a barrier) since.
+        if (stackSize == 0u) break;
+        --stackSize;
+        current = sStack[stackSize];
+        wantCurrent = stackSize < 32u ? (wantedBits & (1u << stackSize)) != 0u : true;
+    }
+}
+
+// The single-ray while-while traversal (Aila and Laine 2009): each ray its own stack, nearer child
+// first, the farther one pushed.
+void traceSingle(inout RayQuery q) {
+    uvec2 stack[kRayStackEntries];
+    uint stackSize = 0u;
+    const GpuNode root = nodes[0];
+    float entry;
+    bool done = !(q.isActive && intersectBox(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry));
+    uvec2 current = nodeEntry(root);
+    while (!done) {
+        while (!done && current.y == 0u) {
+            const GpuNode left = nodes[current.x];
+            const GpuNode right = nodes[current.x + 1u];
+            if (kStatistics) q.nodes += 1u;
+            float entryLeft, entryRight;
+            const bool hitLeft = intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
+            const bool hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
+            if (hitLeft && hitRight) {
+                const bool rightFirst = entryRight < entryLeft;
+                current = nodeEntry(rightFirst ? right : left);
+                if (stackSize == kRayStackEntries) {
+                    atomicOr(status, kStatusStackOverflow);
+                    done = true;
+                    break;
+                }
+                stack[stackSize++] = nodeEntry(rightFirst ? left : right);
+            } else if (hitLeft || hitRight) {
+                current = nodeEntry(hitLeft ? left : right);
+            } else if (stackSize == 0u) {
+                done = true;
+            } else {
+                current = stack[--stackSize];
+            }
+        }
+        while (!done && current.y != 0u) {
+            if (kStatistics) q.nodes += 1u;
+            intersectLeaf(q, current.x, current.y);
+            if (!q.isActive || stackSize == 0u) done = true;
+            else current = stack[--stackSize];
+        }
+    }
+}
+
+void trace(inout RayQuery q) {
+    if (kKernel == kKernelPacket) tracePacket(q);
+    else traceSingle(q);
+}
+
+void main() {
+    const uint width = params.frame.x;
+    const uint height = params.frame.y;
+    // Images not a multiple of the packet are padded; padding rays follow the packet but trace
+    // nothing and write nothing (report 3.4).
+    const uvec2 pixel = gl_GlobalInvocationID.xy;
+    const bool inside = pixel.x < width && pixel.y < height;
+    const uint index = inside ? pixel.y * width + pixel.x : 0u;
+    const vec3 eye = cameraEye(params.camera);
+    const vec3 dir = primaryRayDirection(params.camera, min(pixel.x, width - 1u), min(pixel.y, height - 1u));
+
+    float t = kInfinity;
+    uint leafTri = kNoHit;
+    vec2 bary = vec2(0.0f);
+    RayCounters counts = RayCounters(0u, 0u, 0u, 0u);
+    uint shadow = kShadowNone;
+
+    if (kPass == kPassPrimary || kPass == kPassPrimaryShade) {
+        RayQuery q = makeQuery(eye, dir, kInfinity, false, kNoHit, inside);
+        trace(q);
+        t = q.tmax;
+        leafTri = q.leafTri;
+        bary = q.bary;
+        counts.primaryNodes = q.nodes;
+        counts.primaryTests = q.tests;
+        if (kPass == kPassPrimary) {
+            if (inside) {
+                primaryHits[index].data = vec4(t, uintBitsToFloat(leafTri), bary.x, bary.y);
+                if (kStatistics) counters[index] = counts;
+            }
+            return;
+        }
+    } else {
+        // Shadow packet (report 2.3): from the light to each hit point, the stack restarted. Rays
+        // whose primary ray missed follow the packet's control flow without voting (report 3.5).
+        const vec4 kept = inside ? primaryHits[index].data : vec4(kInfinity, uintBitsToFloat(kNoHit), 0.0f, 0.0f);
+        t = kept.x;
+        leafTri = floatBitsToUint(kept.y);
+        bary = kept.zw;
+        if (kStatistics && inside) counts = counters[index];
+        const bool hit = leafTri != kNoHit;
+        const vec3 light = params.light.xyz;
+        ShadowRay s;
+        s.org = light;
+        s.dir = vec3(1.0f);
+        s.tmax = 0.0f;
+        s.skipPrim = kNoHit;
+        bool traceShadow = false;
+        if (hit) {
+            const uint file = floatBitsToUint(triangles[leafTri].v0.w);
+            s = makeShadowRay(light, hitPosition(eye, dir, t), file);
+            traceShadow = !isDegenerateShadowRay(s);
+            shadow = kShadowLit;
+        }
+        RayQuery q = makeQuery(s.org, traceShadow ? s.dir : vec3(1.0f), s.tmax, true, s.skipPrim, traceShadow);
+        trace(q);
+        if (traceShadow && q.leafTri != kNoHit) shadow = kShadowOccluded;
+        counts.shadowNodes = q.nodes;
+        counts.shadowTests = q.tests;
+    }
+    if (!inside) return;
+
+    // Shading (shaders/shading.h, the CPU reference's text).
+    vec3 color = params.background.xyz;
+    if (kView == kViewHeatTraversal) {
+        color = heatColorForCount(counts.primaryNodes + counts.shadowNodes, kHeatFullScaleNodes);
+    } else if (kView == kViewHeatIntersections) {
+        color = heatColorForCount(counts.primaryTests + counts.shadowTests, kHeatFullScaleTests);
+    } else if (leafTri != kNoHit) {
+        const GpuTriangle tri = triangles[leafTri];
+        const vec3 geometric = geometricNormal(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, dir);
+        vec3 normal = geometric;
+        if ((params.frame.z & kFrameHasNormals) != 0u) {
+            const GpuTriangleNormals n = normals[leafTri];
+            normal = interpolatedNormal(n.n0.xyz, n.n1.xyz, n.n2.xyz, bary, geometric, dir);
+        }
+        vec3 diffuse = vec3(0.8f, 0.8f, 0.8f);  // Material's default
+        if ((params.frame.z & kFrameHasMaterials) != 0u)
+            diffuse = materials[floatBitsToUint(tri.v1.w)].xyz;
+        const vec3 p = hitPosition(eye, dir, t);
+        const vec3 toLight = normalize(params.light.xyz - p);
+        color = shadePhong(params.phong, diffuse, normal, -dir, toLight, shadow != kShadowOccluded);
+    }
+    uint rgba = packRgba8(vec4(color, 1.0f));
+    if ((params.frame.z & kFrameBgra) != 0u)
+        rgba = (rgba & 0xFF00FF00u) | ((rgba & 0xFFu) << 16u) | ((rgba >> 16u) & 0xFFu);
+    outputRgba[index] = rgba;
+
+    if ((params.frame.z & kFrameWriteHits) != 0u) {
+        HitRecord h;
+        h.orgX = eye.x;
+        h.orgY = eye.y;
+        h.orgZ = eye.z;
+        h.dirX = dir.x;
+        h.dirY = dir.y;
+        h.dirZ = dir.z;
+        h.t = t;
+        h.prim = leafTri == kNoHit ? kNoHit : floatBitsToUint(triangles[leafTri].v0.w);
+        h.shadow = shadow;
+        h.reserved = 0u;
+        hitRecords[index] = h;
+    }
+    if (kStatistics) counters[index] = counts;
+}
