@@ -1,0 +1,485 @@
+#include "renderer/cpu_tracer.h"
+
+#include "renderer/camera.h"
+#include "renderer/error.h"
+#include "shaders/camera.h"
+#include "shaders/intersect.h"
+#include "shaders/shading.h"
+
+#include <tbb/blocked_range2d.h>
+#include <tbb/parallel_for.h>
+
+#include <array>
+#include <chrono>
+#include <limits>
+#include <memory>
+
+namespace raypack {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// A node waiting on the stack, with the entry distance its box had when it was pushed.
+struct StackEntry {
+    uint32_t node;
+    float tEntry;
+};
+
+// Triangles of the gathered view: entry i of primIndices has its vertices at 3i, 3i+1, 3i+2.
+struct GatheredTriangles {
+    const glm::vec3* vertices;
+    const uint32_t* primIndices;
+    void fetch(uint32_t entry, glm::vec3& v0, glm::vec3& v1, glm::vec3& v2) const {
+        const glm::vec3* v = vertices + 3 * size_t(entry);
+        v0 = v[0];
+        v1 = v[1];
+        v2 = v[2];
+    }
+    uint32_t prim(uint32_t entry) const { return primIndices[entry]; }
+};
+
+// Triangles straight from the scene, through the index buffer.
+struct SceneTriangles {
+    const Scene* scene;
+    const uint32_t* primIndices;
+    void fetch(uint32_t entry, glm::vec3& v0, glm::vec3& v1, glm::vec3& v2) const {
+        const glm::uvec3 tri = scene->triangles[primIndices[entry]];
+        v0 = scene->positions[tri.x];
+        v1 = scene->positions[tri.y];
+        v2 = scene->positions[tri.z];
+    }
+    uint32_t prim(uint32_t entry) const { return primIndices[entry]; }
+};
+
+// Ordered closest-hit traversal. `stack` holds at least the tree's depth entries.
+template <class Triangles>
+ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray,
+                      float tmax, StackEntry* stack, uint32_t stackEntries,
+                      TraversalCounts& counts) {
+    ClosestHit best;
+    float bestT = tmax;
+    float tRoot;
+    if (!gpu::intersectBox(ray, nodes[0].lo, nodes[0].hi, bestT, tRoot)) return best;
+    uint32_t nodeIndex = 0;
+    uint32_t top = 0;
+    while (true) {
+        const BvhNode& node = nodes[nodeIndex];
+        ++counts.nodes;
+        if (node.isLeaf()) {
+            const uint32_t end = node.index + node.count;
+            for (uint32_t entry = node.index; entry < end; ++entry) {
+                glm::vec3 v0, v1, v2;
+                triangles.fetch(entry, v0, v1, v2);
+                ++counts.tests;
+                float t;
+                glm::vec2 bary;
+                if (!gpu::intersectTriangle(ray, v0, v1, v2, bestT, t, bary)) continue;
+                const uint32_t prim = triangles.prim(entry);
+                if (gpu::isCloserHit(t, prim, bestT, best.prim)) {
+                    bestT = t;
+                    best.t = t;
+                    best.prim = prim;
+                    best.bary = bary;
+                }
+            }
+        } else {
+            const uint32_t left = node.index;
+            const uint32_t right = node.index + 1;
+            float tLeft, tRight;
+            const bool hitLeft = gpu::intersectBox(ray, nodes[left].lo, nodes[left].hi, bestT, tLeft);
+            const bool hitRight =
+                gpu::intersectBox(ray, nodes[right].lo, nodes[right].hi, bestT, tRight);
+            if (hitLeft && hitRight) {
+                RAYPACK_CHECK_MSG(top < stackEntries, "traversal stack deeper than the tree");
+                if (tRight < tLeft) {
+                    stack[top++] = {left, tLeft};
+                    nodeIndex = right;
+                } else {
+                    stack[top++] = {right, tRight};
+                    nodeIndex = left;
+                }
+                continue;
+            }
+            if (hitLeft || hitRight) {
+                nodeIndex = hitLeft ? left : right;
+                continue;
+            }
+        }
+        // Pop the nearest waiting node that may still hold something closer than the best hit
+        // (ties allowed: an equal t with a lower triangle index wins).
+        while (true) {
+            if (top == 0) return best;
+            const StackEntry entry = stack[--top];
+            if (entry.tEntry <= bestT) {
+                nodeIndex = entry.node;
+                break;
+            }
+        }
+    }
+}
+
+// Any-hit traversal for shadow rays: stops at the first triangle other than skipPrim.
+template <class Triangles>
+bool anyHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray, float tmax,
+            uint32_t skipPrim, StackEntry* stack, uint32_t stackEntries, TraversalCounts& counts) {
+    float tRoot;
+    if (!gpu::intersectBox(ray, nodes[0].lo, nodes[0].hi, tmax, tRoot)) return false;
+    uint32_t nodeIndex = 0;
+    uint32_t top = 0;
+    while (true) {
+        const BvhNode& node = nodes[nodeIndex];
+        ++counts.nodes;
+        if (node.isLeaf()) {
+            const uint32_t end = node.index + node.count;
+            for (uint32_t entry = node.index; entry < end; ++entry) {
+                if (triangles.prim(entry) == skipPrim) continue;
+                glm::vec3 v0, v1, v2;
+                triangles.fetch(entry, v0, v1, v2);
+                ++counts.tests;
+                float t;
+                glm::vec2 bary;
+                if (gpu::intersectTriangle(ray, v0, v1, v2, tmax, t, bary)) return true;
+            }
+        } else {
+            const uint32_t left = node.index;
+            const uint32_t right = node.index + 1;
+            float tLeft, tRight;
+            const bool hitLeft = gpu::intersectBox(ray, nodes[left].lo, nodes[left].hi, tmax, tLeft);
+            const bool hitRight =
+                gpu::intersectBox(ray, nodes[right].lo, nodes[right].hi, tmax, tRight);
+            if (hitLeft && hitRight) {
+                RAYPACK_CHECK_MSG(top < stackEntries, "traversal stack deeper than the tree");
+                const bool rightFirst = tRight < tLeft;
+                stack[top++] = {rightFirst ? left : right, 0.0f};
+                nodeIndex = rightFirst ? right : left;
+                continue;
+            }
+            if (hitLeft || hitRight) {
+                nodeIndex = hitLeft ? left : right;
+                continue;
+            }
+        }
+        if (top == 0) return false;
+        nodeIndex = stack[--top].node;
+    }
+}
+
+// Maximal leaf depth (root at 0), walking the tree; also checks child and leaf ranges.
+uint32_t treeDepth(const Bvh& bvh) {
+    RAYPACK_CHECK_MSG(!bvh.nodes.empty(), "a Bvh has at least its root");
+    struct Item {
+        uint32_t node;
+        uint32_t depth;
+    };
+    std::vector<Item> pending{{0, 0}};
+    uint32_t maxDepth = 0;
+    while (!pending.empty()) {
+        const Item item = pending.back();
+        pending.pop_back();
+        const BvhNode& node = bvh.nodes[item.node];
+        if (node.isLeaf()) {
+            RAYPACK_CHECK_MSG(uint64_t(node.index) + node.count <= bvh.primIndices.size(),
+                              "leaf range inside primIndices");
+            maxDepth = std::max(maxDepth, item.depth);
+        } else {
+            RAYPACK_CHECK_MSG(node.index > item.node && uint64_t(node.index) + 1 < bvh.nodes.size(),
+                              "children after their parent, inside the node array");
+            pending.push_back({node.index, item.depth + 1});
+            pending.push_back({node.index + 1, item.depth + 1});
+        }
+    }
+    return maxDepth;
+}
+
+// Stack storage for the single-ray entry points: on the call stack for trees up to 255 levels.
+class SmallStack {
+public:
+    explicit SmallStack(uint32_t entries) : entries_(entries) {
+        if (entries > inline_.size()) heap_ = std::make_unique<StackEntry[]>(entries);
+    }
+    StackEntry* data() { return heap_ ? heap_.get() : inline_.data(); }
+    uint32_t size() const { return entries_; }
+
+private:
+    std::array<StackEntry, 256> inline_;
+    std::unique_ptr<StackEntry[]> heap_;
+    uint32_t entries_;
+};
+
+uint32_t depthFromStatsOrWalk(const Bvh& bvh) {
+    // The builder's statistics are trusted only when present and plausible; otherwise walk.
+    if (bvh.stats.nodeCount == bvh.nodes.size() && bvh.stats.nodeCount > 0)
+        return bvh.stats.maxLeafDepth;
+    return treeDepth(bvh);
+}
+
+void checkRay(glm::vec3 dir) {
+    RAYPACK_CHECK_MSG(dir != glm::vec3(0.0f), "a ray direction must not be zero");
+}
+
+}  // namespace
+
+CpuSceneView makeCpuSceneView(const Scene& scene, const Bvh& bvh) {
+    CpuSceneView view;
+    view.scene = &scene;
+    view.bvh = &bvh;
+    view.stackEntries = treeDepth(bvh) + 1;
+    const size_t entries = bvh.primIndices.size();
+    view.leafVertices.resize(3 * entries);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, entries, 4096),
+                      [&](const tbb::blocked_range<size_t>& range) {
+                          for (size_t i = range.begin(); i != range.end(); ++i) {
+                              const uint32_t prim = bvh.primIndices[i];
+                              RAYPACK_CHECK_MSG(prim < scene.triangles.size(),
+                                                "the Bvh was built for another scene");
+                              for (int c = 0; c < 3; ++c)
+                                  view.leafVertices[3 * i + c] = scene.vertex(prim, c);
+                          }
+                      });
+    view.bounds.lo = bvh.nodes[0].lo;
+    view.bounds.hi = bvh.nodes[0].hi;
+    return view;
+}
+
+ClosestHit traceClosestHit(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax,
+                           TraversalCounts* counts) {
+    checkRay(dir);
+    SmallStack stack(view.stackEntries);
+    TraversalCounts local;
+    const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
+    const ClosestHit hit = closestHit(view.bvh->nodes.data(), triangles, gpu::makeTraceRay(origin, dir),
+                                      tmax, stack.data(), stack.size(), local);
+    if (counts) *counts = local;
+    return hit;
+}
+
+bool traceOccluded(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax,
+                   uint32_t skipPrim, TraversalCounts* counts) {
+    checkRay(dir);
+    SmallStack stack(view.stackEntries);
+    TraversalCounts local;
+    const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
+    const bool occluded = anyHit(view.bvh->nodes.data(), triangles, gpu::makeTraceRay(origin, dir),
+                                 tmax, skipPrim, stack.data(), stack.size(), local);
+    if (counts) *counts = local;
+    return occluded;
+}
+
+bool traceShadowOccluded(const CpuSceneView& view, glm::vec3 light, glm::vec3 hitPoint,
+                         uint32_t hitPrim, TraversalCounts* counts) {
+    const gpu::ShadowRay shadow = gpu::makeShadowRay(light, hitPoint, hitPrim);
+    if (gpu::isDegenerateShadowRay(shadow)) {
+        if (counts) *counts = {};
+        return false;
+    }
+    return traceOccluded(view, shadow.org, shadow.dir, shadow.tmax, shadow.skipPrim, counts);
+}
+
+HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir,
+                       float tmax, RayCounters* counters) {
+    checkRay(dir);
+    SmallStack stack(depthFromStatsOrWalk(bvh) + 1);
+    TraversalCounts counts;
+    const SceneTriangles triangles{&scene, bvh.primIndices.data()};
+    const ClosestHit hit = closestHit(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir),
+                                      tmax, stack.data(), stack.size(), counts);
+    if (counters) {
+        counters->primaryNodes += counts.nodes;
+        counters->primaryTests += counts.tests;
+    }
+    HitRecord record;
+    record.orgX = origin.x;
+    record.orgY = origin.y;
+    record.orgZ = origin.z;
+    record.dirX = dir.x;
+    record.dirY = dir.y;
+    record.dirZ = dir.z;
+    record.t = hit.t;
+    record.prim = hit.prim;
+    record.shadow = gpu::kShadowNone;
+    record.reserved = 0;
+    return record;
+}
+
+bool traceOccluded(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax,
+                   uint32_t skipPrim, RayCounters* counters) {
+    checkRay(dir);
+    SmallStack stack(depthFromStatsOrWalk(bvh) + 1);
+    TraversalCounts counts;
+    const SceneTriangles triangles{&scene, bvh.primIndices.data()};
+    const bool occluded = anyHit(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir), tmax,
+                                 skipPrim, stack.data(), stack.size(), counts);
+    if (counters) {
+        counters->shadowNodes += counts.nodes;
+        counters->shadowTests += counts.tests;
+    }
+    return occluded;
+}
+
+Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
+                const FrameRequest& request) {
+    const Clock::time_point frameStart = Clock::now();
+    RAYPACK_CHECK_MSG(view.scene && view.bvh, "a CpuSceneView made by makeCpuSceneView");
+    const Scene& scene = *view.scene;
+    const BvhNode* nodes = view.bvh->nodes.data();
+    const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
+    const uint32_t width = settings.width;
+    const uint32_t height = settings.height;
+    const gpu::GpuCamera camera = makeGpuCamera(settings.camera, width, height);
+    const glm::vec3 eye = gpu::cameraEye(camera);
+    const glm::vec3 light = lightPosition(settings.camera, view.bounds, settings.lightHeight);
+    const size_t pixels = size_t(width) * height;
+    const bool heatView = settings.view != ViewMode::Shaded;
+
+    Frame frame;
+    frame.width = width;
+    frame.height = height;
+    frame.light = light;
+
+    std::vector<ClosestHit> hits(pixels);
+    std::vector<RayCounters> counters(pixels, RayCounters{0, 0, 0, 0});
+    std::vector<uint32_t> shadowState(pixels, gpu::kShadowNone);
+
+    constexpr uint32_t kTile = 16;
+    const tbb::blocked_range2d<uint32_t> tiles(0, height, kTile, 0, width, kTile);
+    const uint32_t stackEntries = view.stackEntries;
+
+    // Pass 1: primary rays.
+    Clock::time_point passStart = Clock::now();
+    tbb::parallel_for(
+        tiles,
+        [&](const tbb::blocked_range2d<uint32_t>& tile) {
+            std::vector<StackEntry> stack(stackEntries);
+            for (uint32_t y = tile.rows().begin(); y != tile.rows().end(); ++y) {
+                for (uint32_t x = tile.cols().begin(); x != tile.cols().end(); ++x) {
+                    const size_t pixel = size_t(y) * width + x;
+                    const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
+                    TraversalCounts counts;
+                    hits[pixel] = closestHit(nodes, triangles, gpu::makeTraceRay(eye, dir),
+                                             kRayTmaxInfinite, stack.data(), stackEntries, counts);
+                    counters[pixel].primaryNodes = counts.nodes;
+                    counters[pixel].primaryTests = counts.tests;
+                }
+            }
+        },
+        tbb::simple_partitioner());
+    frame.timings.primarySeconds = secondsSince(passStart);
+
+    // Pass 2: shadow rays from the light towards each hit point (report 2.3, 3.5).
+    if (settings.shadows) {
+        passStart = Clock::now();
+        tbb::parallel_for(
+            tiles,
+            [&](const tbb::blocked_range2d<uint32_t>& tile) {
+                std::vector<StackEntry> stack(stackEntries);
+                for (uint32_t y = tile.rows().begin(); y != tile.rows().end(); ++y) {
+                    for (uint32_t x = tile.cols().begin(); x != tile.cols().end(); ++x) {
+                        const size_t pixel = size_t(y) * width + x;
+                        const ClosestHit& hit = hits[pixel];
+                        if (!hit.hit()) continue;
+                        const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
+                        const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
+                        const gpu::ShadowRay shadow = gpu::makeShadowRay(light, point, hit.prim);
+                        bool occluded = false;
+                        TraversalCounts counts;
+                        if (!gpu::isDegenerateShadowRay(shadow))
+                            occluded = anyHit(nodes, triangles,
+                                              gpu::makeTraceRay(shadow.org, shadow.dir),
+                                              shadow.tmax, shadow.skipPrim, stack.data(),
+                                              stackEntries, counts);
+                        shadowState[pixel] = occluded ? gpu::kShadowOccluded : gpu::kShadowLit;
+                        counters[pixel].shadowNodes = counts.nodes;
+                        counters[pixel].shadowTests = counts.tests;
+                    }
+                }
+            },
+            tbb::simple_partitioner());
+        frame.timings.shadowSeconds = secondsSince(passStart);
+    }
+
+    // Pass 3: shading (or heat map), hits and counters out.
+    passStart = Clock::now();
+    if (request.image) frame.rgba.resize(pixels);
+    if (request.hits) frame.hits.resize(pixels);
+    const glm::vec4 phong(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular,
+                          settings.phong.shininess);
+    const Material defaultMaterial;
+    tbb::parallel_for(
+        tiles,
+        [&](const tbb::blocked_range2d<uint32_t>& tile) {
+            for (uint32_t y = tile.rows().begin(); y != tile.rows().end(); ++y) {
+                for (uint32_t x = tile.cols().begin(); x != tile.cols().end(); ++x) {
+                    const size_t pixel = size_t(y) * width + x;
+                    const ClosestHit& hit = hits[pixel];
+                    const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
+                    if (request.hits) {
+                        HitRecord& record = frame.hits[pixel];
+                        record.orgX = eye.x;
+                        record.orgY = eye.y;
+                        record.orgZ = eye.z;
+                        record.dirX = dir.x;
+                        record.dirY = dir.y;
+                        record.dirZ = dir.z;
+                        record.t = hit.t;
+                        record.prim = hit.prim;
+                        record.shadow = shadowState[pixel];
+                        record.reserved = 0;
+                    }
+                    if (!request.image) continue;
+                    glm::vec3 color;
+                    if (heatView) {
+                        const RayCounters& c = counters[pixel];
+                        color = settings.view == ViewMode::HeatTraversal
+                                    ? gpu::heatColorForCount(c.primaryNodes + c.shadowNodes,
+                                                             gpu::kHeatFullScaleNodes)
+                                    : gpu::heatColorForCount(c.primaryTests + c.shadowTests,
+                                                             gpu::kHeatFullScaleTests);
+                    } else if (!hit.hit()) {
+                        color = settings.background;
+                    } else {
+                        const glm::uvec3 tri = scene.triangles[hit.prim];
+                        const glm::vec3 v0 = scene.positions[tri.x];
+                        const glm::vec3 v1 = scene.positions[tri.y];
+                        const glm::vec3 v2 = scene.positions[tri.z];
+                        glm::vec3 normal = gpu::geometricNormal(v0, v1, v2, dir);
+                        if (scene.hasNormals())
+                            normal = gpu::interpolatedNormal(scene.normals[tri.x],
+                                                             scene.normals[tri.y],
+                                                             scene.normals[tri.z], hit.bary,
+                                                             normal, dir);
+                        const glm::vec3 diffuse =
+                            scene.hasMaterials()
+                                ? scene.materials[scene.triangleMaterial[hit.prim]].diffuse
+                                : defaultMaterial.diffuse;
+                        const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
+                        const glm::vec3 toLight = light - point;
+                        const bool lit = shadowState[pixel] != gpu::kShadowOccluded &&
+                                         toLight != glm::vec3(0.0f);
+                        color = gpu::shadePhong(phong, diffuse, normal, -dir,
+                                                lit ? glm::normalize(toLight) : normal, lit);
+                    }
+                    frame.rgba[pixel] = gpu::packRgba8(glm::vec4(color, 1.0f));
+                }
+            }
+        },
+        tbb::simple_partitioner());
+    frame.timings.shadeSeconds = secondsSince(passStart);
+    if (request.counters) frame.counters = std::move(counters);
+    frame.timings.totalSeconds = secondsSince(frameStart);
+    return frame;
+}
+
+Frame renderCpu(const Scene& scene, const Bvh& bvh, const RenderSettings& settings,
+                const FrameRequest& request) {
+    const Clock::time_point start = Clock::now();
+    const CpuSceneView view = makeCpuSceneView(scene, bvh);
+    Frame frame = renderCpu(view, settings, request);
+    frame.timings.totalSeconds = secondsSince(start);
+    return frame;
+}
+
+}  // namespace raypack

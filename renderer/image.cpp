@@ -1,0 +1,106 @@
+#include "renderer/image.h"
+
+#include "renderer/error.h"
+
+#include <stb/stb_image.h>
+#include <stb/stb_image_write.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace raypack {
+namespace {
+
+uint32_t channel(uint32_t pixel, int c) { return (pixel >> (8 * c)) & 0xFFu; }
+
+}  // namespace
+
+void writePng(const std::string& path, uint32_t width, uint32_t height,
+              const std::vector<uint32_t>& rgba) {
+    if (width == 0 || height == 0)
+        throw Error("cannot write " + path + ": the image is empty");
+    if (rgba.size() != size_t(width) * height)
+        throw Error("cannot write " + path + ": " + std::to_string(rgba.size()) +
+                    " pixels for a " + std::to_string(width) + "x" + std::to_string(height) +
+                    " image");
+    if (width > uint32_t(std::numeric_limits<int>::max() / 4) ||
+        height > uint32_t(std::numeric_limits<int>::max()))
+        throw Error("cannot write " + path + ": the image is too large for PNG writing");
+    // Bytes in memory are R, G, B, A on a little-endian host; make that explicit for any host.
+    std::vector<unsigned char> bytes(rgba.size() * 4);
+    for (size_t i = 0; i < rgba.size(); ++i)
+        for (int c = 0; c < 4; ++c) bytes[4 * i + c] = static_cast<unsigned char>(channel(rgba[i], c));
+    if (!stbi_write_png(path.c_str(), int(width), int(height), 4, bytes.data(), int(width) * 4))
+        throw Error("cannot write " + path + ": " + std::strerror(errno));
+}
+
+void writePng(const std::string& path, const Image& image) {
+    writePng(path, image.width, image.height, image.rgba);
+}
+
+Image readPng(const std::string& path) {
+    int width = 0, height = 0, channels = 0;
+    errno = 0;
+    unsigned char* data = stbi_load(path.c_str(), &width, &height, &channels, 4);
+    if (!data) {
+        const char* reason = stbi_failure_reason();
+        throw Error("cannot read image " + path + ": " + (reason ? reason : "unknown error"));
+    }
+    Image image;
+    image.width = uint32_t(width);
+    image.height = uint32_t(height);
+    image.rgba.resize(size_t(width) * size_t(height));
+    for (size_t i = 0; i < image.rgba.size(); ++i) {
+        const unsigned char* p = data + 4 * i;
+        image.rgba[i] = uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 |
+                        uint32_t(p[3]) << 24;
+    }
+    stbi_image_free(data);
+    return image;
+}
+
+ImageDiff diffImages(const Image& a, const Image& b, uint8_t threshold, const std::string& nameA,
+                     const std::string& nameB) {
+    if (a.width != b.width || a.height != b.height)
+        throw Error("cannot compare " + nameA + " (" + std::to_string(a.width) + "x" +
+                    std::to_string(a.height) + ") with " + nameB + " (" +
+                    std::to_string(b.width) + "x" + std::to_string(b.height) +
+                    "): sizes differ");
+    RAYPACK_CHECK(a.rgba.size() == size_t(a.width) * a.height);
+    RAYPACK_CHECK(b.rgba.size() == size_t(b.width) * b.height);
+
+    ImageDiff diff;
+    diff.pixels = a.rgba.size();
+    diff.difference.width = a.width;
+    diff.difference.height = a.height;
+    diff.difference.rgba.resize(a.rgba.size());
+    double squaredError = 0.0;
+    for (size_t i = 0; i < a.rgba.size(); ++i) {
+        uint32_t pixelMax = 0;
+        for (int c = 0; c < 4; ++c) {
+            const int d = std::abs(int(channel(a.rgba[i], c)) - int(channel(b.rgba[i], c)));
+            pixelMax = std::max(pixelMax, uint32_t(d));
+            if (c < 3) squaredError += double(d) * double(d);
+        }
+        diff.maxChannelDifference = std::max(diff.maxChannelDifference, pixelMax);
+        if (pixelMax > threshold) {
+            ++diff.differingPixels;
+            diff.difference.rgba[i] = 0xFF0000FFu;  // opaque red
+        } else {
+            // Context: a's luminance at a third of its brightness.
+            const uint32_t grey = (channel(a.rgba[i], 0) * 77 + channel(a.rgba[i], 1) * 150 +
+                                   channel(a.rgba[i], 2) * 29) >> 8;
+            const uint32_t dim = grey / 3;
+            diff.difference.rgba[i] = dim | dim << 8 | dim << 16 | 0xFF000000u;
+        }
+    }
+    diff.differingShare = diff.pixels ? double(diff.differingPixels) / double(diff.pixels) : 0.0;
+    const double meanSquaredError = diff.pixels ? squaredError / (3.0 * double(diff.pixels)) : 0.0;
+    diff.psnr = meanSquaredError > 0.0 ? 10.0 * std::log10(255.0 * 255.0 / meanSquaredError)
+                                       : std::numeric_limits<double>::infinity();
+    return diff;
+}
+
+}  // namespace raypack
