@@ -43,7 +43,7 @@ AsyncSceneBuilder::~AsyncSceneBuilder() {
 void AsyncSceneBuilder::cancelRunningLocked() {
     if (running_) {
         running_->buildProgress.cancel = true;
-        running_->loadTicker.cancel = true;
+        running_->loadProgress.cancel = true;
     }
 }
 
@@ -104,7 +104,9 @@ BuildStatus AsyncSceneBuilder::status() const {
         status.phase = running_->phase;
         status.requestId = running_->id;
         status.scenePath = running_->path;
-        status.loadFraction = running_->loadTicker.fraction.load();
+        const uint64_t loadTotal = running_->loadProgress.bytesTotal.load();
+        status.loadFraction =
+            loadTotal ? double(running_->loadProgress.bytesDone.load()) / double(loadTotal) : 0.0;
         status.placed = running_->buildProgress.placed.load();
         status.total = running_->buildProgress.total.load();
         status.elapsedSeconds = secondsSince(running_->start);
@@ -157,7 +159,7 @@ void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
             }
             if (!scene) {
                 const auto loadStart = std::chrono::steady_clock::now();
-                scene = std::make_shared<const Scene>(loader_(request.path, job.loadTicker));
+                scene = std::make_shared<const Scene>(loader_(request.path, job.loadProgress));
                 loadSeconds = secondsSince(loadStart);
                 std::lock_guard lock(mutex_);
                 // Kept even when this job was cancelled: the request that cancelled it is often a
@@ -165,15 +167,13 @@ void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
                 lastLoadedPath_ = request.path;
                 lastLoadedScene_ = scene;
             }
-            if (job.loadTicker.cancel) return;
+            if (job.loadProgress.cancel) return;
             std::lock_guard lock(mutex_);
             job.phase = BuildPhase::Building;
         }
 
-        std::vector<Aabb> bounds(scene->triangleCount());
-        for (uint32_t tri = 0; tri < bounds.size(); ++tri) bounds[tri] = scene->triangleBounds(tri);
         const auto buildStart = std::chrono::steady_clock::now();
-        auto bvh = std::make_shared<const Bvh>(buildBvh(bounds, request.options, &job.buildProgress));
+        auto bvh = std::make_shared<const Bvh>(buildBvh(*scene, request.options, &job.buildProgress));
         const double buildSeconds = secondsSince(buildStart);
 
         std::lock_guard lock(mutex_);
@@ -184,7 +184,7 @@ void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
         // Superseded by a newer request: nothing to hand back.
     } catch (const std::exception& e) {
         std::lock_guard lock(mutex_);
-        if (job.buildProgress.cancel || job.loadTicker.cancel) return;
+        if (job.buildProgress.cancel || job.loadProgress.cancel) return;
         failure_ = BuildFailure{request.id, request.path, e.what()};
         if (isLoad && request.path == outstandingLoadPath_ && !waiting_)
             outstandingLoadPath_.clear();  // the current scene stays; rebuilds apply to it again

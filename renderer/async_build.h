@@ -10,6 +10,7 @@
 // of the last request, and nothing in between is handed back once it is superseded.
 #include "renderer/bvh.h"
 #include "renderer/scene.h"
+#include "scenes/load.h"  // LoadProgress only: the loader itself is passed in
 
 #include <atomic>
 #include <chrono>
@@ -24,17 +25,11 @@
 
 namespace raypack {
 
-// What a scene loader reports while it reads a file: the share read so far in [0, 1] (0 when the
-// loader cannot tell), and the flag that asks it to stop early (it then throws anything; the result
-// is dropped).
-struct LoadTicker {
-    std::atomic<double> fraction{0.0};
-    std::atomic<bool> cancel{false};
-};
-
-// The renderer library does not depend on the loaders (scenes/ links renderer/), so the caller
-// passes the function that reads a file; it throws raypack::Error for a bad file.
-using SceneLoader = std::function<Scene(const std::string& path, LoadTicker& ticker)>;
+// The renderer library does not call the loaders (scenes/ links renderer/), so the caller passes
+// the function that opens a scene spec (a file path or a generator spec, scenes/load.h openScene).
+// It reports through LoadProgress, throws raypack::Error for a bad file and LoadCancelled once
+// LoadProgress::cancel is set.
+using SceneLoader = std::function<Scene(const std::string& spec, LoadProgress& progress)>;
 
 // A finished job: the scene and the tree built over it, ready to be uploaded and traced.
 struct SceneBuild {
@@ -60,7 +55,7 @@ struct BuildStatus {
     BuildPhase phase = BuildPhase::Idle;
     uint64_t requestId = 0;
     std::string scenePath;
-    double loadFraction = 0.0;    // of the file read (Loading)
+    double loadFraction = 0.0;    // of the file read and parsed (Loading)
     uint64_t placed = 0;          // primitives placed in leaves (Building)
     uint64_t total = 0;           // primitives in the scene (Building)
     double elapsedSeconds = 0.0;  // since the job started
@@ -108,7 +103,7 @@ private:
         std::string path;
         BuildPhase phase = BuildPhase::Idle;
         std::chrono::steady_clock::time_point start;
-        LoadTicker loadTicker;
+        LoadProgress loadProgress;
         BuildProgress buildProgress;
     };
 

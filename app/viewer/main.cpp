@@ -1,0 +1,108 @@
+// raypack: the interactive viewer. Parses the command line into ui::ViewerOptions and runs the
+// session (ui/viewer.h); a raypack::Error that stops it from starting (no display, no device)
+// becomes one line on stderr and exit code 2.
+#include "renderer/error.h"
+#include "renderer/settings_json.h"
+#include "ui/viewer.h"
+
+#include <CLI/CLI.hpp>
+
+#include <cstdio>
+#include <sstream>
+
+namespace {
+
+using namespace raypack;
+
+glm::vec3 parseVec3(const std::string& text, const char* flag) {
+    glm::vec3 v;
+    char c1 = 0, c2 = 0, extra = 0;
+    if (std::sscanf(text.c_str(), "%f%c%f%c%f%c", &v.x, &c1, &v.y, &c2, &v.z, &extra) != 5 || c1 != ',' || c2 != ',')
+        throw Error(std::string(flag) + ": \"" + text + "\" is not x,y,z");
+    return v;
+}
+
+PacketShape parsePacket(const std::string& text) {
+    unsigned w = 0, h = 0;
+    char x = 0, extra = 0;
+    if (std::sscanf(text.c_str(), "%u%c%u%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || !w || !h)
+        throw Error("--packet: \"" + text + "\" is not WIDTHxHEIGHT, e.g. 8x4");
+    return {w, h};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    CLI::App app{"raypack: fly through a triangle scene traced by the Vulkan packet tracer, change the packet\n"
+                 "shape, kernel and BVH live, compare with the CPU reference. With --frames N it runs N frames\n"
+                 "and exits (scripted runs, tests). Needs a display (use xvfb-run without one)."};
+    ui::ViewerOptions options;
+    std::string packet, kernel, view, builder, eye, at, up, present = "fifo";
+    std::vector<std::string> script;
+    float fov = 0.0f;
+    bool noShadows = false, noCounters = false;
+    app.add_option("--scene", options.scene, "scene file (OBJ, PLY, glTF, GLB) or generator spec")->capture_default_str();
+    app.add_option("--width", options.width, "window width in pixels")->capture_default_str();
+    app.add_option("--height", options.height, "window height in pixels")->capture_default_str();
+    app.add_option("--frames", options.frames, "run this many frames and exit (0: until closed)")->capture_default_str();
+    app.add_option("--screenshot", options.screenshot, "after the last frame: the traced image as PNG + JSON sidecar");
+    app.add_option("--window-screenshot", options.windowScreenshot, "after the last frame: the whole window as PNG");
+    app.add_option("--packet", packet, "packet shape WxH (default 8x4)");
+    app.add_option("--leaf-size", options.bvh.leafSize, "BVH leaf size")->capture_default_str();
+    app.add_option("--builder", builder, "BVH builder (sah-exact, sah-binned)");
+    app.add_flag("--no-shadows", noShadows, "no shadow rays");
+    app.add_option("--kernel", kernel, "packet or single");
+    app.add_option("--view", view, "shaded, nodes (N_TR heat map) or tests (N_IT heat map)");
+    app.add_option("--light-height", options.settings.lightHeight, "light above the camera, times the scene's height")
+        ->capture_default_str();
+    app.add_option("--eye", eye, "camera position x,y,z (default: the CLI's framing of the scene)");
+    app.add_option("--at", at, "point looked at x,y,z");
+    app.add_option("--up", up, "up vector x,y,z");
+    app.add_option("--fov", fov, "vertical field of view in degrees");
+    app.add_option("--device", options.device, "Vulkan device: index or part of its name");
+    app.add_flag("--validation", options.validation, "Vulkan validation layer on; exit code 3 on any message");
+    app.add_option("--present", present, "fifo, mailbox or immediate (falls back to fifo)")->capture_default_str();
+    app.add_flag("--no-counters", noCounters, "no counting frame each second (N_TR / N_IT)");
+    app.add_flag("--hide-panel", options.hidePanel, "draw no panel");
+    app.add_option("--script", script,
+                   "scripted step FRAME:ACTION[:VALUE], repeatable; ACTION: resize WxH, packet WxH, leaf-size N, "
+                   "builder NAME, shadows on|off, kernel packet|single, view shaded|nodes|tests, open SCENE, "
+                   "wait, screenshot FILE, window-screenshot FILE");
+    CLI11_PARSE(app, argc, argv);
+
+    try {
+        if (!packet.empty()) options.settings.packet = parsePacket(packet);
+        if (!builder.empty()) options.bvh.builder = parseBvhBuilder(builder);
+        options.settings.shadows = !noShadows;
+        options.liveCounters = !noCounters;
+        if (!kernel.empty()) {
+            const std::optional<KernelKind> k = parseKernelKind(kernel);
+            if (!k) throw Error("--kernel: \"" + kernel + "\" is not packet or single");
+            options.settings.kernel = *k;
+        }
+        if (!view.empty()) {
+            const std::optional<ViewMode> v = parseViewMode(view);
+            if (!v) throw Error("--view: \"" + view + "\" is not shaded, nodes or tests");
+            options.settings.view = *v;
+        }
+        if (!eye.empty() || !at.empty()) {
+            if (eye.empty() || at.empty()) throw Error("--eye and --at go together");
+            options.settings.camera.eye = parseVec3(eye, "--eye");
+            options.settings.camera.at = parseVec3(at, "--at");
+            if (!up.empty()) options.settings.camera.up = parseVec3(up, "--up");
+            if (fov > 0.0f) options.settings.camera.fovYDegrees = fov;
+            options.cameraGiven = true;
+        } else if (!up.empty() || fov > 0.0f) {
+            throw Error("--up and --fov need --eye and --at");
+        }
+        if (present == "fifo") options.presentMode = VK_PRESENT_MODE_FIFO_KHR;
+        else if (present == "mailbox") options.presentMode = VK_PRESENT_MODE_MAILBOX_KHR;
+        else if (present == "immediate") options.presentMode = VK_PRESENT_MODE_IMMEDIATE_KHR;
+        else throw Error("--present: \"" + present + "\" is not fifo, mailbox or immediate");
+        for (const std::string& step : script) options.script.push_back(ui::parseScriptStep(step));
+        return ui::runViewer(options);
+    } catch (const Error& e) {
+        std::fprintf(stderr, "raypack: %s\n", e.what());
+        return ui::kViewerExitError;
+    }
+}

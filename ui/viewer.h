@@ -1,0 +1,58 @@
+#pragma once
+// The viewer session: window, tracer, worker thread and panel wired into one frame loop, for
+// `raypack` (app/viewer/main.cpp). Each piece lives in its own module (ui/viewer_window.h,
+// renderer/gpu_tracer.h, renderer/async_build.h, ui/panel.h, ui/fly_camera.h, ui/bookmarks.h,
+// ui/screenshot.h); this file only passes values between them once per frame.
+#include "renderer/bvh.h"
+#include "renderer/settings.h"
+
+#include <vulkan/vulkan.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace raypack::ui {
+
+// One step of a scripted run, applied before frame `frame` (counted from 0):
+//   resize WxH | packet WxH | leaf-size N | builder NAME | shadows on|off | kernel packet|single |
+//   view shaded|nodes|tests | open SCENE | wait (block until the worker is idle; scripts only) |
+//   screenshot FILE.png | window-screenshot FILE.png
+struct ScriptStep {
+    uint32_t frame = 0;
+    std::string action;
+    std::string value;
+};
+// Parses "FRAME:ACTION[:VALUE]"; throws raypack::Error naming the step when it is malformed.
+ScriptStep parseScriptStep(const std::string& text);
+
+struct ViewerOptions {
+    std::string scene = "gen:default";  // a file or a generator spec (scenes/load.h)
+    uint32_t width = 1280;              // window size; the traced image is the framebuffer's size
+    uint32_t height = 800;
+    uint32_t frames = 0;                // 0: interactive until the window closes
+    std::string screenshot;             // after the last frame: traced image + JSON sidecar
+    std::string windowScreenshot;       // after the last frame: the whole window, panel included
+    RenderSettings settings;            // width/height are taken from the window
+    bool cameraGiven = false;           // settings.camera holds --eye/--at/--up/--fov
+    BvhBuildOptions bvh;
+    std::string device;                 // as raypack-cli --device
+    bool validation = false;            // VK_LAYER_KHRONOS_validation; exit code 3 on any message
+    VkPresentModeKHR presentMode = VK_PRESENT_MODE_FIFO_KHR;
+    bool liveCounters = true;           // a counting frame each second for N_TR / N_IT
+    bool hidePanel = false;
+    std::vector<ScriptStep> script;
+};
+
+// Exit codes of `raypack`.
+constexpr int kViewerExitOk = 0;
+constexpr int kViewerExitError = 2;       // no display, no device, bad arguments
+constexpr int kViewerExitValidation = 3;  // --validation and the layer reported something
+
+// Opens the window and runs the frame loop. Throws raypack::Error for what stops the viewer from
+// starting (no display, no device that can present); errors after that (a bad file, a packet
+// shape the device cannot run) are shown in the panel, printed in scripted runs, and the viewer
+// goes on with what it had.
+int runViewer(const ViewerOptions& options);
+
+}  // namespace raypack::ui
