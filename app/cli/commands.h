@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 
 #include <functional>
+#include <string>
 
 namespace raypack::cli {
 
@@ -14,5 +15,16 @@ constexpr int kExitDiffer = 1;  // `diff` only: the images differ beyond the thr
 constexpr int kExitError = 2;   // bad arguments, unreadable file, no device, ...
 
 using CommandRunner = std::function<int()>;
+
+// The command line as typed (arguments joined by spaces, quoted where they hold spaces), for
+// results that say how they were made. Set once by main().
+const std::string& commandLine();
+void setCommandLine(int argc, char** argv);
+
+CommandRunner addRenderCommand(CLI::App& app);
+CommandRunner addStatsCommand(CLI::App& app);
+CommandRunner addDiffCommand(CLI::App& app);
+CommandRunner addGenerateCommand(CLI::App& app);
+CommandRunner addBenchCommand(CLI::App& app);
 
 }  // namespace raypack::cli

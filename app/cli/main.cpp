@@ -7,8 +7,27 @@
 #include <utility>
 #include <vector>
 
+namespace raypack::cli {
+namespace {
+std::string typedCommandLine;
+}
+
+const std::string& commandLine() { return typedCommandLine; }
+
+void setCommandLine(int argc, char** argv) {
+    typedCommandLine.clear();
+    for (int i = 0; i < argc; ++i) {
+        std::string arg = i == 0 ? std::string("raypack-cli") : std::string(argv[i]);
+        if (arg.find_first_of(" \t\"'") != std::string::npos) arg = "'" + arg + "'";
+        typedCommandLine += (i ? " " : "") + arg;
+    }
+}
+
+}  // namespace raypack::cli
+
 int main(int argc, char** argv) {
     using namespace raypack::cli;
+    setCommandLine(argc, argv);
     CLI::App app{
         "raypack-cli: headless front end of raypack, a ray tracer for triangle scenes (SAH BVH, "
         "Vulkan compute packet tracer, CPU reference).\n"
@@ -19,6 +38,15 @@ int main(int argc, char** argv) {
     app.set_help_all_flag("--help-all", "Print the help of every subcommand and exit");
 
     std::vector<std::pair<CLI::App*, CommandRunner>> commands;
+    const auto add = [&](CommandRunner (*addCommand)(CLI::App&)) {
+        CommandRunner run = addCommand(app);
+        commands.emplace_back(app.get_subcommands([](CLI::App*) { return true; }).back(), std::move(run));
+    };
+    add(addRenderCommand);
+    add(addStatsCommand);
+    add(addDiffCommand);
+    add(addGenerateCommand);
+    add(addBenchCommand);
 
     try {
         app.parse(argc, argv);

@@ -1,0 +1,372 @@
+// `raypack-cli bench`: issue 5's matrix runner. For every scene of a suite: load, build the BVH
+// (Table 1), then one cell per tracer configuration (CPU reference; Embree; GPU packet kernel per
+// packet shape; GPU single-ray kernel), each with one warm-up run and N timed runs, written as one
+// JSON record per cell and ray kind (primary, shadow) with the machine and the date.
+#include "app/cli/arguments.h"
+#include "app/cli/bench_suites.h"
+#include "app/cli/commands.h"
+#include "app/cli/embree_peer.h"
+#include "app/cli/scene_setup.h"
+#include "app/cli/tracing.h"
+#include "renderer/error.h"
+#include "renderer/settings_json.h"
+
+#include <sys/utsname.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <ctime>
+#include <memory>
+#include <optional>
+
+namespace raypack::cli {
+namespace {
+
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+struct BenchFlags {
+    std::string scenes, suite = "report", device = "all", kernel = "all", packets, gpu, out,
+                                          sceneDir;
+    uint32_t width = 0, height = 0, repeat = 0;
+    BvhFlags bvh;
+    bool noEmbree = false;
+};
+
+// What one cell traces.
+struct Cell {
+    enum Kind { Cpu, Embree, GpuPacket, GpuSingle } kind;
+    PacketShape packet;
+    std::string label() const {
+        switch (kind) {
+            case Cpu: return "cpu-reference";
+            case Embree: return "embree";
+            case GpuPacket: return "gpu-packet " + toString(packet);
+            case GpuSingle: return "gpu-single";
+        }
+        return "";
+    }
+};
+
+std::string utcDate() {
+    const std::time_t now = std::time(nullptr);
+    std::tm tm{};
+    gmtime_r(&now, &tm);
+    char text[32];
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
+    return text;
+}
+
+std::string operatingSystem() {
+    utsname name{};
+    if (uname(&name) != 0) return "unknown";
+    return std::string(name.sysname) + " " + name.release + " " + name.machine;
+}
+
+// Whether the device offers what the driver's own ray tracing would need.
+std::string driverRayTracingLine(const GpuSession& session) {
+    uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(session.context.physicalDevice, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> extensions(count);
+    vkEnumerateDeviceExtensionProperties(session.context.physicalDevice, nullptr, &count,
+                                         extensions.data());
+    bool pipeline = false, structure = false;
+    for (const VkExtensionProperties& e : extensions) {
+        pipeline = pipeline || std::string(e.extensionName) == VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME;
+        structure = structure || std::string(e.extensionName) == VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME;
+    }
+    const std::string device = session.context.info.name;
+    if (!pipeline || !structure)
+        return "driver ray tracing: " + device + " lacks " +
+               (!pipeline ? std::string(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME) : "") +
+               (!pipeline && !structure ? " and " : "") +
+               (!structure ? std::string(VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME) : "");
+    return "driver ray tracing: " + device +
+           " offers it, but this raypack-cli has no driver ray tracing peer";
+}
+
+json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& bvh,
+                 const BvhBuildOptions& options, const Camera& camera) {
+    json j = table1Json(loaded.info, bvh.stats, options);
+    j["scene"] = scene.name;
+    j["scene_spec"] = scene.spec;
+    j["camera"] = {{"eye", {camera.eye.x, camera.eye.y, camera.eye.z}},
+                   {"at", {camera.at.x, camera.at.y, camera.at.z}},
+                   {"up", {camera.up.x, camera.up.y, camera.up.z}},
+                   {"fov_y_degrees", camera.fovYDegrees},
+                   {"framed", !scene.camera.has_value()}};
+    return j;
+}
+
+// Two records (primary, shadow) of a raypack cell.
+void addRaypackRecords(json& records, const json& scene, const Cell& cell,
+                       const MeasuredFrames& measured, const std::string& driver) {
+    const FrameStats& s = measured.stats;
+    for (const char* kind : {"primary", "shadow"}) {
+        json r = scene;
+        r["tracer"] = cell.kind == Cell::Cpu         ? "cpu-reference"
+                      : cell.kind == Cell::GpuPacket ? "gpu-packet"
+                                                     : "gpu-single";
+        r["device"] = s.device;
+        r["driver"] = driver;
+        r["kernel"] = cell.kind == Cell::Cpu ? "reference"
+                      : cell.kind == Cell::GpuPacket ? "packet"
+                                                     : "single";
+        r["packet"] = cell.kind == Cell::GpuPacket ? json(toString(cell.packet)) : json(nullptr);
+        r["ray_kind"] = kind;
+        r["width_px"] = s.width;
+        r["height_px"] = s.height;
+        r["repeats"] = s.repeats;
+        r["frame_s"] = s.frameSeconds.median;
+        r["frame_min_s"] = s.frameSeconds.min;
+        r["frame_max_s"] = s.frameSeconds.max;
+        r.update(toJson(std::string(kind) == "primary" ? s.primary : s.shadow));
+        records.push_back(r);
+    }
+}
+
+void addEmbreeRecords(json& records, const json& sceneFieldsJson, const EmbreeResults& e,
+                      const RenderSettings& settings, uint32_t repeats) {
+    for (const EmbreeQualityResults& q : e.qualities) {
+        const std::pair<const char*, const EmbreeRate*> modes[] = {
+            {"rtcIntersect1", &q.intersect1},
+            {"rtcIntersect8", &q.intersect8},
+            {"rtcOccluded1", &q.occluded1}};
+        for (const auto& [kernel, rate] : modes) {
+            const bool shadow = std::string(kernel) == "rtcOccluded1";
+            if (shadow && !settings.shadows) continue;
+            json r;
+            for (const char* key : {"scene", "scene_spec", "camera", "triangles",
+                                    "degenerate_triangles"})
+                r[key] = sceneFieldsJson[key];
+            r["tracer"] = "embree";
+            r["device"] = describeCpuDevice();
+            r["driver"] = "Embree " + e.version;
+            r["embree_quality"] = q.quality;
+            r["kernel"] = kernel;
+            r["packet"] = nullptr;
+            r["ray_kind"] = shadow ? "shadow" : "primary";
+            r["width_px"] = settings.width;
+            r["height_px"] = settings.height;
+            r["repeats"] = repeats;
+            r["threads"] = e.threads;
+            r["t_b_s"] = q.buildSeconds;
+            r["n_q_rays"] = rate->rays;
+            r["t_k_s"] = rate->seconds.median;
+            r["t_k_min_s"] = rate->seconds.min;
+            r["t_k_max_s"] = rate->seconds.max;
+            r["t_r_us_per_ray"] =
+                rate->rays ? rate->seconds.median / double(rate->rays) * 1e6 : 0.0;
+            r["perf_mrays_s"] = rate->mraysPerSecond();
+            r["hits_compared"] = e.comparedRays;
+            r["hits_agree_share"] = e.agreementShare();
+            r["hits_max_rel_t_error"] = e.maxRelativeTError;
+            r["shadows_compared"] = e.comparedShadows;
+            r["shadows_agree_share"] =
+                e.comparedShadows ? double(e.agreeingShadows) / double(e.comparedShadows) : 0.0;
+            records.push_back(r);
+        }
+    }
+}
+
+struct Progress {
+    size_t total = 0;
+    size_t done = 0;
+    Clock::time_point start = Clock::now();
+    void begin(const std::string& scene, const std::string& what) const {
+        const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+        std::string remaining = "unknown";
+        if (done > 0) {
+            char text[32];
+            std::snprintf(text, sizeof text, "about %.0f s",
+                          elapsed / double(done) * double(total - done));
+            remaining = text;
+        }
+        std::fprintf(stderr, "bench: cell %zu of %zu (%s, %s): elapsed %.1f s, remaining %s\n",
+                     done + 1, total, scene.c_str(), what.c_str(), elapsed, remaining.c_str());
+        std::fflush(stderr);
+    }
+};
+
+int runBench(const BenchFlags& f, const CLI::App& command) {
+    const auto given = [&](const char* name) { return command.get_option(name)->count() > 0; };
+    if (given("--scenes") && given("--suite"))
+        throw Error("bench: give either --scenes or --suite, not both");
+    BenchSuite suite = given("--scenes") ? customSuite(splitList(f.scenes))
+                                         : benchSuite(f.suite, resolveSceneDir(f.sceneDir));
+    const uint32_t width = given("--width") ? f.width : suite.width;
+    const uint32_t height = given("--height") ? f.height : suite.height;
+    const uint32_t repeats = given("--repeat") ? f.repeat : suite.repeats;
+    const std::vector<PacketShape> packets =
+        parsePacketShapes("--packets", given("--packets") ? f.packets : suite.packets);
+    const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
+    const bool cpu = f.device != "gpu";
+    const bool gpu = f.device != "cpu";
+    const bool packetKernel = f.kernel != "single";
+    const bool singleKernel = f.kernel != "packet";
+    const bool embree = cpu && !f.noEmbree && embreeAvailable();
+
+    json skipped = json::array();
+    if (cpu && !f.noEmbree && !embreeAvailable())
+        skipped.push_back("Embree: this raypack-cli was built without Embree");
+
+    std::vector<Cell> cells;
+    if (cpu) cells.push_back({Cell::Cpu, {}});
+    if (embree) cells.push_back({Cell::Embree, {}});
+    if (gpu && packetKernel)
+        for (const PacketShape& p : packets) cells.push_back({Cell::GpuPacket, p});
+    if (gpu && singleKernel) cells.push_back({Cell::GpuSingle, {}});
+
+    std::optional<GpuSession> session;
+    json machine = {{"cpu_model", cpuModel()},
+                    {"cpu_threads", cpuThreads()},
+                    {"os", operatingSystem()},
+                    {"gpu", nullptr},
+                    {"gpu_driver", nullptr},
+                    {"gpu_type", nullptr},
+                    {"embree_version", nullptr}};
+    if (gpu) {
+        session.emplace(f.gpu, false);
+        const vk::DeviceInfo& info = session->context.info;
+        machine["gpu"] = info.name;
+        machine["gpu_driver"] = info.driver;
+        machine["gpu_type"] = vk::toString(info.type);
+        skipped.push_back(driverRayTracingLine(*session));
+        std::fprintf(stderr, "bench: GPU %s\n", vk::describe(info).c_str());
+    }
+
+    json records = json::array();
+    Progress progress;
+    progress.total = cells.size() * suite.scenes.size();
+    for (const BenchScene& benchScene : suite.scenes) {
+        std::fprintf(stderr, "bench: loading %s (%s) and building its BVH\n",
+                     benchScene.name.c_str(), benchScene.spec.c_str());
+        const LoadedScene loaded = loadSceneTimed(benchScene.spec);
+        const Bvh bvh = buildBvh(loaded.scene, bvhOptions);
+        RenderSettings settings;
+        settings.width = width;
+        settings.height = height;
+        settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
+        const json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
+
+        std::vector<HitRecord> referenceHits;
+        double uploadSeconds = 0.0;
+        bool uploaded = false;
+        for (const Cell& cell : cells) {
+            progress.begin(benchScene.name, cell.label());
+            if (cell.kind == Cell::Cpu) {
+                const CpuSceneView view = makeCpuSceneView(loaded.scene, bvh);
+                FrameSource source;
+                source.cpu = &view;
+                MeasuredFrames measured = measureFrames(source, settings, repeats, false);
+                addRaypackRecords(records, scene, cell, measured, "");
+                referenceHits = std::move(measured.frame.hits);
+            } else if (cell.kind == Cell::Embree) {
+                const EmbreeResults results =
+                    runEmbreePeer(loaded.scene, settings, referenceHits, repeats);
+                machine["embree_version"] = results.version;
+                addEmbreeRecords(records, scene, results, settings, repeats);
+            } else {
+                if (!uploaded) {
+                    uploadSeconds = session->tracer->upload(loaded.scene, bvh);
+                    uploaded = true;
+                }
+                RenderSettings gpuSettings = settings;
+                gpuSettings.kernel =
+                    cell.kind == Cell::GpuPacket ? KernelKind::Packet : KernelKind::Single;
+                if (cell.kind == Cell::GpuPacket) gpuSettings.packet = cell.packet;
+                FrameSource source;
+                source.gpu = session->tracer.get();
+                source.uploadSeconds = uploadSeconds;
+                const MeasuredFrames measured = measureFrames(source, gpuSettings, repeats, false);
+                addRaypackRecords(records, scene, cell, measured, session->context.info.driver);
+            }
+            ++progress.done;
+        }
+    }
+
+    json result = {
+        {"format", "raypack-bench-1"},
+        {"date", utcDate()},
+        {"command", commandLine()},
+        {"machine", machine},
+        {"settings",
+         {{"suite", suite.name},
+          {"width_px", width},
+          {"height_px", height},
+          {"repeats", repeats},
+          {"devices", f.device},
+          {"kernels", f.kernel},
+          {"packets", [&] {
+               json list = json::array();
+               for (const PacketShape& p : packets) list.push_back(toString(p));
+               return list;
+           }()},
+          {"bvh", toJson(bvhOptions)}}},
+        {"skipped", skipped},
+        {"records", records},
+    };
+    const std::string out = f.out.empty() ? "bench-" + suite.name + ".json" : f.out;
+    writeJsonFile(out, result);
+    const double elapsed = std::chrono::duration<double>(Clock::now() - progress.start).count();
+    std::printf("bench: %zu records (%zu cells) written to %s in %.1f s\n", records.size(),
+                progress.total, out.c_str(), elapsed);
+    for (const auto& line : skipped) std::printf("bench: skipped: %s\n", line.get<std::string>().c_str());
+    return kExitOk;
+}
+
+}  // namespace
+
+CommandRunner addBenchCommand(CLI::App& app) {
+    auto flags = std::make_shared<BenchFlags>();
+    BenchFlags& f = *flags;
+    CLI::App* command = app.add_subcommand(
+        "bench",
+        "Run a benchmark matrix and write one JSON record per cell and ray kind (primary, shadow): "
+        "scene, triangles, tracer (cpu-reference, gpu-packet, gpu-single, embree), device and "
+        "driver, kernel, packet shape, Table 1 (n_l_leaves, d_avg_leaf_depth, d_max_leaf_depth, "
+        "o_avg_prims_per_leaf, t_b_s, sah_cost, bvh_bytes_per_triangle, ...) and Table 2 "
+        "(t_r_us_per_ray, n_it_tests_per_ray, n_tr_nodes_per_ray, n_q_rays, t_f_s, t_cu_s, "
+        "t_k_s with t_k_min_s / t_k_max_s, perf_mrays_s, perf_with_upload_mrays_s), plus the "
+        "machine (CPU model, threads, GPU, driver) and the date. Every cell runs once as a "
+        "warm-up (which counts N_TR / N_IT) and then --repeat times; medians are reported. "
+        "Embree (when built in) traces the same rays at build qualities medium and high and its "
+        "hit distances are compared with the CPU reference's. A progress line per cell goes to "
+        "stderr. Suites: report (Sibenik, Sponza, Conference, Armadillo, Dragon from the scene "
+        "folder, with fixed cameras), scaling (terrain 10k..10M, the dragon subdivided to 13M), "
+        "quick (two small generated scenes at 96x96, for CI).");
+    command->add_option("--scenes", f.scenes,
+                        "Comma-separated scene files or generator specs instead of a suite "
+                        "(framed by the default camera)");
+    command->add_option("--suite", f.suite, "Suite: report, scaling or quick")
+        ->check(CLI::IsMember({"report", "scaling", "quick"}))
+        ->capture_default_str();
+    command->add_option("--scene-dir", f.sceneDir,
+                        "Folder of the suite's scene files (default: $RAYPACK_SCENE_DIR, else "
+                        "../shared/scenes beside the source tree, else ../shared/scenes from the "
+                        "current directory)");
+    command->add_option("--device", f.device, "Tracers: cpu (reference + Embree), gpu, or all")
+        ->check(CLI::IsMember({"cpu", "gpu", "all"}))
+        ->capture_default_str();
+    command->add_option("--kernel", f.kernel, "GPU kernels: packet, single or all")
+        ->check(CLI::IsMember({"packet", "single", "all"}))
+        ->capture_default_str();
+    command->add_option("--packets", f.packets,
+                        "Packet shapes of the packet kernel, e.g. 8x4,4x8,5x6,8x8,16x16 (default: "
+                        "the suite's; quick: 8x4,5x6)");
+    command->add_option("--width", f.width, "Image width in pixels (default: the suite's)")
+        ->check(CLI::Range(1u, 16384u));
+    command->add_option("--height", f.height, "Image height in pixels (default: the suite's)")
+        ->check(CLI::Range(1u, 16384u));
+    command->add_option("--repeat", f.repeat,
+                        "Timed runs per cell after the warm-up (default: the suite's; report 5)")
+        ->check(CLI::Range(1u, 1000u));
+    command->add_option("--out", f.out, "Results file (default: bench-SUITE.json)");
+    command->add_option("--gpu", f.gpu, "Vulkan device: index or case-insensitive name substring");
+    command->add_flag("--no-embree", f.noEmbree, "Do not run the Embree peer");
+    addBvhFlags(*command, f.bvh);
+    return [flags, command] { return runBench(*flags, *command); };
+}
+
+}  // namespace raypack::cli

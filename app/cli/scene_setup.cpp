@@ -1,0 +1,56 @@
+#include "app/cli/scene_setup.h"
+
+#include "scenes/load.h"
+
+#include <chrono>
+#include <filesystem>
+
+namespace raypack::cli {
+
+LoadedScene loadSceneTimed(const std::string& spec) {
+    LoadedScene loaded;
+    const auto start = std::chrono::steady_clock::now();
+    loaded.scene = openScene(spec);
+    loaded.info.loadSeconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    loaded.info.spec = spec;
+    loaded.info.triangles = loaded.scene.triangleCount();
+    loaded.info.degenerateTriangles = loaded.scene.degenerateCount();
+    std::error_code error;
+    const bool isFile = std::filesystem::is_regular_file(spec, error);
+    loaded.info.inputBytes = isFile ? std::filesystem::file_size(spec, error) : 0;
+    if (!isFile || error) loaded.info.inputBytes = loaded.scene.bytes();
+    return loaded;
+}
+
+void addBvhFlags(CLI::App& command, BvhFlags& flags) {
+    std::string builders;
+    for (BvhBuilder b : kAllBvhBuilders) builders += std::string(builders.empty() ? "" : ", ") + toString(b);
+    command
+        .add_option("--leaf-size", flags.leafSize,
+                    "BVH leaf threshold: a node with at most N triangles becomes a leaf")
+        ->check(CLI::Range(1u, 1u << 20))
+        ->capture_default_str();
+    command.add_option("--builder", flags.builder, "BVH builder: " + builders)
+        ->capture_default_str();
+    command
+        .add_option("--bins", flags.binCount,
+                    "Bins per axis of the binned SAH builder (sah-binned only), 2..256")
+        ->check(CLI::Range(2u, 256u))
+        ->capture_default_str();
+}
+
+BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
+    BvhBuildOptions options;
+    options.builder = parseBvhBuilder(flags.builder);
+    options.leafSize = flags.leafSize;
+    options.binCount = flags.binCount;
+    return options;
+}
+
+std::string sceneArgumentHelp() {
+    return std::string("Scene: an .obj, .ply, .gltf or .glb file, or a generator spec.\n") +
+           sceneSpecHelp();
+}
+
+}  // namespace raypack::cli

@@ -1,0 +1,35 @@
+#pragma once
+// The first two arrows of raypack's data flow as the CLI runs them, timed: scene spec -> Scene
+// (openScene) -> Bvh (buildBvh), plus the flags that choose the BVH build.
+#include "app/cli/statistics.h"
+#include "renderer/bvh.h"
+#include "renderer/scene.h"
+
+#include <CLI/CLI.hpp>
+
+#include <string>
+
+namespace raypack::cli {
+
+struct LoadedScene {
+    Scene scene;
+    SceneInfo info;
+};
+
+// Opens a file path or generator spec (scenes/load.h) and times it. Throws raypack::Error.
+LoadedScene loadSceneTimed(const std::string& spec);
+
+// --leaf-size, --builder, --bins, bound to `options` (defaults from BvhBuildOptions).
+struct BvhFlags {
+    uint32_t leafSize = BvhBuildOptions{}.leafSize;
+    std::string builder = toString(BvhBuildOptions{}.builder);
+    uint32_t binCount = BvhBuildOptions{}.binCount;
+};
+void addBvhFlags(CLI::App& command, BvhFlags& flags);
+// Throws raypack::Error for an unknown builder name.
+BvhBuildOptions toBvhOptions(const BvhFlags& flags);
+
+// The help line of the SCENE argument: a file or a generator spec (sceneSpecHelp()).
+std::string sceneArgumentHelp();
+
+}  // namespace raypack::cli
