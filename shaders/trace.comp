@@ -360,8 +360,10 @@ void main() {
         if ((params.frame.z & kFrameHasMaterials) != 0u)
             diffuse = materials[floatBitsToUint(tri.v1.w)].xyz;
         const vec3 p = hitPosition(eye, dir, t);
-        const vec3 toLight = normalize(params.light.xyz - p);
-        color = shadePhong(params.phong, diffuse, normal, -dir, toLight, shadow != kShadowOccluded);
+        const vec3 toLight = params.light.xyz - p;
+        // A point at the light itself is not lit (and has no direction to it), as on the CPU.
+        const bool lit = shadow != kShadowOccluded && toLight != vec3(0.0f);
+        color = shadePhong(params.phong, diffuse, normal, -dir, lit ? normalize(toLight) : normal, lit);
     }
     uint rgba = packRgba8(vec4(color, 1.0f));
     if ((params.frame.z & kFrameBgra) != 0u)

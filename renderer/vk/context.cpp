@@ -70,6 +70,12 @@ std::string describe(const DeviceInfo& info) {
 
 namespace {
 
+// What the driver's ray tracing needs; VK_KHR_deferred_host_operations is a dependency of
+// VK_KHR_acceleration_structure even when no deferred operation is used.
+const char* const kRayTracingExtensions[] = {VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME,
+                                             VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME,
+                                             VK_KHR_DEFERRED_HOST_OPERATIONS_EXTENSION_NAME};
+
 VKAPI_ATTR VkBool32 VKAPI_CALL debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                              VkDebugUtilsMessageTypeFlagsEXT,
                                              const VkDebugUtilsMessengerCallbackDataEXT* data,
@@ -214,6 +220,40 @@ std::string rejectReason(VkInstance instance, VkPhysicalDevice physical,
     return "";
 }
 
+}  // namespace
+
+std::string rayTracingMissing(VkPhysicalDevice physical) {
+    uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> offered(count);
+    vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, offered.data());
+    std::string missing;
+    auto note = [&](const std::string& what) { missing += (missing.empty() ? "" : ", ") + what; };
+    for (const char* e : kRayTracingExtensions) {
+        const bool found = std::any_of(offered.begin(), offered.end(), [&](const auto& x) {
+            return std::strcmp(x.extensionName, e) == 0;
+        });
+        if (!found) note(e);
+    }
+    if (!missing.empty()) return missing;
+    VkPhysicalDeviceVulkan12Features vulkan12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+    VkPhysicalDeviceAccelerationStructureFeaturesKHR accelerationStructure{
+        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR};
+    VkPhysicalDeviceRayTracingPipelineFeaturesKHR rayTracingPipeline{
+        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR};
+    vulkan12.pNext = &accelerationStructure;
+    accelerationStructure.pNext = &rayTracingPipeline;
+    VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+    features.pNext = &vulkan12;
+    vkGetPhysicalDeviceFeatures2(physical, &features);
+    if (!vulkan12.bufferDeviceAddress) note("feature bufferDeviceAddress");
+    if (!accelerationStructure.accelerationStructure) note("feature accelerationStructure");
+    if (!rayTracingPipeline.rayTracingPipeline) note("feature rayTracingPipeline");
+    return missing;
+}
+
+namespace {
+
 int typeRank(VkPhysicalDeviceType type) {
     switch (type) {
     case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
@@ -355,7 +395,29 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
         queueInfo.pQueuePriorities = &priority;
         std::vector<const char*> extensions;
         for (const std::string& e : options.deviceExtensions) extensions.push_back(e.c_str());
+        // Ray tracing (renderer/vk/rt_peer.h): the three extensions and their features, chained.
+        VkPhysicalDeviceVulkan12Features vulkan12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+        VkPhysicalDeviceAccelerationStructureFeaturesKHR accelerationStructure{
+            VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ACCELERATION_STRUCTURE_FEATURES_KHR};
+        VkPhysicalDeviceRayTracingPipelineFeaturesKHR rayTracingPipeline{
+            VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_RAY_TRACING_PIPELINE_FEATURES_KHR};
+        const void* deviceFeatures = nullptr;
+        if (options.enableRayTracing && rayTracingMissing(ctx.physicalDevice).empty()) {
+            for (const char* e : kRayTracingExtensions) {
+                const bool listed = std::any_of(extensions.begin(), extensions.end(),
+                                                [&](const char* x) { return std::strcmp(x, e) == 0; });
+                if (!listed) extensions.push_back(e);
+            }
+            vulkan12.bufferDeviceAddress = VK_TRUE;
+            accelerationStructure.accelerationStructure = VK_TRUE;
+            rayTracingPipeline.rayTracingPipeline = VK_TRUE;
+            vulkan12.pNext = &accelerationStructure;
+            accelerationStructure.pNext = &rayTracingPipeline;
+            deviceFeatures = &vulkan12;
+            ctx.rayTracing = true;
+        }
         VkDeviceCreateInfo deviceInfo{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+        deviceInfo.pNext = deviceFeatures;
         deviceInfo.queueCreateInfoCount = 1;
         deviceInfo.pQueueCreateInfos = &queueInfo;
         deviceInfo.enabledExtensionCount = uint32_t(extensions.size());
@@ -403,6 +465,14 @@ uint32_t findMemoryType(const VulkanContext& ctx, uint32_t typeBits, VkMemoryPro
             return i;
     return UINT32_MAX;
 }
+[[noreturn]] void throwOutOfMemory(const VulkanContext& ctx, VkResult result, VkDeviceSize bytes,
+                                   const char* what) {
+    char message[512];
+    std::snprintf(message, sizeof message, "Vulkan: out of %s memory on %s allocating %.1f MiB for %s",
+                  result == VK_ERROR_OUT_OF_DEVICE_MEMORY ? "device" : "host", ctx.info.name.c_str(),
+                  double(bytes) / (1024.0 * 1024.0), what);
+    throw Error(message);
+}
 }  // namespace
 
 Buffer createBuffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFlags usage,
@@ -413,7 +483,10 @@ Buffer createBuffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFl
     info.size = buffer.size;
     info.usage = usage;
     info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
-    check(vkCreateBuffer(ctx.device, &info, nullptr, &buffer.buffer), "vkCreateBuffer");
+    const VkResult created = vkCreateBuffer(ctx.device, &info, nullptr, &buffer.buffer);
+    if (created == VK_ERROR_OUT_OF_DEVICE_MEMORY || created == VK_ERROR_OUT_OF_HOST_MEMORY)
+        throwOutOfMemory(ctx, created, buffer.size, what);
+    check(created, "vkCreateBuffer");
 
     VkMemoryRequirements requirements;
     vkGetBufferMemoryRequirements(ctx.device, buffer.buffer, &requirements);
@@ -423,17 +496,17 @@ Buffer createBuffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFl
         throw Error("Vulkan: " + ctx.info.name + " has no memory type for " + what);
     }
     VkMemoryAllocateInfo allocate{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    // A buffer whose device address is taken (acceleration structure inputs, the shader binding
+    // table) needs memory allocated for it.
+    VkMemoryAllocateFlagsInfo allocateFlags{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_FLAGS_INFO};
+    allocateFlags.flags = VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT;
+    if (usage & VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT) allocate.pNext = &allocateFlags;
     allocate.allocationSize = requirements.size;
     allocate.memoryTypeIndex = type;
     const VkResult result = vkAllocateMemory(ctx.device, &allocate, nullptr, &buffer.memory);
     if (result == VK_ERROR_OUT_OF_DEVICE_MEMORY || result == VK_ERROR_OUT_OF_HOST_MEMORY) {
         vkDestroyBuffer(ctx.device, buffer.buffer, nullptr);
-        char message[512];
-        std::snprintf(message, sizeof message,
-                      "Vulkan: out of %s memory on %s allocating %.1f MiB for %s",
-                      result == VK_ERROR_OUT_OF_DEVICE_MEMORY ? "device" : "host",
-                      ctx.info.name.c_str(), double(requirements.size) / (1024.0 * 1024.0), what);
-        throw Error(message);
+        throwOutOfMemory(ctx, result, requirements.size, what);
     }
     check(result, "vkAllocateMemory");
     check(vkBindBufferMemory(ctx.device, buffer.buffer, buffer.memory, 0), "vkBindBufferMemory");
