@@ -30,6 +30,11 @@ struct VulkanContextOptions {
     // physical device and a queue family index. Devices without such a family are skipped.
     std::function<bool(VkInstance, VkPhysicalDevice, uint32_t)> presentSupport;
     std::string applicationName = "raypack";
+    // Enable the driver's ray tracing (renderer/vk/rt_peer.h) when the chosen device offers it:
+    // VK_KHR_acceleration_structure, VK_KHR_ray_tracing_pipeline and VK_KHR_deferred_host_operations
+    // with the features accelerationStructure, rayTracingPipeline and bufferDeviceAddress. A device
+    // without them is still chosen and used; VulkanContext::rayTracing then stays false.
+    bool enableRayTracing = false;
 };
 
 // What the tracer and the panel need to know about the chosen device.
@@ -71,6 +76,10 @@ struct VulkanContext {
     VkPhysicalDeviceMemoryProperties memoryProperties{};
     DeviceInfo info;
     std::unique_ptr<ValidationLog> validation;  // null when validation is off
+    // The ray tracing extensions and features are enabled (VulkanContextOptions::enableRayTracing
+    // on a device that offers them); buffers with VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT then
+    // get memory allocated with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT.
+    bool rayTracing = false;
 };
 
 // Throws raypack::Error when there is no Vulkan loader or driver, no usable device, or the
@@ -82,6 +91,10 @@ void destroyVulkanContext(VulkanContext& context);
 std::vector<DeviceInfo> listDevices(const VulkanContextOptions& options = {});
 
 uint32_t validationMessageCount(const VulkanContext& context);
+
+// What `physical` lacks for the driver's ray tracing (extensions, then features), comma-separated,
+// or "" when it offers everything VulkanContextOptions::enableRayTracing enables.
+std::string rayTracingMissing(VkPhysicalDevice physical);
 
 // ---- Buffers (niagara's Buffer / createBuffer): a plain struct, created and destroyed by functions.
 struct Buffer {
