@@ -29,6 +29,8 @@
 RP_BEGIN_NAMESPACE
 
 #ifdef __cplusplus
+using glm::frexp;
+using glm::ldexp;
 using glm::step;
 #endif
 
@@ -38,6 +40,13 @@ const float kFloatHuge = 3.402823466e38f;
 // gamma(n) = n*u / (1 - n*u) and u = 2^-24 (unit roundoff of float). This covers the rounding of
 // (bound - origin) * invDir in both the near and the far distance.
 const float kSlabFarWiden = 1.0000003576278687f;  // 1 + 2 * 3u/(1-3u), rounded up
+// A box is culled against the closest hit so far only when its near distance exceeds that hit's t
+// by more than rounding: the near distance carries up to gamma(3) of relative error, a triangle's
+// t a few ulps more. Without this margin a box holding a triangle that ties the current hit (a ray
+// through a vertex shared by triangles in different leaves) is skipped, and which triangle is
+// reported would depend on traversal order (tests/test_intersect.cpp, Box.NeverCullsATriangleHit).
+// 16 ulps; it costs a negligible number of extra node visits.
+const float kBoxTmaxWiden = 1.0000019073486328f;  // 1 + 2^-19
 // A direction component smaller than this in magnitude counts as zero (the ray is parallel to that
 // slab): 1/x would overflow to infinity, and 0 * infinity is NaN, whose min/max GLSL leaves
 // undefined. FLT_MIN also covers denormals, which GPUs may flush to zero anyway.
@@ -104,8 +113,8 @@ RP_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
     return r;
 }
 
-// Conservative slab test against [lo, hi] for t in [0, tmax]. Returns whether the ray may touch the
-// box; tEntry is the entry distance (clamped to 0). Boxes are closed: a ray lying in a face plane,
+// Conservative slab test against [lo, hi] for t in [0, tmax] (tmax widened by kBoxTmaxWiden).
+// Returns whether the ray may touch the box; tEntry is the entry distance (clamped to 0). Boxes are closed: a ray lying in a face plane,
 // or parallel to an axis and inside that slab, hits.
 RP_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
     const vec3 tLo = (lo - r.org) * r.invDir;
@@ -125,7 +134,7 @@ RP_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float
     const float tNear = max(max(tNear3.x, tNear3.y), max(tNear3.z, 0.0f));
     const float tFar = min(min(tFar3.x, tFar3.y), tFar3.z) * kSlabFarWiden;
     tEntry = tNear;
-    return tNear <= min(tFar, tmax);
+    return tNear <= min(tFar, tmax * kBoxTmaxWiden);
 }
 
 // Watertight ray/triangle test (Woop, Benthin, Wald 2013), edges and vertices inclusive, both faces.
@@ -139,9 +148,8 @@ RP_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float
 // exactly negated between them; with inclusive edges a ray on the edge hits at least one of them.
 // What the fallback would add is only the exact sign of a product difference that rounds to 0, i.e.
 // which of two triangles sharing an edge a ray grazing that edge reports (both lie at the same t).
-// Cost of leaving it out: a triangle whose sheared 2D coordinates are so small that their products
-// underflow (below ~1e-19 relative to the ray origin's distance on FTZ GPUs, ~1e-22 with denormals
-// on the CPU) is treated as degenerate and missed.
+// Beyond the paper, the 2D coordinates are scaled by a power of two per triangle (see below), so
+// neither huge (1e20) nor tiny (1e-20) coordinates overflow or underflow the edge functions.
 RP_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax,
                                RP_OUT(float) t, RP_OUT(vec2) bary) {
     t = 0.0f;
@@ -157,14 +165,33 @@ RP_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax
     RP_PRECISE const float by = b[r.ky] - r.shearY * b[r.kz];
     RP_PRECISE const float cx = c[r.kx] - r.shearX * c[r.kz];
     RP_PRECISE const float cy = c[r.ky] - r.shearY * c[r.kz];
+    // Scale the 2D coordinates by a power of two that brings the largest to [0.5, 1), so that the
+    // products below neither overflow (coordinates beyond ~1e19 would give inf - inf = NaN) nor
+    // underflow (below ~1e-19 they would vanish). A power of two commutes with rounding, so each
+    // edge function is exactly s^2 times its unscaled value: the two triangles of a shared edge,
+    // scaled by different s, still get exactly opposite signs, and watertightness is kept. The
+    // exponent is clamped so the scale stays a normal float.
+    const float largest = max(max(max(abs(ax), abs(ay)), max(abs(bx), abs(by))),
+                              max(abs(cx), abs(cy)));
+    int exponent;
+    frexp(largest, exponent);
+    const float scale = ldexp(1.0f, clamp(-exponent, -126, 126));
+    RP_PRECISE const float sax = ax * scale;
+    RP_PRECISE const float say = ay * scale;
+    RP_PRECISE const float sbx = bx * scale;
+    RP_PRECISE const float sby = by * scale;
+    RP_PRECISE const float scx = cx * scale;
+    RP_PRECISE const float scy = cy * scale;
     // Scaled barycentric coordinates (2D edge functions).
-    RP_PRECISE const float u = cx * by - cy * bx;
-    RP_PRECISE const float v = ax * cy - ay * cx;
-    RP_PRECISE const float w = bx * ay - by * ax;
+    RP_PRECISE const float u = scx * sby - scy * sbx;
+    RP_PRECISE const float v = sax * scy - say * scx;
+    RP_PRECISE const float w = sbx * say - sby * sax;
     // Inclusive edges: reject only when the signs disagree strictly.
     if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
     RP_PRECISE const float det = u + v + w;
     if (det == 0.0f) return false;  // degenerate triangle, or the ray lies in its plane
+    // The z coordinates are not scaled: shearZ * a[kz] is in units of t already, and u, v, w and
+    // det all carry the same s^2, which cancels in t = scaledT / det.
     RP_PRECISE const float az = r.shearZ * a[r.kz];
     RP_PRECISE const float bz = r.shearZ * b[r.kz];
     RP_PRECISE const float cz = r.shearZ * c[r.kz];
