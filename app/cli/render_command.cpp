@@ -108,7 +108,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         "ray), N_TR (nodes visited per ray), N_Q (rays), T_F = T_CU + T_K (s), T_CU (GPU data "
         "creation and upload, s; 0 on the CPU), T_K (tracing time, s: GPU timestamp queries, CPU "
         "wall clock), PERF (Mrays/s = N_Q / T_K, and with T_CU included).\n"
-        "One warm-up run counts N_TR / N_IT and is not timed; the --repeat N timed runs give the "
+        "Two warm-up runs are not timed (the first counts N_TR / N_IT); the --repeat N timed runs give the "
         "median (and min/max).\n"
         "Without --eye/--at (and no --from camera) the camera frames the scene: it looks at the "
         "centre of the scene's bounding box from direction (0.5, 0.4, 1.0) (front, right, above), "
@@ -206,7 +206,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
         }
         measured = measureFrames(source, settings, f.repeat, wantImage);
 
-        std::printf("device     %s\n", measured.stats.device.c_str());
         if (source.gpu)
             std::printf("kernel     %s, packet %s\n", jsonName(settings.kernel),
                         toString(settings.packet).c_str());

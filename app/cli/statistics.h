@@ -79,7 +79,7 @@ struct FrameStats {
     std::string device;      // what traced it, as printed ("cpu: 2 threads", "gpu: llvmpipe ...")
     bool gpu = false;
     uint32_t width = 0, height = 0;
-    uint32_t repeats = 0;    // timed runs (after one warm-up run that is not timed)
+    uint32_t repeats = 0;    // timed runs (after two warm-up runs that are not timed)
     RayKindStats primary;
     RayKindStats shadow;     // rays == 0 when shadows are off
     Spread frameSeconds;     // the whole frame as the caller saw it (trace, shade, read back)

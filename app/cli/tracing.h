@@ -1,7 +1,7 @@
 #pragma once
 // The per-frame arrow of raypack's data flow as the CLI measures it: camera + settings -> tracer
 // (CPU reference or Vulkan GPU tracer) -> Frame, one warm-up run that also counts N_TR / N_IT and
-// collects the hits, then N timed runs that do not count (so that the GPU's statistics variant of
+// collects the hits, one untimed run of the timed configuration, then N timed runs that do not count (so that the GPU's statistics variant of
 // the kernel never inflates T_K).
 #include "app/cli/statistics.h"
 #include "renderer/cpu_tracer.h"
@@ -46,8 +46,9 @@ struct MeasuredFrames {
     FrameStats stats;
 };
 
-// Renders once with counters and hits (plus the image when `wantImage`), then `repeats` (>= 1)
-// timed times without counters; summarizes Table 2. Throws raypack::Error from the tracer.
+// Renders once with counters and hits (plus the image when `wantImage`), once more untimed without
+// counters (the warm-up of the timed configuration), then `repeats` (>= 1) timed times without
+// counters; summarizes Table 2. Throws raypack::Error from the tracer.
 MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& settings,
                              uint32_t repeats, bool wantImage);
 
