@@ -1,0 +1,248 @@
+// BVH entry points, statistics and the pieces both builders share (see renderer/bvh_build.h).
+#include "renderer/bvh.h"
+
+#include "renderer/bvh_build.h"
+#include "renderer/error.h"
+#include "renderer/scene.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cmath>
+#include <string>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
+namespace raypack {
+
+namespace bvh_detail {
+
+void adviseHugePages(const void* data, size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+    constexpr uintptr_t kHugePage = uintptr_t(2) << 20;
+    if (bytes < kHugePage) return;
+    const uintptr_t begin = (uintptr_t(data) + kHugePage - 1) & ~(kHugePage - 1);
+    const uintptr_t end = (uintptr_t(data) + bytes) & ~(kHugePage - 1);
+    if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+    (void)data;
+    (void)bytes;
+#endif
+}
+
+std::vector<BvhNode> assembleFragments(Fragment& root) {
+    // Depth-first placement: each fragment's non-root nodes get a contiguous block; its root goes to
+    // the slot its parent reserved for it (0 for the whole tree's root).
+    struct Placement {
+        Fragment* fragment;
+        uint32_t rootSlot;  // global slot of local node 0
+        uint32_t base;      // global slot of local node 1
+    };
+    std::vector<Placement> placements;
+    uint32_t next = 1;
+    auto place = [&](auto&& self, Fragment& fragment, uint32_t rootSlot) -> void {
+        const uint32_t base = next;
+        next += uint32_t(fragment.nodes.size()) - 1;
+        placements.push_back({&fragment, rootSlot, base});
+        for (auto& [slot, child] : fragment.links) self(self, *child, base + slot - 1);
+    };
+    place(place, root, 0);
+
+    std::vector<BvhNode> nodes = makeLargeVector<BvhNode>(next);
+    tbb::parallel_for(size_t(0), placements.size(), [&](size_t p) {
+        const Placement& placement = placements[p];
+        const std::vector<BvhNode>& local = placement.fragment->nodes;
+        for (size_t j = 0; j < local.size(); ++j) {
+            BvhNode node = local[j];
+            if (node.count == kLinkPlaceholder) continue;  // the child fragment writes this slot
+            if (node.count == 0) node.index = placement.base + node.index - 1;
+            nodes[j == 0 ? placement.rootSlot : placement.base + j - 1] = node;
+        }
+    });
+    return nodes;
+}
+
+void validateOptions(const BvhBuildOptions& options) {
+    if (options.leafSize == 0) throw Error("BVH build: leafSize must be at least 1, got 0");
+    auto checkCost = [](float cost, const char* name) {
+        if (!(cost > 0.0f) || !std::isfinite(cost))
+            throw Error(std::string("BVH build: ") + name + " must be positive and finite, got " +
+                        std::to_string(cost));
+    };
+    checkCost(options.traversalCost, "traversalCost (C_trav)");
+    checkCost(options.intersectionCost, "intersectionCost (C_isect)");
+    if (options.builder == BvhBuilder::SahBinned &&
+        (options.binCount < 2 || options.binCount > 256))
+        throw Error("BVH build: binCount must be in 2..256, got " +
+                    std::to_string(options.binCount));
+}
+
+Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* progress) {
+    struct Result {
+        Aabb box;
+        size_t firstBad = SIZE_MAX;
+    };
+    const Result result = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, primitiveBounds.size(), kCancelCheckInterval), Result{},
+        [&](const tbb::blocked_range<size_t>& range, Result acc) {
+            throwIfCancelled(progress);
+            for (size_t i = range.begin(); i < range.end(); ++i) {
+                const Aabb& box = primitiveBounds[i];
+                bool finite = true;
+                for (int axis = 0; axis < 3; ++axis)
+                    finite = finite && std::isfinite(box.lo[axis]) && std::isfinite(box.hi[axis]);
+                if (!finite || box.empty()) {
+                    acc.firstBad = std::min(acc.firstBad, i);
+                    continue;
+                }
+                acc.box.grow(box);
+            }
+            return acc;
+        },
+        [](Result a, const Result& b) {
+            a.box.grow(b.box);
+            a.firstBad = std::min(a.firstBad, b.firstBad);
+            return a;
+        });
+    if (result.firstBad != SIZE_MAX) {
+        const Aabb& box = primitiveBounds[result.firstBad];
+        char text[256];
+        std::snprintf(text, sizeof text,
+                      "BVH build: primitive %zu has an empty or non-finite box "
+                      "(lo %g %g %g, hi %g %g %g)",
+                      result.firstBad, box.lo.x, box.lo.y, box.lo.z, box.hi.x, box.hi.y, box.hi.z);
+        throw Error(text);
+    }
+    return result.box;
+}
+
+}  // namespace bvh_detail
+
+Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options,
+             BuildProgress* progress) {
+    using namespace bvh_detail;
+    const auto start = std::chrono::steady_clock::now();
+    validateOptions(options);
+    if (primitiveBounds.size() >= size_t(UINT32_MAX))
+        throw Error("BVH build: " + std::to_string(primitiveBounds.size()) +
+                    " primitives do not fit 32-bit indices");
+    if (progress) {
+        progress->total.store(primitiveBounds.size());
+        progress->placed.store(0);
+    }
+    throwIfCancelled(progress);
+
+    Bvh bvh;
+    if (primitiveBounds.empty()) {
+        bvh.nodes.resize(1);  // a root leaf holding nothing, with an empty box
+        bvh.nodes[0].lo = Aabb{}.lo;
+        bvh.nodes[0].hi = Aabb{}.hi;
+        bvh.nodes[0].index = 0;
+        bvh.nodes[0].count = 0;
+    } else {
+        const Aabb rootBox = validateAndBound(primitiveBounds, progress);
+        switch (options.builder) {
+            case BvhBuilder::SahExact:
+                bvh = buildSahExact(primitiveBounds, rootBox, options, progress);
+                break;
+            case BvhBuilder::SahBinned:
+                bvh = buildSahBinned(primitiveBounds, rootBox, options, progress);
+                break;
+        }
+    }
+    const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    bvh.options = options;
+    bvh.stats = computeBvhStats(bvh, options);
+    bvh.stats.buildSeconds = seconds;
+    return bvh;
+}
+
+std::vector<Aabb> trianglePrimitiveBounds(const Scene& scene) {
+    std::vector<Aabb> bounds(scene.triangleCount());
+    for (const glm::uvec3& t : scene.triangles)
+        for (int c = 0; c < 3; ++c)
+            RAYPACK_CHECK_MSG(t[c] < scene.positions.size(), "triangle index out of range");
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, bounds.size(), 65536),
+                      [&](const tbb::blocked_range<size_t>& range) {
+                          for (size_t i = range.begin(); i < range.end(); ++i)
+                              bounds[i] = scene.triangleBounds(uint32_t(i));
+                      });
+    return bounds;
+}
+
+Bvh buildBvh(const Scene& scene, const BvhBuildOptions& options, BuildProgress* progress) {
+    const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
+    return buildBvh(bounds, options, progress);
+}
+
+BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options) {
+    BvhStats stats;
+    stats.nodeCount = uint32_t(bvh.nodes.size());
+    stats.bytes = bvh.nodes.size() * sizeof(BvhNode) + bvh.primIndices.size() * sizeof(uint32_t);
+    if (bvh.nodes.empty()) return stats;
+
+    auto boxOf = [](const BvhNode& node) { return Aabb{node.lo, node.hi}; };
+    const bvh_detail::SahMeasure measure = bvh_detail::SahMeasure::forParent(boxOf(bvh.nodes[0]));
+    const double rootMeasure = measure.of(boxOf(bvh.nodes[0]));
+
+    uint64_t depthSum = 0, primSum = 0;
+    double innerMeasureSum = 0.0, leafMeasureSum = 0.0;
+    struct Entry {
+        uint32_t node, depth;
+    };
+    std::vector<Entry> stack{{0, 0}};
+    while (!stack.empty()) {
+        const Entry entry = stack.back();
+        stack.pop_back();
+        const BvhNode& node = bvh.nodes[entry.node];
+        const double nodeMeasure = measure.of(boxOf(node));
+        if (node.isLeaf()) {
+            ++stats.leafCount;
+            depthSum += entry.depth;
+            stats.maxLeafDepth = std::max(stats.maxLeafDepth, entry.depth);
+            primSum += node.count;
+            leafMeasureSum += double(node.count) * nodeMeasure;
+        } else {
+            RAYPACK_CHECK_MSG(node.index + 1 < bvh.nodes.size(), "BVH child index out of range");
+            innerMeasureSum += nodeMeasure;
+            stack.push_back({node.index + 1, entry.depth + 1});
+            stack.push_back({node.index, entry.depth + 1});
+        }
+    }
+    stats.avgLeafDepth = double(depthSum) / double(stats.leafCount);
+    stats.avgPrimsPerLeaf = double(primSum) / double(stats.leafCount);
+    // Sum over inner nodes of C_trav·A(n)/A(root) plus over leaves of C_isect·count·A(n)/A(root).
+    // The empty tree costs nothing.
+    stats.sahCost = rootMeasure > 0.0 ? (double(options.traversalCost) * innerMeasureSum +
+                                         double(options.intersectionCost) * leafMeasureSum) /
+                                            rootMeasure
+                                      : 0.0;
+    return stats;
+}
+
+const char* toString(BvhBuilder builder) {
+    switch (builder) {
+        case BvhBuilder::SahExact: return "sah-exact";
+        case BvhBuilder::SahBinned: return "sah-binned";
+    }
+    return "unknown";
+}
+
+BvhBuilder parseBvhBuilder(std::string_view name) {
+    std::string valid;
+    for (BvhBuilder builder : kAllBvhBuilders) {
+        if (name == toString(builder)) return builder;
+        valid += valid.empty() ? "" : ", ";
+        valid += toString(builder);
+    }
+    throw Error("unknown BVH builder \"" + std::string(name) + "\" (valid: " + valid + ")");
+}
+
+}  // namespace raypack
