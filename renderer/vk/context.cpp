@@ -223,6 +223,10 @@ std::string rejectReason(VkInstance instance, VkPhysicalDevice physical,
 }  // namespace
 
 std::string rayTracingMissing(VkPhysicalDevice physical) {
+    VkPhysicalDeviceProperties props;
+    vkGetPhysicalDeviceProperties(physical, &props);
+    // The feature query below chains VkPhysicalDeviceVulkan12Features.
+    if (props.apiVersion < VK_API_VERSION_1_2) return "Vulkan 1.2";
     uint32_t count = 0;
     vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
     std::vector<VkExtensionProperties> offered(count);

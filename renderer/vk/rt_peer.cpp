@@ -267,7 +267,7 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
 
     VkAccelerationStructureGeometryKHR instances{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
     instances.geometryType = VK_GEOMETRY_TYPE_INSTANCES_KHR;
-    instances.flags = VK_GEOMETRY_OPAQUE_BIT_KHR;
+    instances.flags = 0;  // opacity is the BLAS geometry's (VK_GEOMETRY_OPAQUE_BIT_KHR above)
     instances.geometry.instances.sType =
         VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_INSTANCES_DATA_KHR;
     instances.geometry.instances.arrayOfPointers = VK_FALSE;
