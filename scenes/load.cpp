@@ -1,0 +1,156 @@
+// loadScene / openScene: extension dispatch, generator specs, and the file reading shared by the
+// format loaders.
+#include "scenes/formats.h"
+#include "scenes/generators.h"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <fstream>
+#include <string_view>
+#include <system_error>
+#include <cstdlib>
+
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
+
+namespace raypack {
+
+void FreeDeleter::operator()(char* p) const { std::free(p); }
+
+void adviseHugePages(void* data, size_t bytes) {
+#ifdef __linux__
+    // madvise needs a page-aligned start; advise the aligned interior of the range.
+    constexpr uintptr_t kPage = 4096;
+    const uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + kPage - 1) & ~(kPage - 1);
+    const uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~(kPage - 1);
+    if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+    (void)data;
+    (void)bytes;
+#endif
+}
+
+void throwFileError(const std::filesystem::path& path, const std::string& what) {
+    throw Error(path.string() + ": " + what);
+}
+
+FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progress) {
+    std::error_code error;
+    const auto status = std::filesystem::status(path, error);
+    if (error || !std::filesystem::exists(status)) throwFileError(path, "no such file");
+    if (std::filesystem::is_directory(status)) throwFileError(path, "is a directory, not a scene file");
+    const uintmax_t size = std::filesystem::file_size(path, error);
+    if (error) throwFileError(path, "cannot determine the file size: " + error.message());
+    if (size == 0) throwFileError(path, "file is empty");
+
+    std::ifstream stream(path, std::ios::binary);
+    if (!stream) throwFileError(path, "cannot open for reading");
+    FileBytes file;
+    // Huge-page aligned and advised before the read touches it (see adviseHugePages).
+    constexpr size_t kHugePage = size_t(2) << 20;
+    const size_t capacity = (size_t(size) + kHugePage - 1) / kHugePage * kHugePage;
+    file.data.reset(static_cast<char*>(std::aligned_alloc(kHugePage, capacity)));
+    if (!file.data) throwFileError(path, "out of memory reading " + std::to_string(size) + " bytes");
+    adviseHugePages(file.data.get(), capacity);
+    file.size = size_t(size);
+    if (progress) {
+        progress->bytesTotal = 2 * uint64_t(size);
+        progress->bytesDone = 0;
+    }
+    // Large reads with a cancel check in between: 64 MiB runs at disk speed and keeps the viewer's
+    // cancel button responsive.
+    constexpr size_t kChunk = size_t(64) << 20;
+    size_t done = 0;
+    while (done < file.size) {
+        if (progress && progress->cancel) throw LoadCancelled(path.string() + ": loading cancelled");
+        const size_t chunk = std::min(kChunk, file.size - done);
+        stream.read(file.data.get() + done, std::streamsize(chunk));
+        if (size_t(stream.gcount()) != chunk) throwFileError(path, "read failed at byte offset " + std::to_string(done));
+        done += chunk;
+        if (progress) progress->bytesDone = done;
+    }
+    return file;
+}
+
+void reportParsed(LoadProgress* progress, const std::filesystem::path& path, uint64_t fileSize, uint64_t parsedBytes) {
+    if (!progress) return;
+    if (progress->cancel) throw LoadCancelled(path.string() + ": loading cancelled");
+    progress->bytesDone = fileSize + std::min(parsedBytes, fileSize);
+}
+
+Scene loadScene(const std::filesystem::path& path, LoadProgress* progress) {
+    std::string extension = path.extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
+    if (extension == ".ply") return loadPly(path, progress);
+    if (extension == ".obj") return loadObj(path, progress);
+    if (extension == ".gltf" || extension == ".glb") return loadGltf(path, progress);
+    throwFileError(path, extension.empty() ? "no file extension; expected .obj, .ply, .gltf or .glb"
+                                           : "unknown scene format \"" + extension +
+                                                 "\"; expected .obj, .ply, .gltf or .glb");
+}
+
+const char* sceneSpecHelp() {
+    static const std::string help =
+        "SCENE is a file or a generator spec:\n"
+        "  PATH                 a .obj (+ .mtl), .ply (ascii or binary) or .gltf/.glb file\n"
+        "  gen:default          raypack's default scene (ground, sphere flake, coloured shapes)\n"
+        "  gen:terrain:N        a height-field terrain of about N triangles (at most N)\n"
+        "  gen:sphereflake:N    a sphere flake of tessellated spheres, about N triangles (at most N)\n"
+        "  gen:deep:N           N nested triangles whose SAH tree is a spine of depth about N\n"
+        "                       (N from 1 to " + std::to_string(kDeepSceneMaxTriangles) + ")\n"
+        "  subdiv:L:SCENE       SCENE (a path or spec) with every triangle split in four, L times\n"
+        "N may end in k (thousand) or M (million): gen:terrain:2M is 2,000,000 triangles.";
+    return help.c_str();
+}
+
+namespace {
+
+// A positive count with an optional k (1e3) or M (1e6) suffix.
+uint64_t parseCount(std::string_view text, const std::string& spec) {
+    uint64_t multiplier = 1;
+    if (!text.empty() && (text.back() == 'k' || text.back() == 'K')) multiplier = 1000, text.remove_suffix(1);
+    else if (!text.empty() && (text.back() == 'm' || text.back() == 'M')) multiplier = 1000000, text.remove_suffix(1);
+    uint64_t value = 0;
+    auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+    if (ec != std::errc() || end != text.data() + text.size() || text.empty())
+        throw Error("scene spec \"" + spec + "\": \"" + std::string(text) + "\" is not a count\n" + sceneSpecHelp());
+    if (value > UINT32_MAX / multiplier)
+        throw Error("scene spec \"" + spec + "\": count too large (at most 4294967295)");
+    return value * multiplier;
+}
+
+}  // namespace
+
+Scene openScene(const std::string& spec, LoadProgress* progress) {
+    const std::string_view text(spec);
+    if (text.starts_with("gen:")) {
+        const std::string_view rest = text.substr(4);
+        const size_t colon = rest.find(':');
+        const std::string_view name = rest.substr(0, colon);
+        if (name == "default") {
+            if (colon != std::string_view::npos) throw Error("scene spec \"" + spec + "\": gen:default takes no count");
+            return makeDefaultScene();
+        }
+        if (colon == std::string_view::npos)
+            throw Error("scene spec \"" + spec + "\": missing triangle count\n" + sceneSpecHelp());
+        const uint32_t count = uint32_t(parseCount(rest.substr(colon + 1), spec));
+        if (name == "terrain") return makeTerrain(count);
+        if (name == "sphereflake") return makeSphereFlake(count);
+        if (name == "deep") return makeDeepScene(count);
+        throw Error("scene spec \"" + spec + "\": unknown generator \"" + std::string(name) + "\"\n" + sceneSpecHelp());
+    }
+    if (text.starts_with("subdiv:")) {
+        const std::string_view rest = text.substr(7);
+        const size_t colon = rest.find(':');
+        if (colon == std::string_view::npos || colon + 1 == rest.size())
+            throw Error("scene spec \"" + spec + "\": expected subdiv:LEVELS:SCENE\n" + sceneSpecHelp());
+        const uint32_t levels = uint32_t(parseCount(rest.substr(0, colon), spec));
+        return subdivide(openScene(std::string(rest.substr(colon + 1)), progress), levels);
+    }
+    return loadScene(std::filesystem::path(spec), progress);
+}
+
+}  // namespace raypack

@@ -1,0 +1,243 @@
+// Wavefront OBJ (+ MTL) through tinyobjloader. tinyobjloader parses; this file turns its result
+// into a Scene in file order and checks what tinyobjloader lets through (indices out of range,
+// non-finite numbers, faces with fewer than three corners), naming the offending line.
+//
+// Polygons are fan-triangulated here as (v0, v(k-1), v(k)) instead of by tinyobjloader's
+// triangulate flag, because tinyobjloader 2.0 splits quads along their shorter diagonal, which
+// would change the triangle order issue 2 fixes. OBJ normals belong to face corners, so where the
+// file has them every (position, normal) pair becomes its own vertex.
+#include "scenes/formats.h"
+
+#include <tiny_obj_loader.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <istream>
+#include <limits>
+#include <set>
+#include <sstream>
+#include <streambuf>
+#include <unordered_map>
+
+namespace raypack {
+namespace {
+
+// Hands tinyobjloader the file from memory in slices, reporting progress and stopping at a cancel.
+class ProgressBuffer : public std::streambuf {
+public:
+    ProgressBuffer(const FileBytes& file, LoadProgress* progress, const std::filesystem::path& path)
+        : file_(file), progress_(progress), path_(path) {}
+    bool cancelled() const { return cancelled_; }
+
+protected:
+    int_type underflow() override {
+        if (gptr() < egptr()) return traits_type::to_int_type(*gptr());
+        if (next_ >= file_.size) return traits_type::eof();
+        if (progress_) {
+            if (progress_->cancel) {
+                cancelled_ = true;
+                return traits_type::eof();
+            }
+            reportParsed(progress_, path_, file_.size, next_);
+        }
+        constexpr size_t kSlice = size_t(4) << 20;
+        char* begin = const_cast<char*>(file_.begin()) + next_;
+        const size_t length = std::min(kSlice, file_.size - next_);
+        setg(begin, begin, begin + length);
+        next_ += length;
+        return traits_type::to_int_type(*gptr());
+    }
+
+private:
+    const FileBytes& file_;
+    LoadProgress* progress_;
+    const std::filesystem::path& path_;
+    size_t next_ = 0;
+    bool cancelled_ = false;
+};
+
+// Error path only: the 1-based line of the n-th (0-based) statement starting with `keyword`.
+size_t lineOfStatement(const FileBytes& file, const char* keyword, size_t n) {
+    const size_t keywordLength = std::strlen(keyword);
+    size_t line = 1, seen = 0;
+    const char* p = file.begin();
+    const char* end = file.end();
+    while (p < end) {
+        const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
+        if (!eol) eol = end;
+        const char* q = p;
+        while (q < eol && (*q == ' ' || *q == '\t')) ++q;
+        if (size_t(eol - q) > keywordLength && std::memcmp(q, keyword, keywordLength) == 0 &&
+            (q[keywordLength] == ' ' || q[keywordLength] == '\t')) {
+            if (seen == n) return line;
+            ++seen;
+        }
+        ++line;
+        p = eol + 1;
+    }
+    return 0;
+}
+
+// Error path only: the first face statement with fewer than three corners.
+size_t lineOfShortFace(const FileBytes& file) {
+    size_t line = 1;
+    const char* p = file.begin();
+    const char* end = file.end();
+    while (p < end) {
+        const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
+        if (!eol) eol = end;
+        std::istringstream words(std::string(p, size_t(eol - p)));
+        std::string word;
+        if (words >> word && word == "f") {
+            int corners = 0;
+            while (words >> word) ++corners;
+            if (corners < 3) return line;
+        }
+        ++line;
+        p = eol + 1;
+    }
+    return 0;
+}
+
+[[noreturn]] void failAtLine(const std::filesystem::path& path, size_t line, const std::string& what) {
+    throwFileError(path, (line ? "line " + std::to_string(line) + ": " : std::string()) + what);
+}
+
+}  // namespace
+
+Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
+    const FileBytes file = readWholeFile(path, progress);
+    ProgressBuffer buffer(file, progress, path);
+    std::istream stream(&buffer);
+
+    tinyobj::attrib_t attrib;
+    std::vector<tinyobj::shape_t> shapes;
+    std::vector<tinyobj::material_t> objMaterials;
+    std::string warnings, errors;
+    // MTL files are looked up next to the OBJ, as their names in `mtllib` are relative to it.
+    const std::string baseDir = path.has_parent_path() ? path.parent_path().string() : std::string(".");
+    tinyobj::MaterialFileReader materialReader(baseDir);
+    const bool ok = tinyobj::LoadObj(&attrib, &shapes, &objMaterials, &warnings, &errors, &stream, &materialReader,
+                                     /*triangulate=*/false, /*default_vcols_fallback=*/false);
+    if (buffer.cancelled()) throw LoadCancelled(path.string() + ": loading cancelled");
+    if (!ok) {
+        while (!errors.empty() && (errors.back() == '\n' || errors.back() == '.')) errors.pop_back();
+        throwFileError(path, errors.empty() ? "tinyobjloader could not parse the file" : errors);
+    }
+    if (warnings.find("Degenerated face") != std::string::npos)
+        failAtLine(path, lineOfShortFace(file), "face with fewer than 3 vertices");
+    if (!warnings.empty()) {
+        // tinyobjloader repeats a warning once per occurrence (e.g. per usemtl of a missing
+        // material); print each distinct one once.
+        std::set<std::string> printed;
+        std::istringstream lines(warnings);
+        std::string line;
+        while (std::getline(lines, line))
+            // MTL dissolve details do not matter to raypack, which reads only Kd.
+            if (!line.empty() && line.find("`d` and `Tr`") == std::string::npos && printed.insert(line).second)
+                std::fprintf(stderr, "raypack: warning: %s: %s\n", path.string().c_str(), line.c_str());
+    }
+
+    const size_t positionCount = attrib.vertices.size() / 3;
+    const size_t normalCount = attrib.normals.size() / 3;
+    if (positionCount > std::numeric_limits<uint32_t>::max())
+        throwFileError(path, "more vertices than 32-bit indices can address");
+    for (size_t i = 0; i < attrib.vertices.size(); ++i)
+        if (!std::isfinite(attrib.vertices[i]))
+            failAtLine(path, lineOfStatement(file, "v", i / 3), "vertex " + std::to_string(i / 3 + 1) + " is not finite");
+
+    // Faces in file order; normals are kept only when every corner of every face has one.
+    size_t faceCount = 0, cornerCount = 0;
+    bool everyCornerHasNormal = normalCount > 0;
+    for (const tinyobj::shape_t& shape : shapes) {
+        faceCount += shape.mesh.num_face_vertices.size();
+        cornerCount += shape.mesh.indices.size();
+        for (const tinyobj::index_t& index : shape.mesh.indices)
+            if (index.normal_index < 0) everyCornerHasNormal = false;
+    }
+    if (faceCount == 0) throwFileError(path, "OBJ file has no faces");
+    if (cornerCount - 2 * faceCount > std::numeric_limits<uint32_t>::max())
+        throwFileError(path, "more triangles than 32-bit triangle indices can address");
+    if (normalCount > 0 && !everyCornerHasNormal)
+        std::fprintf(stderr, "raypack: warning: %s: some face corners have no normal; normals ignored\n",
+                     path.string().c_str());
+    if (everyCornerHasNormal)
+        for (size_t i = 0; i < attrib.normals.size(); ++i)
+            if (!std::isfinite(attrib.normals[i]))
+                failAtLine(path, lineOfStatement(file, "vn", i / 3), "normal " + std::to_string(i / 3 + 1) + " is not finite");
+
+    Scene scene;
+    scene.source = path.string();
+    scene.triangles.reserve(cornerCount - 2 * faceCount);
+    // Materials: those of the MTL, in its order, plus a default one for faces without a material.
+    bool anyMaterial = false;
+    for (const tinyobj::shape_t& shape : shapes)
+        for (int id : shape.mesh.material_ids)
+            if (id >= 0) anyMaterial = true;
+    uint32_t defaultMaterial = 0;
+    if (anyMaterial) {
+        for (const tinyobj::material_t& m : objMaterials)
+            scene.materials.push_back(Material{m.name, glm::vec3(m.diffuse[0], m.diffuse[1], m.diffuse[2])});
+        defaultMaterial = uint32_t(scene.materials.size());
+        scene.triangleMaterial.reserve(scene.triangles.capacity());
+    }
+    bool usedDefaultMaterial = false;
+
+    if (!everyCornerHasNormal) {
+        scene.positions.resize(positionCount);
+        for (size_t v = 0; v < positionCount; ++v)
+            scene.positions[v] = glm::vec3(attrib.vertices[3 * v], attrib.vertices[3 * v + 1], attrib.vertices[3 * v + 2]);
+    }
+    // (position, normal) pair -> vertex, when un-welding by normals.
+    std::unordered_map<uint64_t, uint32_t> vertexOfPair;
+    auto vertexOf = [&](const tinyobj::index_t& index) -> uint32_t {
+        if (!everyCornerHasNormal) return uint32_t(index.vertex_index);
+        const uint64_t key = (uint64_t(uint32_t(index.vertex_index)) << 32) | uint32_t(index.normal_index);
+        auto [it, inserted] = vertexOfPair.try_emplace(key, uint32_t(scene.positions.size()));
+        if (inserted) {
+            const size_t v = size_t(index.vertex_index), n = size_t(index.normal_index);
+            scene.positions.emplace_back(attrib.vertices[3 * v], attrib.vertices[3 * v + 1], attrib.vertices[3 * v + 2]);
+            scene.normals.emplace_back(attrib.normals[3 * n], attrib.normals[3 * n + 1], attrib.normals[3 * n + 2]);
+        }
+        return it->second;
+    };
+
+    size_t faceIndex = 0;
+    std::vector<uint32_t> polygon;
+    for (const tinyobj::shape_t& shape : shapes) {
+        size_t corner = 0;
+        for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++faceIndex) {
+            const size_t n = shape.mesh.num_face_vertices[f];
+            polygon.clear();
+            for (size_t k = 0; k < n; ++k) {
+                const tinyobj::index_t& index = shape.mesh.indices[corner + k];
+                if (index.vertex_index < 0 || size_t(index.vertex_index) >= positionCount)
+                    failAtLine(path, lineOfStatement(file, "f", faceIndex),
+                               "face refers to vertex " + std::to_string(int64_t(index.vertex_index) + 1) +
+                                   ", but the file has " + std::to_string(positionCount) + " vertices");
+                if (everyCornerHasNormal && size_t(index.normal_index) >= normalCount)
+                    failAtLine(path, lineOfStatement(file, "f", faceIndex),
+                               "face refers to normal " + std::to_string(int64_t(index.normal_index) + 1) +
+                                   ", but the file has " + std::to_string(normalCount) + " normals");
+                polygon.push_back(vertexOf(index));
+            }
+            corner += n;
+            uint32_t material = defaultMaterial;
+            if (anyMaterial) {
+                const int id = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
+                if (id >= 0 && size_t(id) < objMaterials.size()) material = uint32_t(id);
+                else usedDefaultMaterial = true;
+            }
+            for (size_t k = 2; k < n; ++k) {
+                scene.triangles.emplace_back(polygon[0], polygon[k - 1], polygon[k]);
+                if (anyMaterial) scene.triangleMaterial.push_back(material);
+            }
+        }
+    }
+    if (usedDefaultMaterial) scene.materials.push_back(Material{"default", glm::vec3(0.8f)});
+    reportParsed(progress, path, file.size, file.size);
+    return scene;
+}
+
+}  // namespace raypack
