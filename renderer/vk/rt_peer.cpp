@@ -686,6 +686,7 @@ RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene,
     frame.hits.resize(pixels);
     std::memcpy(frame.hits.data(), o.readback.mapped, hitBytes);
     result.primaryRays = pixels;
+    result.shadowsTraced = settings.shadows;
     if (settings.shadows)
         result.shadowRays = uint64_t(std::count_if(frame.hits.begin(), frame.hits.end(), [](const HitRecord& h) {
             return h.shadow == gpu::kShadowLit || h.shadow == gpu::kShadowOccluded;
@@ -753,7 +754,7 @@ RtPeerAgreement compareRtPeerHits(const std::vector<HitRecord>& peer,
 nlohmann::json rtPeerRecords(const RtPeerResult& result, const RtPeerAgreement* agreement) {
     nlohmann::json records = nlohmann::json::array();
     const std::pair<const char*, bool> kinds[] = {{"primary", true},
-                                                  {"shadow", result.shadowSeconds.median > 0.0}};
+                                                  {"shadow", result.shadowsTraced}};
     for (const auto& [kind, traced] : kinds) {
         if (!traced) continue;
         const bool isPrimary = std::string(kind) == "primary";

@@ -63,7 +63,8 @@ struct RtPeerResult {
 
     // Tracing: kernel times from timestamps around each vkCmdTraceRaysKHR.
     uint64_t primaryRays = 0;  // one per pixel
-    uint64_t shadowRays = 0;   // one per primary hit (0 when settings.shadows is off)
+    bool shadowsTraced = false;  // settings.shadows: the shadow pass ran
+    uint64_t shadowRays = 0;     // one per primary hit (0 when settings.shadows is off)
     RtPeerSpread primarySeconds;
     RtPeerSpread shadowSeconds;
 
