@@ -68,10 +68,10 @@ uint64_t AsyncSceneBuilder::requestRebuild(std::shared_ptr<const Scene> scene,
         id = nextId_++;
         if (!outstandingLoadPath_.empty())
             waiting_ = Request{id, outstandingLoadPath_, nullptr, options, /*reuseLoaded=*/true};
-        else {
-            RAYPACK_CHECK(scene);
+        else if (scene)
             waiting_ = Request{id, {}, std::move(scene), options, false};
-        }
+        else
+            return 0;  // no scene yet and none loading: nothing to build
         cancelRunningLocked();
     }
     wake_.notify_all();

@@ -76,7 +76,8 @@ public:
     uint64_t requestLoad(const std::string& path, const BvhBuildOptions& options);
     // Build over `scene` with new options. When a load is still outstanding (waiting, running, or
     // finished but not yet taken), the rebuild applies to that newer scene instead, so a slider
-    // moved while a file loads does not bring the old scene back.
+    // moved while a file loads does not bring the old scene back. `scene` may be null before the
+    // first scene arrives; with no load outstanding either, nothing is requested and 0 returned.
     uint64_t requestRebuild(std::shared_ptr<const Scene> scene, const BvhBuildOptions& options);
 
     // Non-blocking; called by the render thread once per frame. The newest finished build that no

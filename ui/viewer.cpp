@@ -180,7 +180,7 @@ void applyScriptStep(Session& s, const ScriptStep& step) {
     } else if (step.action == "leaf-size" || step.action == "builder") {
         if (step.action == "leaf-size") s.panel.bvh.leafSize = parseCount(step.value, "leaf-size");
         else s.panel.bvh.builder = parseBvhBuilder(step.value);
-        if (s.scene) s.builder->requestRebuild(s.scene, s.panel.bvh);
+        s.builder->requestRebuild(s.scene, s.panel.bvh);
     } else if (step.action == "shadows") {
         if (step.value != "on" && step.value != "off") throw Error("shadows: \"" + step.value + "\" is not on or off");
         settings.shadows = step.value == "on";
@@ -315,7 +315,7 @@ void saveScreenshot(Session& s, const std::string& path, const FrameTarget& targ
 void handleActions(Session& s, const PanelActions& a, const RenderSettings& before) {
     if (a.dismissError) s.info.error.clear();
     if (a.open && !s.panel.openPath.empty()) requestLoad(s, s.panel.openPath);
-    if (a.rebuild && s.scene) s.builder->requestRebuild(s.scene, s.panel.bvh);
+    if (a.rebuild) s.builder->requestRebuild(s.scene, s.panel.bvh);
     if (a.frameAll && s.scene) {
         s.fly.frameAll();
         s.panel.settings.camera = s.fly.camera();

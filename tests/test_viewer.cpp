@@ -1,0 +1,357 @@
+// The viewer: the worker that loads and builds off the render thread (renderer/async_build.h), the
+// fly camera and the bookmarks (ui/), and `raypack` itself in scripted runs under Xvfb with
+// lavapipe: its screenshot must equal raypack-cli's render of the same view and settings, and a
+// resize and a scene load during a rebuild must pass the validation layer without a message.
+#include "renderer/async_build.h"
+#include "renderer/bvh.h"
+#include "renderer/error.h"
+#include "renderer/image.h"
+#include "renderer/settings_json.h"
+#include "scenes/load.h"
+
+#ifdef RAYPACK_VIEWER
+#include "ui/bookmarks.h"
+#include "ui/fly_camera.h"
+#include "ui/screenshot.h"
+#endif
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace raypack {
+namespace {
+
+namespace fs = std::filesystem;
+
+Scene loadForTest(const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); }
+
+// The worker's tree must be the tree buildBvh makes directly: same nodes, same order.
+void expectSameTree(const Bvh& a, const Bvh& b) {
+    ASSERT_EQ(a.nodes.size(), b.nodes.size());
+    ASSERT_EQ(a.primIndices, b.primIndices);
+    for (size_t i = 0; i < a.nodes.size(); ++i) {
+        EXPECT_EQ(a.nodes[i].index, b.nodes[i].index) << "node " << i;
+        EXPECT_EQ(a.nodes[i].count, b.nodes[i].count) << "node " << i;
+    }
+}
+
+TEST(AsyncSceneBuilder, LoadsAndBuildsTheSameTreeAsADirectBuild) {
+    AsyncSceneBuilder builder(loadForTest);
+    BvhBuildOptions options;
+    options.leafSize = 3;
+    const uint64_t id = builder.requestLoad("gen:default", options);
+    builder.waitIdle();
+    EXPECT_FALSE(builder.takeFailure());
+    std::optional<SceneBuild> build = builder.takeFinished();
+    ASSERT_TRUE(build);
+    EXPECT_EQ(build->requestId, id);
+    EXPECT_EQ(build->scenePath, "gen:default");
+    const Scene direct = openScene("gen:default");
+    EXPECT_EQ(build->scene->triangleCount(), direct.triangleCount());
+    expectSameTree(*build->bvh, buildBvh(direct, options));
+    EXPECT_EQ(build->bvh->options.leafSize, 3u);
+    EXPECT_FALSE(builder.takeFinished()) << "a result is handed back once";
+}
+
+TEST(AsyncSceneBuilder, RapidRebuildsEndInTheLastRequestedTree) {
+    AsyncSceneBuilder builder(loadForTest);
+    builder.requestLoad("gen:terrain:200k", {});
+    builder.waitIdle();
+    std::optional<SceneBuild> first = builder.takeFinished();
+    ASSERT_TRUE(first);
+    // A slider dragged through leaf sizes 1..8 within a few milliseconds: each request cancels
+    // the running build; only builds that finished before the next request may come back.
+    for (uint32_t leaf = 1; leaf <= 8; ++leaf) {
+        BvhBuildOptions options;
+        options.leafSize = leaf;
+        builder.requestRebuild(first->scene, options);
+        std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    }
+    builder.waitIdle();
+    std::optional<SceneBuild> last = builder.takeFinished();
+    ASSERT_TRUE(last);
+    EXPECT_EQ(last->bvh->options.leafSize, 8u);
+    EXPECT_EQ(last->scene, first->scene) << "a rebuild reuses the scene, it does not read it again";
+    BvhBuildOptions eight;
+    eight.leafSize = 8;
+    expectSameTree(*last->bvh, buildBvh(*first->scene, eight));
+    EXPECT_FALSE(builder.takeFailure());
+}
+
+TEST(AsyncSceneBuilder, ABadFileFailsWithItsNameAndHandsBackNoScene) {
+    const fs::path bad = fs::temp_directory_path() / "raypack_test_viewer_bad.ply";
+    {
+        std::ofstream out(bad);
+        out << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nend_header\n1\n";
+    }
+    AsyncSceneBuilder builder(loadForTest);
+    builder.requestLoad(bad.string(), {});
+    builder.waitIdle();
+    EXPECT_FALSE(builder.takeFinished());
+    std::optional<BuildFailure> failure = builder.takeFailure();
+    ASSERT_TRUE(failure);
+    EXPECT_NE(failure->message.find("raypack_test_viewer_bad.ply"), std::string::npos) << failure->message;
+    fs::remove(bad);
+}
+
+TEST(AsyncSceneBuilder, ARebuildDuringALoadAppliesToTheNewScene) {
+    AsyncSceneBuilder builder(loadForTest);
+    builder.requestLoad("gen:default", {});
+    builder.waitIdle();
+    std::optional<SceneBuild> old = builder.takeFinished();
+    ASSERT_TRUE(old);
+    builder.requestLoad("gen:terrain:100k", {});
+    BvhBuildOptions options;
+    options.leafSize = 5;
+    builder.requestRebuild(old->scene, options);  // the panel still holds the old scene
+    builder.waitIdle();
+    std::optional<SceneBuild> result = builder.takeFinished();
+    ASSERT_TRUE(result);
+    EXPECT_EQ(result->scenePath, "gen:terrain:100k");
+    EXPECT_NE(result->scene, old->scene);
+    EXPECT_EQ(result->bvh->options.leafSize, 5u);
+}
+
+TEST(AsyncSceneBuilder, ReportsProgressAndCancelsARunningBuildOnDestruction) {
+    std::optional<AsyncSceneBuilder> builder(std::in_place, loadForTest);
+    builder->requestLoad("gen:terrain:1M", {});
+    BuildStatus status;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while ((status = builder->status()).phase != BuildPhase::Building || status.placed == 0) {
+        ASSERT_LT(std::chrono::steady_clock::now(), deadline) << "the build never started";
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    EXPECT_GT(status.total, 0u);
+    EXPECT_LE(status.placed, status.total);
+    EXPECT_GT(status.elapsedSeconds, 0.0);
+    const auto start = std::chrono::steady_clock::now();
+    builder.reset();  // cancels the running build and joins the worker
+    const auto destroyTook = std::chrono::steady_clock::now() - start;
+    const double seconds = std::chrono::duration<double>(destroyTook).count();
+    std::printf("cancelling a running 1M-triangle build took %.3f s\n", seconds);
+    EXPECT_LT(seconds, 5.0);
+}
+
+#ifdef RAYPACK_VIEWER
+
+TEST(FlyCamera, MovesAtASpeedScaledToTheSceneAndLooksAround) {
+    Aabb bounds;
+    bounds.grow(glm::vec3(0.0f));
+    bounds.grow(glm::vec3(30.0f, 40.0f, 0.0f));  // diagonal 50
+    ui::FlyCamera fly;
+    const Camera start = frameScene(bounds);
+    fly.reset(start, bounds);
+    EXPECT_FLOAT_EQ(fly.speed(), 50.0f * ui::FlyCamera::kBaseSpeedPerDiagonal);
+    ui::FlyInput forward;
+    forward.forward = true;
+    ASSERT_TRUE(fly.update(forward, 0.5f));
+    const glm::vec3 moved = fly.camera().eye - start.eye;
+    EXPECT_NEAR(glm::length(moved), 0.5f * fly.speed(), 1e-3f);
+    EXPECT_NEAR(glm::dot(glm::normalize(moved), glm::normalize(start.at - start.eye)), 1.0f, 1e-5f);
+    forward.fast = true;
+    const glm::vec3 before = fly.camera().eye;
+    fly.update(forward, 0.5f);
+    EXPECT_NEAR(glm::length(fly.camera().eye - before), 0.5f * fly.speed() * ui::FlyCamera::kFastFactor, 1e-3f);
+
+    ui::FlyInput wheel;
+    wheel.wheel = 2.0f;
+    const float slow = fly.speed();
+    fly.update(wheel, 0.016f);
+    EXPECT_NEAR(fly.speed(), slow * ui::FlyCamera::kWheelFactor * ui::FlyCamera::kWheelFactor, 1e-3f);
+
+    // Looking far up stops short of the pole: the view never becomes parallel to up.
+    ui::FlyInput look;
+    look.lookPixels = glm::vec2(100.0f, -100000.0f);
+    const float distance = glm::length(fly.camera().at - fly.camera().eye);
+    fly.update(look, 0.016f);
+    const glm::vec3 view = glm::normalize(fly.camera().at - fly.camera().eye);
+    EXPECT_NEAR(glm::length(fly.camera().at - fly.camera().eye), distance, 1e-3f * distance);
+    EXPECT_LT(glm::dot(view, glm::vec3(0, 1, 0)), std::sin(ui::FlyCamera::kMaxPitchRadians) + 1e-4f);
+    EXPECT_NO_THROW(makeGpuCamera(fly.camera(), 64, 64));
+
+    fly.frameAll();
+    EXPECT_EQ(fly.camera().eye, start.eye);
+    EXPECT_EQ(fly.camera().at, start.at);
+}
+
+TEST(Bookmarks, RoundTripExactlyPerSceneAndPrintAsCliArguments) {
+    const fs::path file = fs::temp_directory_path() / "raypack_test_viewer_config" / "bookmarks.json";
+    fs::remove_all(file.parent_path());
+    Camera camera;
+    camera.eye = glm::vec3(0.1f, -2.7182817f, 1e-7f);
+    camera.at = glm::vec3(3.3333333f, 4.0f, -5.5f);
+    camera.up = glm::vec3(0.0f, 0.0f, 1.0f);
+    camera.fovYDegrees = 47.123456f;
+    {
+        ui::BookmarkStore a(file.string(), "scene-a.ply");
+        a.save(3, camera);
+        ui::BookmarkStore b(file.string(), "gen:default");
+        b.save(9, frameScene(Aabb{glm::vec3(0.0f), glm::vec3(1.0f)}));
+    }
+    ui::BookmarkStore a(file.string(), "scene-a.ply");
+    ASSERT_TRUE(a.slot(3));
+    EXPECT_FALSE(a.slot(9));
+    EXPECT_EQ(a.slot(3)->eye, camera.eye);
+    EXPECT_EQ(a.slot(3)->at, camera.at);
+    EXPECT_EQ(a.slot(3)->up, camera.up);
+    EXPECT_EQ(a.slot(3)->fovYDegrees, camera.fovYDegrees);
+    EXPECT_TRUE(ui::BookmarkStore(file.string(), "gen:default").slot(9));
+
+    const std::string arguments = ui::cameraCliArguments(camera);
+    Camera parsed;
+    char eye[64], at[64], up[64];
+    ASSERT_EQ(std::sscanf(arguments.c_str(), "--eye %63s --at %63s --up %63s --fov %f", eye, at, up,
+                          &parsed.fovYDegrees), 4) << arguments;
+    ASSERT_EQ(std::sscanf(eye, "%f,%f,%f", &parsed.eye.x, &parsed.eye.y, &parsed.eye.z), 3);
+    EXPECT_EQ(parsed.eye, camera.eye) << arguments;
+    EXPECT_EQ(parsed.fovYDegrees, camera.fovYDegrees) << arguments;
+
+    // A broken file is an error naming it, not a crash.
+    std::ofstream(file) << "{not json";
+    try {
+        ui::BookmarkStore broken(file.string(), "scene-a.ply");
+        ADD_FAILURE() << "no error for a broken bookmarks file";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("bookmarks.json"), std::string::npos) << e.what();
+    }
+    fs::remove_all(file.parent_path());
+}
+
+// ---- `raypack` end to end, under Xvfb.
+
+struct CommandRun {
+    int exitCode = -1;
+    std::string output;
+};
+
+CommandRun runCommand(const std::string& command) {
+    const fs::path log = fs::temp_directory_path() / ("raypack_test_viewer_" + std::to_string(::getpid()) + ".log");
+    const int status = std::system((command + " >" + log.string() + " 2>&1").c_str());
+    CommandRun run;
+    run.exitCode = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    std::ifstream in(log);
+    std::stringstream text;
+    text << in.rdbuf();
+    run.output = text.str();
+    fs::remove(log);
+    return run;
+}
+
+bool haveXvfb() {
+    return std::system("command -v xvfb-run >/dev/null 2>&1 && command -v Xvfb >/dev/null 2>&1") == 0;
+}
+
+// Each run gets its own server (-a picks a free display number); the config folder is private so
+// the user's bookmarks are untouched.
+std::string viewerCommand(const std::string& arguments) {
+    const fs::path config = fs::temp_directory_path() / "raypack_test_viewer_xdg";
+    return "XDG_RUNTIME_DIR=/tmp XDG_CONFIG_HOME=" + config.string() +
+           " xvfb-run -a -s '-screen 0 1024x768x24' " + RAYPACK_VIEWER + " " + arguments;
+}
+
+class ViewerUnderXvfb : public ::testing::Test {
+protected:
+    void SetUp() override {
+        if (!haveXvfb()) GTEST_SKIP() << "Xvfb / xvfb-run not installed";
+        dir_ = fs::temp_directory_path() / ("raypack_test_viewer_" + std::to_string(::getpid()));
+        fs::create_directories(dir_);
+    }
+    void TearDown() override {
+        if (!dir_.empty()) fs::remove_all(dir_);
+    }
+    fs::path dir_;
+};
+
+TEST_F(ViewerUnderXvfb, ScriptedScreenshotEqualsTheCliRenderOfTheSameView) {
+    const std::string shot = (dir_ / "viewer.png").string();
+    // Packet shape, leaf size and shadows changed by the script while it runs, then a screenshot.
+    const CommandRun viewer = runCommand(viewerCommand(
+        "--width 256 --height 192 --frames 8 --validation --no-counters --screenshot " + shot +
+        " --script 2:packet:5x6 --script 3:leaf-size:4 --script 4:shadows:off"));
+    ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+    EXPECT_NE(viewer.output.find("0 validation messages"), std::string::npos) << viewer.output;
+    ASSERT_TRUE(fs::exists(shot)) << viewer.output;
+
+    const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
+    const RenderSetup setup = renderSetupFromJson(sidecar);
+    EXPECT_EQ(setup.scene, "gen:default");
+    EXPECT_EQ(setup.settings.packet, (PacketShape{5, 6}));
+    EXPECT_EQ(setup.bvh.leafSize, 4u);
+    EXPECT_FALSE(setup.settings.shadows);
+    EXPECT_EQ(setup.settings.width, 256u);
+    EXPECT_EQ(setup.settings.height, 192u);
+    EXPECT_TRUE(sidecar.contains("stats"));
+
+    // The CLI from the sidecar, and from plain flags with the default framing.
+    const std::string fromSidecar = (dir_ / "cli_from.png").string();
+    CommandRun cli = runCommand(std::string("XDG_RUNTIME_DIR=/tmp ") + RAYPACK_CLI + " render --device gpu --from " +
+                         ui::sidecarPath(shot) + " --out " + fromSidecar);
+    ASSERT_EQ(cli.exitCode, 0) << cli.output;
+    const std::string fromFlags = (dir_ / "cli_flags.png").string();
+    cli = runCommand(std::string("XDG_RUNTIME_DIR=/tmp ") + RAYPACK_CLI +
+                     " render gen:default --device gpu --width 256 --height 192 --packet 5x6 --leaf-size 4"
+                     " --no-shadows --out " + fromFlags);
+    ASSERT_EQ(cli.exitCode, 0) << cli.output;
+
+    const Image viewerImage = readPng(shot);
+    for (const std::string& other : {fromSidecar, fromFlags}) {
+        const ImageDiff diff = diffImages(viewerImage, readPng(other), 0, shot, other);
+        EXPECT_EQ(diff.differingPixels, 0u) << other << ": max channel difference " << diff.maxChannelDifference;
+    }
+}
+
+TEST_F(ViewerUnderXvfb, ResizeAndSceneLoadDuringARebuildPassValidation) {
+    const std::string shot = (dir_ / "after.png").string();
+    const std::string sibenik = std::string(RAYPACK_SHARED_SCENES) + "/sibenik/sibenik_geom_75284.ply";
+    ASSERT_TRUE(fs::exists(sibenik)) << sibenik;
+    // Frame 1 waits for the first tree; frame 2 starts a rebuild of a 500k-triangle terrain
+    // (hundreds of milliseconds) and resizes the window; frame 3 opens another scene while that
+    // rebuild runs, which cancels it.
+    const CommandRun viewer = runCommand(viewerCommand(
+        "--scene gen:terrain:500k --width 200 --height 160 --frames 7 --validation --no-counters --screenshot " +
+        shot + " --script 1:wait --script 2:leaf-size:1 --script 2:resize:240x136 --script 3:open:" + sibenik));
+    ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+    EXPECT_NE(viewer.output.find("0 validation messages"), std::string::npos) << viewer.output;
+    EXPECT_NE(viewer.output.find("worker building when the load was requested"), std::string::npos)
+        << "the load did not meet a running rebuild:\n" << viewer.output;
+    const RenderSetup setup = renderSetupFromJson(readJsonFile(ui::sidecarPath(shot)));
+    EXPECT_EQ(setup.scene, fs::absolute(sibenik).lexically_normal().string());
+    EXPECT_EQ(setup.settings.width, 240u);
+    EXPECT_EQ(setup.settings.height, 136u);
+    EXPECT_EQ(readPng(shot).width, 240u);
+}
+
+TEST_F(ViewerUnderXvfb, ABadFileIsReportedAndTheSceneStays) {
+    const fs::path bad = dir_ / "broken.obj";
+    std::ofstream(bad) << "v 0 0 0\nv 1 0 0\nf 1 2 7\n";
+    const std::string shot = (dir_ / "still.png").string();
+    const CommandRun viewer = runCommand(viewerCommand("--width 128 --height 96 --frames 5 --no-counters --screenshot " +
+                                                shot + " --script 1:wait --script 2:open:" + bad.string()));
+    ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+    EXPECT_NE(viewer.output.find("broken.obj"), std::string::npos) << viewer.output;
+    EXPECT_EQ(renderSetupFromJson(readJsonFile(ui::sidecarPath(shot))).scene, "gen:default");
+}
+
+TEST(Viewer, WithoutADisplayItFailsWithAClearMessage) {
+    const CommandRun run = runCommand(std::string("env -u DISPLAY -u WAYLAND_DISPLAY XDG_RUNTIME_DIR=/tmp ") +
+                               RAYPACK_VIEWER + " --frames 1");
+    EXPECT_EQ(run.exitCode, 2) << run.output;
+    EXPECT_NE(run.output.find("cannot open a window"), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find("DISPLAY"), std::string::npos) << run.output;
+}
+
+#endif  // RAYPACK_VIEWER
+
+}  // namespace
+}  // namespace raypack
