@@ -25,6 +25,8 @@ double secondsSince(Clock::time_point start) {
 // Timestamp slots: frames the viewer may have in flight before it reads one back.
 constexpr uint32_t kQuerySlots = 4;
 constexpr uint32_t kQueriesPerFrame = 4;  // primary begin/end, shadow begin/end
+// Shared memory of the packet kernel besides its stack: four rotating uvec2 vote sums.
+constexpr uint32_t kVoteBytes = 4 * 8;
 
 enum Binding : uint32_t {
     kBindNodes,
@@ -49,7 +51,6 @@ struct SpecializationData {
     uint32_t view;
     uint32_t packetStackEntries;
     uint32_t rayStackEntries;
-    uint32_t partialSlots;
 };
 
 // One pipeline per combination, built on first use.
@@ -232,7 +233,7 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     // entry count's arithmetic (a root leaf still gets a stack of one).
     const uint32_t entries = layout.maxDepth + 1;
     const uint64_t packetStackBytes = uint64_t(entries) * 8u;
-    if (packetStackBytes + 2u * 4u > s.ctx.info.maxSharedMemoryBytes)
+    if (packetStackBytes + kVoteBytes > s.ctx.info.maxSharedMemoryBytes)
         throw Error("GPU: the BVH is " + std::to_string(layout.maxDepth) +
                     " levels deep; its packet stack needs " + std::to_string(packetStackBytes) +
                     " bytes of shared memory but " + s.ctx.info.name + " has " +
@@ -277,8 +278,8 @@ VkDeviceSize GpuTracer::outputBytes() const {
 }
 
 uint32_t GpuTracer::sharedMemoryBytes(PacketShape shape) const {
-    // Stack entries of 8 bytes, plus two halves of one 4-byte partial sum per possible subgroup.
-    return state_->stackEntries * 8u + 2u * 4u * shape.rays();
+    (void)shape;  // the vote's shared sums do not grow with the packet
+    return state_->stackEntries * 8u + kVoteBytes;
 }
 
 namespace {
@@ -345,7 +346,6 @@ void ensureReadback(GpuTracer::State& s, VkDeviceSize bytes) {
 VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     if (auto found = s.pipelines.find(key); found != s.pipelines.end()) return found->second;
     const bool packet = key.kernel == KernelKind::Packet;
-    const uint32_t rays = key.packetWidth * key.packetHeight;
     const SpecializationData data{key.packetWidth,
                                   key.packetHeight,
                                   packet ? gpu::kKernelPacket : gpu::kKernelSingle,
@@ -353,9 +353,8 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
                                   key.statistics ? VK_TRUE : VK_FALSE,
                                   key.view,
                                   packet ? key.stackEntries : 1u,
-                                  packet ? 1u : key.stackEntries,
-                                  packet ? rays : 1u};
-    std::array<VkSpecializationMapEntry, 9> entries{};
+                                  packet ? 1u : key.stackEntries};
+    std::array<VkSpecializationMapEntry, 8> entries{};
     for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {i, i * 4u, 4u};
     VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data,
                                         &data};
@@ -394,7 +393,7 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
                     std::to_string(d.maxWorkgroupInvocations) + " invocations, " +
                     std::to_string(d.maxWorkgroupSize[0]) + "x" +
                     std::to_string(d.maxWorkgroupSize[1]) + ")");
-    const uint64_t shared = uint64_t(s.stackEntries) * 8u + 2u * 4u * shape.rays();
+    const uint64_t shared = uint64_t(s.stackEntries) * 8u + kVoteBytes;
     if (settings.kernel == KernelKind::Packet && shared > d.maxSharedMemoryBytes)
         throw Error("GPU: packet " + name + " with a stack of " +
                     std::to_string(s.stackEntries) + " entries needs " + std::to_string(shared) +

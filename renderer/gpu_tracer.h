@@ -68,7 +68,7 @@ public:
 
     // Stack entries the kernels are compiled with: the uploaded tree's maximal depth + 1.
     uint32_t stackEntries() const;
-    // Shared memory one packet of `shape` needs (stack + vote partial sums), in bytes.
+    // Shared memory one packet of `shape` needs (stack + vote sums), in bytes.
     uint32_t sharedMemoryBytes(PacketShape shape) const;
     const vk::DeviceInfo& device() const;
 

@@ -32,8 +32,6 @@ layout(constant_id = 5) const uint kView = kViewShaded;
 layout(constant_id = 6) const uint kPacketStackEntries = 64;
 // Each ray's own stack in the single-ray kernel; 1 for the packet kernel.
 layout(constant_id = 7) const uint kRayStackEntries = 1;
-// Per-subgroup partial sums of the vote: the packet's ray count (enough for subgroups of one).
-layout(constant_id = 8) const uint kPartialSlots = 32;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
@@ -49,9 +47,8 @@ layout(std430, set = 0, binding = 8) buffer Status { uint status; };
 
 // (node index, count) of the nodes the packet still has to visit; written by invocation 0 only.
 shared uvec2 sStack[kPacketStackEntries];
-// Double-buffered per-subgroup vote sums: a vote writes one half while the previous vote's half may
-// still be read, so one barrier per vote suffices.
-shared uint sPartial[2 * kPartialSlots];
+// The packet's vote sums across subgroups, four rotating slots (see packetVote).
+shared uvec2 sVote[4];
 
 // +inf: the t of a miss (HitRecord). GLSL has no infinity literal; 1.0 / 0.0 folds to +inf.
 const float kInfinity = 1.0f / 0.0f;
@@ -115,29 +112,31 @@ void intersectLeaf(inout RayQuery q, uint first, uint count) {
 
 // The packet's vote over one inner node (report 2.2): each ray contributes "left first",
 // "right first" (the nearer of the children it hits), whether it wants both, and whether it is
-// still active. Summed within each subgroup by subgroupAdd (8 bits a field: a subgroup has at most
-// 128 invocations), then across subgroups through shared memory, so the result is right for any
-// subgroup size and any packet size.
+// still active. Summed within each subgroup by subgroupAdd, then across subgroups by one shared
+// atomic add per subgroup, so the result is right for any subgroup size, any packet size (16 bits a
+// field) and any assignment of invocations to subgroups. The shared sums rotate through four
+// slots: the slot of vote k is cleared at vote k - 2, after every invocation has read it at vote
+// k - 4 and before any adds to it at vote k, so one barrier per vote suffices.
 uvec4 packetVote(bool leftFirst, bool rightFirst, bool both, bool tracing, inout uint parity) {
-    const uint mine = (leftFirst ? 1u : 0u) | (rightFirst ? 0x100u : 0u) | (both ? 0x10000u : 0u) |
-                      (tracing ? 0x1000000u : 0u);
-    const uint subgroupSum = subgroupAdd(mine);
+    const uvec2 mine = uvec2((leftFirst ? 1u : 0u) | (rightFirst ? 0x10000u : 0u),
+                             (both ? 1u : 0u) | (tracing ? 0x10000u : 0u));
+    const uvec2 subgroupSum = subgroupAdd(mine);
     if (gl_NumSubgroups == 1u) {
         // Orders invocation 0's stack writes before the other lanes' later reads.
         subgroupBarrier();
-        return uvec4(subgroupSum & 0xFFu, (subgroupSum >> 8u) & 0xFFu, (subgroupSum >> 16u) & 0xFFu,
-                     subgroupSum >> 24u);
+        return uvec4(subgroupSum.x & 0xFFFFu, subgroupSum.x >> 16u, subgroupSum.y & 0xFFFFu,
+                     subgroupSum.y >> 16u);
     }
-    const uint base = parity * kPartialSlots;
-    if (subgroupElect()) sPartial[base + gl_SubgroupID] = subgroupSum;
+    const uint slot = parity & 3u;
+    if (subgroupElect()) {
+        atomicAdd(sVote[slot].x, subgroupSum.x);
+        atomicAdd(sVote[slot].y, subgroupSum.y);
+    }
     barrier();
-    uvec4 total = uvec4(0u);
-    for (uint s = 0u; s < gl_NumSubgroups; ++s) {
-        const uint p = sPartial[base + s];
-        total += uvec4(p & 0xFFu, (p >> 8u) & 0xFFu, (p >> 16u) & 0xFFu, p >> 24u);
-    }
-    parity ^= 1u;
-    return total;
+    const uvec2 total = sVote[slot];
+    if (gl_LocalInvocationIndex == 0u) sVote[(slot + 2u) & 3u] = uvec2(0u);
+    parity += 1u;
+    return uvec4(total.x & 0xFFFFu, total.x >> 16u, total.y & 0xFFFFu, total.y >> 16u);
 }
 
 // Packet traversal with a stack in shared memory, shared by the packet (report 2.2, 3.3, 3.4).
@@ -151,6 +150,10 @@ void tracePacket(inout RayQuery q) {
     uvec2 current = nodeEntry(root);
     uint parity = 0u;
     uint stackSize = 0u;
+    // Slots 0 and 1 start cleared (2 and 3 are cleared by votes 0 and 1), and the barrier orders
+    // that before the first adds. A shadow pass restarts here with its own clear.
+    if (gl_LocalInvocationIndex == 0u) sVote[0] = sVote[1] = uvec2(0u);
+    barrier();
     uint wantedBits = 0u;  // bit s: this ray wanted stack entry s (s < 32; deeper entries: assumed)
     // Whether any ray hits the root: a vote with all fields but "active" empty.
     if (packetVote(false, false, false, q.isActive, parity).w == 0u) return;
