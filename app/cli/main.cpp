@@ -48,6 +48,19 @@ int main(int argc, char** argv) {
     add(addGenerateCommand);
     add(addBenchCommand);
 
+    if (argc > 1 && argv[1][0] != '-') {
+        std::string names;
+        bool known = false;
+        for (const auto& [subcommand, run] : commands) {
+            known = known || subcommand->get_name() == argv[1];
+            names += (names.empty() ? "" : ", ") + subcommand->get_name();
+        }
+        if (!known) {
+            std::fprintf(stderr, "raypack-cli: unknown subcommand \"%s\" (one of: %s)\n", argv[1],
+                         names.c_str());
+            return kExitError;
+        }
+    }
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

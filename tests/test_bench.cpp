@@ -1,0 +1,189 @@
+// `raypack-cli bench` end to end: the quick suite on lavapipe and the CPU writes a results file
+// whose every record carries every statistic, finite (no timing thresholds: the numbers depend on
+// the machine); Embree, when built in, agrees with the CPU reference on hit distances; and
+// scripts/bench-report turns the results into markdown and figures.
+#include "cli_runner.h"
+
+#include "renderer/settings_json.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace raypack::test {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const ScratchDir& scratch() {
+    static ScratchDir dir("raypack-test-bench");
+    return dir;
+}
+
+// The quick suite, run once for the whole program (about 20 s on 2 cores with lavapipe).
+const json& quickResults() {
+    static const json results = [] {
+        const fs::path out = scratch() / "quick.json";
+        const CliResult r = runCli("bench --suite quick --out " + quoted(out));
+        EXPECT_EQ(r.exitCode, 0) << r.output;
+        EXPECT_NE(r.output.find("cell 1 of"), std::string::npos) << r.output;
+        if (r.exitCode != 0) return json();
+        return readJsonFile(out.string());
+    }();
+    return results;
+}
+
+void expectFiniteNumber(const json& record, const char* key) {
+    ASSERT_TRUE(record.contains(key)) << key << " missing in " << record.dump();
+    ASSERT_TRUE(record.at(key).is_number()) << key << " in " << record.dump();
+    EXPECT_TRUE(std::isfinite(record.at(key).get<double>())) << key << " in " << record.dump();
+}
+
+const char* kTable1Keys[] = {"triangles", "degenerate_triangles", "t_load_s", "load_mb_s",
+                             "n_l_leaves", "d_avg_leaf_depth", "d_max_leaf_depth",
+                             "o_avg_prims_per_leaf", "t_b_s", "nodes", "sah_cost", "bvh_bytes",
+                             "bvh_bytes_per_triangle", "leaf_size"};
+const char* kTable2Keys[] = {"t_r_us_per_ray", "n_it_tests_per_ray", "n_tr_nodes_per_ray",
+                             "n_q_rays", "t_f_s", "t_cu_s", "t_k_s", "t_k_min_s", "t_k_max_s",
+                             "perf_mrays_s", "perf_with_upload_mrays_s", "frame_s", "width_px",
+                             "height_px", "repeats"};
+const char* kEmbreeKeys[] = {"triangles", "t_b_s", "n_q_rays", "t_k_s", "t_k_min_s", "t_k_max_s",
+                             "t_r_us_per_ray", "perf_mrays_s", "hits_compared", "hits_agree_share",
+                             "hits_max_rel_t_error", "threads"};
+
+TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
+    const json& results = quickResults();
+    ASSERT_TRUE(results.is_object());
+    EXPECT_EQ(results.at("format"), "raypack-bench-1");
+    EXPECT_TRUE(results.at("date").is_string());
+    EXPECT_NE(results.at("command").get<std::string>().find("bench --suite quick"),
+              std::string::npos);
+    const json& machine = results.at("machine");
+    EXPECT_FALSE(machine.at("cpu_model").get<std::string>().empty());
+    EXPECT_GE(machine.at("cpu_threads").get<int>(), 1);
+    EXPECT_TRUE(machine.at("gpu").is_string());  // lavapipe at least
+    EXPECT_TRUE(machine.at("gpu_driver").is_string());
+
+    const json& settings = results.at("settings");
+    const std::vector<std::string> packets = settings.at("packets");
+    const json& records = results.at("records");
+    ASSERT_TRUE(records.is_array());
+    std::set<std::string> scenes;
+    // (scene, tracer, packet, ray kind) of every raypack record.
+    std::set<std::tuple<std::string, std::string, std::string, std::string>> cells;
+    for (const json& r : records) {
+        const std::string tracer = r.at("tracer");
+        scenes.insert(r.at("scene").get<std::string>());
+        const std::string kind = r.at("ray_kind");
+        EXPECT_TRUE(kind == "primary" || kind == "shadow") << kind;
+        EXPECT_TRUE(r.at("device").is_string());
+        if (tracer == "embree") {
+            for (const char* key : kEmbreeKeys) expectFiniteNumber(r, key);
+            continue;
+        }
+        for (const char* key : kTable1Keys) expectFiniteNumber(r, key);
+        for (const char* key : kTable2Keys) expectFiniteNumber(r, key);
+        EXPECT_GT(r.at("n_q_rays").get<uint64_t>(), 0u) << r.dump();
+        EXPECT_GT(r.at("perf_mrays_s").get<double>(), 0.0) << r.dump();
+        EXPECT_LE(r.at("t_k_min_s").get<double>(), r.at("t_k_s").get<double>());
+        EXPECT_LE(r.at("t_k_s").get<double>(), r.at("t_k_max_s").get<double>());
+        if (kind == "primary")
+            EXPECT_EQ(r.at("n_q_rays").get<uint64_t>(),
+                      r.at("width_px").get<uint64_t>() * r.at("height_px").get<uint64_t>());
+        if (tracer == "cpu-reference") EXPECT_EQ(r.at("t_cu_s").get<double>(), 0.0);
+        else EXPECT_GT(r.at("t_cu_s").get<double>(), 0.0) << r.dump();
+        cells.emplace(r.at("scene"), tracer, r.at("packet").is_string() ? r.at("packet") : "", kind);
+    }
+    // Every cell of the matrix is there, primary and shadow: CPU reference, each packet shape,
+    // the single-ray kernel, on each scene.
+    EXPECT_EQ(scenes.size(), 2u);
+    for (const std::string& scene : scenes)
+        for (const char* kind : {"primary", "shadow"}) {
+            EXPECT_TRUE(cells.count({scene, "cpu-reference", "", kind})) << scene << " " << kind;
+            EXPECT_TRUE(cells.count({scene, "gpu-single", "", kind})) << scene << " " << kind;
+            for (const std::string& packet : packets)
+                EXPECT_TRUE(cells.count({scene, "gpu-packet", packet, kind}))
+                    << scene << " " << packet << " " << kind;
+        }
+    EXPECT_EQ(cells.size(), scenes.size() * 2 * (2 + packets.size()));
+}
+
+TEST(Bench, EmbreeAgreesWithTheReferenceOnHitDistances) {
+    // 200x200 = 40,000 rays, so that 99.99% allows a few rays through shared edges to differ
+    // (Embree's default triangle test is not watertight; raypack's is).
+    const fs::path out = scratch() / "embree.json";
+    const CliResult r = runCli("bench --device cpu --scenes gen:sphereflake:20k,gen:terrain:20k "
+                               "--width 200 --height 200 --repeat 1 --out " + quoted(out));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    const json results = readJsonFile(out.string());
+    size_t embreeRecords = 0;
+    for (const json& record : results.at("records")) {
+        if (record.at("tracer") != "embree") continue;
+        ++embreeRecords;
+        EXPECT_EQ(record.at("hits_compared").get<uint64_t>(), 40000u);
+        EXPECT_GE(record.at("hits_agree_share").get<double>(), 0.9999) << record.dump();
+        EXPECT_GE(record.at("shadows_agree_share").get<double>(), 0.999) << record.dump();
+    }
+    if (embreeRecords == 0) {
+        const std::string skipped = results.at("skipped").dump();
+        ASSERT_NE(skipped.find("without Embree"), std::string::npos) << skipped;
+        GTEST_SKIP() << "raypack-cli was built without Embree";
+    }
+    // Two scenes x two build qualities x (rtcIntersect1, rtcIntersect8, rtcOccluded1).
+    EXPECT_EQ(embreeRecords, 12u);
+}
+
+TEST(Bench, ReportScriptWritesTablesAndFigures) {
+    const json& results = quickResults();
+    ASSERT_TRUE(results.is_object());
+    const fs::path json = scratch() / "quick.json";
+    const fs::path markdown = scratch() / "benchmarks.md";
+    const fs::path images = scratch() / "img";
+    std::ofstream(markdown) << "# Benchmarks\n\nHand-written text that must stay.\n";
+    const std::string script = std::string(RAYPACK_SOURCE_DIR) + "/scripts/bench-report";
+    const std::string command = "/usr/bin/python3 '" + script + "' " + quoted(json) +
+                                " --markdown " + quoted(markdown) + " --img-dir " + quoted(images) +
+                                " > /dev/null 2>&1";
+    // Twice: the second run replaces its section instead of appending another.
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+    std::stringstream text;
+    text << std::ifstream(markdown).rdbuf();
+    const std::string md = text.str();
+    EXPECT_NE(md.find("Hand-written text that must stay."), std::string::npos);
+    for (const char* expected : {"Table 1", "Table 2 (primary rays)", "Table 2 (shadow rays)",
+                                 "| N_L |", "bench --suite quick", "quick-figure1.png",
+                                 "quick-figure2.png"})
+        EXPECT_NE(md.find(expected), std::string::npos) << expected << " in\n" << md;
+    size_t sections = 0;
+    for (size_t at = md.find("bench-report:begin quick"); at != std::string::npos;
+         at = md.find("bench-report:begin quick", at + 1))
+        ++sections;
+    EXPECT_EQ(sections, 1u);
+    EXPECT_GT(fs::file_size(images / "quick-figure1.png"), 1000u);
+    EXPECT_GT(fs::file_size(images / "quick-figure2.png"), 1000u);
+}
+
+TEST(Bench, BadArgumentsGiveOneClearLineAndExitCodeTwo) {
+    for (const auto& [args, mentions] : std::vector<std::pair<std::string, std::string>>{
+             {"bench --suite nope", "--suite"},
+             {"bench --suite quick --packets 0x3", "--packets"},
+             {"bench --suite report --scene-dir /no/such/folder", "/no/such/folder"},
+             {"bench --scenes gen:terrain:1k --suite quick", "either --scenes or --suite"},
+             {"bench --scenes /no/such/scene.ply --device cpu", "/no/such/scene.ply"},
+         }) {
+        const CliResult r = runCli(args);
+        EXPECT_EQ(r.exitCode, 2) << args << ":\n" << r.output;
+        EXPECT_NE(r.output.find(mentions), std::string::npos) << args << ":\n" << r.output;
+    }
+}
+
+}  // namespace
+}  // namespace raypack::test

@@ -1,0 +1,257 @@
+// raypack-cli end to end: the built program run as a user runs it, on the default scene and small
+// images (lavapipe and the CPU reference are slow; 96x64 keeps each run well under a second).
+#include "cli_runner.h"
+
+#include "renderer/bvh.h"
+#include "renderer/cpu_tracer.h"
+#include "renderer/hits_io.h"
+#include "renderer/image.h"
+#include "renderer/settings_json.h"
+#include "scenes/load.h"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+namespace raypack::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The bundled default scene; the generator spec of the very same scene while the file has not been
+// generated into the source tree (scenes/generators.h: default.ply is makeDefaultScene()).
+std::string defaultScene() {
+    const fs::path file = fs::path(RAYPACK_SOURCE_DIR) / "scenes" / "data" / "default.ply";
+    return fs::exists(file) ? file.string() : std::string("gen:default");
+}
+
+const ScratchDir& scratch() {
+    static ScratchDir dir("raypack-test-cli");
+    return dir;
+}
+
+// An error is reported on one line naming the problem, with the documented exit code 2, and never
+// as a crash or an internal check.
+void expectCleanError(const CliResult& r, const std::string& mentions) {
+    EXPECT_EQ(r.exitCode, 2) << r.output;
+    EXPECT_NE(r.output.find(mentions), std::string::npos) << "expected \"" << mentions << "\" in:\n"
+                                                          << r.output;
+    EXPECT_EQ(r.output.find("internal check failed"), std::string::npos) << r.output;
+    EXPECT_EQ(r.output.find("terminate"), std::string::npos) << r.output;
+}
+
+TEST(Cli, EverySubcommandHasHelpAndExitsZero) {
+    for (const char* command : {"", "render", "stats", "diff", "generate", "bench"}) {
+        const CliResult r = runCli(std::string(command) + " --help");
+        EXPECT_EQ(r.exitCode, 0) << command << ":\n" << r.output;
+        EXPECT_NE(r.output.find("Usage"), std::string::npos) << command << ":\n" << r.output;
+    }
+    // The help says what is printed, with units.
+    EXPECT_NE(runCli("render --help").output.find("Mrays/s"), std::string::npos);
+    EXPECT_NE(runCli("diff --help").output.find("Exit code"), std::string::npos);
+}
+
+TEST(Cli, RenderWritesImageHitsAndJsonThatAgreeWithTheReference) {
+    const fs::path png = scratch() / "render.png";
+    const fs::path hits = scratch() / "render.hits";
+    const fs::path json = scratch() / "render.json";
+    const uint32_t width = 96, height = 64;  // not square, so that a transposition shows
+    const CliResult r = runCli("render " + defaultScene() + " --width 96 --height 64 --out " +
+                               quoted(png) + " --hits " + quoted(hits) + " --json " + quoted(json));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    for (const char* printed : {"device", "Table 1", "Table 2", "primary", "shadow", "N_L"})
+        EXPECT_NE(r.output.find(printed), std::string::npos) << printed << " in\n" << r.output;
+
+    const Image image = readPng(png.string());
+    EXPECT_EQ(image.width, width);
+    EXPECT_EQ(image.height, height);
+
+    // Hits file: header, size, and values a ray tracer can produce.
+    EXPECT_EQ(fs::file_size(hits), kHitsHeaderBytes + size_t(width) * height * kHitsRecordBytes);
+    const HitsFile file = readHits(hits.string());
+    ASSERT_EQ(file.width, width);
+    ASSERT_EQ(file.height, height);
+    ASSERT_EQ(file.records.size(), size_t(width) * height);
+
+    const nlohmann::json stats = readJsonFile(json.string());
+    const RenderSetup setup = renderSetupFromJson(stats);
+    const glm::vec3 eye = setup.settings.camera.eye;
+    const Scene scene = openScene(setup.scene);
+    const Bvh bvh = buildBvh(scene, setup.bvh);
+    size_t hitCount = 0;
+    for (const HitRecord& h : file.records) {
+        EXPECT_EQ(glm::vec3(h.orgX, h.orgY, h.orgZ), eye);
+        EXPECT_NEAR(glm::length(glm::vec3(h.dirX, h.dirY, h.dirZ)), 1.0f, 1e-5f);
+        EXPECT_EQ(h.reserved, 0u);
+        if (h.prim == gpu::kNoHit) {
+            EXPECT_TRUE(std::isinf(h.t));
+            EXPECT_EQ(h.shadow, gpu::kShadowNone);
+        } else {
+            ++hitCount;
+            EXPECT_LT(h.prim, scene.triangleCount());
+            EXPECT_TRUE(std::isfinite(h.t) && h.t > 0.0f);
+            EXPECT_TRUE(h.shadow == gpu::kShadowLit || h.shadow == gpu::kShadowOccluded);
+        }
+    }
+    // The default framing puts the scene in view.
+    EXPECT_GT(hitCount, file.records.size() / 10);
+    // Every 37th ray traced again through the library gives the same closest hit.
+    for (size_t i = 0; i < file.records.size(); i += 37) {
+        const HitRecord& h = file.records[i];
+        const HitRecord again = traceClosest(scene, bvh, glm::vec3(h.orgX, h.orgY, h.orgZ),
+                                             glm::vec3(h.dirX, h.dirY, h.dirZ));
+        EXPECT_EQ(again.prim, h.prim) << "pixel " << i;
+        if (h.prim != gpu::kNoHit) EXPECT_EQ(again.t, h.t) << "pixel " << i;
+    }
+
+    // JSON: every statistic with its unit, finite.
+    const auto& table1 = stats.at("table1");
+    for (const char* key : {"n_l_leaves", "d_avg_leaf_depth", "d_max_leaf_depth",
+                            "o_avg_prims_per_leaf", "t_b_s", "nodes", "sah_cost", "bvh_bytes",
+                            "triangles", "degenerate_triangles", "t_load_s", "load_mb_s"})
+        EXPECT_TRUE(table1.at(key).is_number()) << key;
+    EXPECT_EQ(table1.at("triangles").get<uint64_t>(), scene.triangleCount());
+    EXPECT_EQ(table1.at("n_l_leaves").get<uint32_t>(), bvh.stats.leafCount);
+    for (const char* kind : {"primary", "shadow"}) {
+        const auto& row = stats.at("table2").at(kind);
+        for (const char* key : {"t_r_us_per_ray", "n_it_tests_per_ray", "n_tr_nodes_per_ray",
+                                "n_q_rays", "t_f_s", "t_cu_s", "t_k_s", "perf_mrays_s",
+                                "perf_with_upload_mrays_s"}) {
+            ASSERT_TRUE(row.at(key).is_number()) << kind << "." << key;
+            EXPECT_TRUE(std::isfinite(row.at(key).get<double>())) << kind << "." << key;
+        }
+    }
+    EXPECT_EQ(stats["table2"]["primary"]["n_q_rays"].get<uint64_t>(), uint64_t(width) * height);
+    EXPECT_EQ(stats["table2"]["shadow"]["n_q_rays"].get<uint64_t>(), hitCount);
+}
+
+TEST(Cli, FromReproducesTheSameImageAndFlagsOverrideIt) {
+    const fs::path a = scratch() / "from-a.png";
+    const fs::path b = scratch() / "from-b.png";
+    const fs::path c = scratch() / "from-c.png";
+    const fs::path side = scratch() / "from.json";
+    ASSERT_EQ(runCli("render " + defaultScene() +
+                     " --width 80 --height 60 --eye 3,2.5,4 --at 0,0.5,0 --fov 50 "
+                     "--light-height 0.5 --leaf-size 4 --out " + quoted(a) + " --json " +
+                     quoted(side))
+                  .exitCode,
+              0);
+    const CliResult again = runCli("render --from " + quoted(side) + " --out " + quoted(b));
+    ASSERT_EQ(again.exitCode, 0) << again.output;
+    const CliResult same = runCli("diff " + quoted(a) + " " + quoted(b));
+    EXPECT_EQ(same.exitCode, 0) << same.output;
+    EXPECT_NE(same.output.find("0 of 4800"), std::string::npos) << same.output;
+
+    // A flag given beside --from wins over the file.
+    ASSERT_EQ(runCli("render --from " + quoted(side) + " --no-shadows --out " + quoted(c)).exitCode, 0);
+    EXPECT_EQ(runCli("diff " + quoted(a) + " " + quoted(c)).exitCode, 1);
+}
+
+TEST(Cli, DiffCountsDifferencesAndHasDocumentedExitCodes) {
+    Image base;
+    base.width = 4;
+    base.height = 3;
+    base.rgba.assign(12, 0xFF204060u);
+    Image changed = base;
+    changed.rgba[5] = 0xFF204070u;  // one pixel, blue channel +16
+    const fs::path a = scratch() / "diff-a.png", b = scratch() / "diff-b.png";
+    const fs::path small = scratch() / "diff-small.png", out = scratch() / "diff-out.png";
+    writePng(a.string(), base);
+    writePng(b.string(), changed);
+    writePng(small.string(), 2, 2, std::vector<uint32_t>(4, 0xFF000000u));
+
+    const CliResult same = runCli("diff " + quoted(a) + " " + quoted(a));
+    EXPECT_EQ(same.exitCode, 0) << same.output;
+    EXPECT_NE(same.output.find("inf dB"), std::string::npos) << same.output;
+
+    const CliResult differ = runCli("diff " + quoted(a) + " " + quoted(b) + " --out " + quoted(out));
+    EXPECT_EQ(differ.exitCode, 1) << differ.output;
+    EXPECT_NE(differ.output.find("1 of 12"), std::string::npos) << differ.output;
+    EXPECT_NE(differ.output.find("max channel diff   16"), std::string::npos) << differ.output;
+    const Image difference = readPng(out.string());
+    EXPECT_EQ(difference.width, 4u);
+    EXPECT_EQ(difference.height, 3u);
+
+    // Within the threshold the images count as equal.
+    EXPECT_EQ(runCli("diff " + quoted(a) + " " + quoted(b) + " --threshold 16").exitCode, 0);
+
+    expectCleanError(runCli("diff " + quoted(a) + " " + quoted(small)), "diff-small.png");
+    expectCleanError(runCli("diff " + quoted(a) + " " + quoted(scratch() / "missing.png")),
+                     "missing.png");
+    expectCleanError(runCli("diff " + quoted(a)), "B");
+}
+
+TEST(Cli, BadInputGivesOneClearLineAndExitCodeTwo) {
+    const fs::path garbage = scratch() / "garbage.ply";
+    std::ofstream(garbage) << "ply\nformat binary_little_endian 1.0\nelement vertex 1000000\n"
+                              "property float x\nproperty float y\nproperty float z\nend_header\n"
+                              "not nearly enough bytes";
+    expectCleanError(runCli("render " + quoted(scratch() / "no-such-scene.ply")), "no-such-scene.ply");
+    expectCleanError(runCli("render " + quoted(garbage) + " --width 8 --height 8"), "garbage.ply");
+    expectCleanError(runCli("stats " + quoted(garbage)), "garbage.ply");
+    expectCleanError(runCli("render gen:terrain:1k --width abc"), "--width");
+    expectCleanError(runCli("render gen:terrain:1k --eye 1,2"), "--eye");
+    expectCleanError(runCli("render gen:terrain:1k --eye 1,2,3 --at 1,2,3 --width 8 --height 8"),
+                     "camera");
+    expectCleanError(runCli("render gen:terrain:1k --packet 0x4"), "--packet");
+    expectCleanError(runCli("render gen:terrain:1k --kernel warp"), "--kernel");
+    expectCleanError(runCli("render gen:terrain:1k --device tpu"), "--device");
+    expectCleanError(runCli("stats gen:terrain:1k --builder magic"), "magic");
+    expectCleanError(runCli("render gen:nothing:5"), "gen:nothing:5");
+    expectCleanError(runCli("render --from " + quoted(scratch() / "absent.json")), "absent.json");
+    const fs::path badJson = scratch() / "bad.json";
+    std::ofstream(badJson) << R"({"scene": "gen:terrain:1k", "camera": {"fov_y_degrees": "wide"}})";
+    expectCleanError(runCli("render --from " + quoted(badJson)), "camera.fov_y_degrees");
+    expectCleanError(runCli("frobnicate"), "frobnicate");
+    expectCleanError(runCli("render gen:terrain:1k --device gpu --gpu no-such-device-name "
+                            "--width 8 --height 8"),
+                     "no-such-device-name");
+}
+
+TEST(Cli, StatsPrintsTable1AsJson) {
+    const CliResult r = runCli("stats gen:terrain:2k --leaf-size 3 --json");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    const nlohmann::json row = nlohmann::json::parse(r.output);
+    EXPECT_EQ(row.at("leaf_size").get<uint32_t>(), 3u);
+    EXPECT_LE(row.at("triangles").get<uint64_t>(), 2000u);
+    EXPECT_GT(row.at("n_l_leaves").get<uint64_t>(), 0u);
+    EXPECT_LE(row.at("o_avg_prims_per_leaf").get<double>(), 3.0);
+    EXPECT_GE(row.at("d_max_leaf_depth").get<double>(), row.at("d_avg_leaf_depth").get<double>());
+    const CliResult text = runCli("stats gen:terrain:2k");
+    EXPECT_EQ(text.exitCode, 0);
+    EXPECT_NE(text.output.find("D_AVG"), std::string::npos) << text.output;
+}
+
+TEST(Cli, GenerateWritesAPlyThatLoadsBackTheSameScene) {
+    const fs::path ply = scratch() / "terrain.ply";
+    const CliResult r = runCli("generate gen:terrain:3k " + quoted(ply));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    const Scene generated = openScene("gen:terrain:3k");
+    const Scene loaded = loadScene(ply);
+    EXPECT_EQ(loaded.triangles, generated.triangles);
+    EXPECT_EQ(loaded.positions, generated.positions);
+    EXPECT_NE(r.output.find(std::to_string(generated.triangleCount()) + " triangles"),
+              std::string::npos)
+        << r.output;
+}
+
+TEST(Cli, GpuRenderOnLavapipeWithValidationMatchesTheHitsFormat) {
+    const fs::path hits = scratch() / "gpu.hits", json = scratch() / "gpu.json";
+    const CliResult r = runCli("render " + defaultScene() +
+                               " --device gpu --validation --width 64 --height 48 --packet 5x6 "
+                               "--hits " + quoted(hits) + " --json " + quoted(json));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    EXPECT_NE(r.output.find("validation no messages"), std::string::npos) << r.output;
+    const HitsFile file = readHits(hits.string());
+    EXPECT_EQ(file.records.size(), 64u * 48u);
+    const nlohmann::json stats = readJsonFile(json.string());
+    EXPECT_EQ(stats.at("device_kind"), "gpu");
+    EXPECT_GT(stats["table2"]["primary"]["t_cu_s"].get<double>(), 0.0);
+    EXPECT_EQ(stats.at("packet").at("width").get<uint32_t>(), 5u);
+}
+
+}  // namespace
+}  // namespace raypack::test
