@@ -82,7 +82,7 @@ void requireObject(const json& json, const char* what) {
 
 // The builder whose toString is `name`.
 std::optional<BvhBuilder> builderFromName(const std::string& name) {
-    for (BvhBuilder b : {BvhBuilder::SahExact})
+    for (BvhBuilder b : kAllBvhBuilders)
         if (name == toString(b)) return b;
     return std::nullopt;
 }
@@ -139,7 +139,8 @@ nlohmann::json toJson(const BvhBuildOptions& o) {
     return {{"builder", toString(o.builder)},
             {"leaf_size", o.leafSize},
             {"traversal_cost", o.traversalCost},
-            {"intersection_cost", o.intersectionCost}};
+            {"intersection_cost", o.intersectionCost},
+            {"bin_count", o.binCount}};
 }
 
 nlohmann::json toJson(const RenderSetup& setup) {
@@ -205,6 +206,8 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     if (o.leafSize == 0) badKey("bvh.leaf_size", "must be at least 1");
     readFloat(j, "traversal_cost", "bvh.", o.traversalCost);
     readFloat(j, "intersection_cost", "bvh.", o.intersectionCost);
+    readUint(j, "bin_count", "bvh.", o.binCount);
+    if (o.binCount < 2 || o.binCount > 256) badKey("bvh.bin_count", "must be in 2..256");
     if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
         badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
     return o;

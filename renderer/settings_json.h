@@ -14,7 +14,8 @@
 //     "background": [r,g,b],
 //     "kernel": "packet" | "single", "packet": {"width": 8, "height": 4},
 //     "collect_counters": false, "view": "shaded" | "nodes" | "tests",
-//     "bvh": {"builder": "<name>", "leaf_size": 2, "traversal_cost": 1, "intersection_cost": 1}
+//     "bvh": {"builder": "sah-exact" | "sah-binned", "leaf_size": 2, "traversal_cost": 1,
+//             "intersection_cost": 1, "bin_count": 32}
 //   }
 // Floats are written as doubles with full precision, so a float survives the round trip exactly.
 #include "renderer/bvh.h"

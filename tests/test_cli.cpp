@@ -253,5 +253,96 @@ TEST(Cli, GpuRenderOnLavapipeWithValidationMatchesTheHitsFormat) {
     EXPECT_EQ(stats.at("packet").at("width").get<uint32_t>(), 5u);
 }
 
+TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
+    RenderSetup setup;
+    setup.scene = "gen:terrain:1k";
+    RenderSettings& s = setup.settings;
+    s.width = 321;
+    s.height = 123;
+    s.camera.eye = glm::vec3(0.1f, -2.3f, 1e-7f);
+    s.camera.at = glm::vec3(3.0f, 1.0f / 3.0f, -7.25f);
+    s.camera.up = glm::vec3(0.0f, 0.0f, 1.0f);
+    s.camera.fovYDegrees = 37.7f;
+    s.lightHeight = 0.7f;
+    s.shadows = false;
+    s.phong = {0.1f, 0.2f, 0.3f, 17.0f};
+    s.background = glm::vec3(0.2f, 0.3f, 0.4f);
+    s.kernel = KernelKind::Single;
+    s.packet = {5, 6};
+    s.collectCounters = true;
+    s.view = ViewMode::HeatIntersections;
+    setup.bvh.builder = BvhBuilder::SahBinned;
+    setup.bvh.leafSize = 7;
+    setup.bvh.traversalCost = 1.5f;
+    setup.bvh.intersectionCost = 0.75f;
+    setup.bvh.binCount = 16;
+
+    // Through text, as a file would carry it.
+    const RenderSetup back = renderSetupFromJson(nlohmann::json::parse(toJson(setup).dump()));
+    EXPECT_EQ(back.scene, setup.scene);
+    const RenderSettings& b = back.settings;
+    EXPECT_EQ(b.width, s.width);
+    EXPECT_EQ(b.height, s.height);
+    EXPECT_EQ(b.camera.eye, s.camera.eye);
+    EXPECT_EQ(b.camera.at, s.camera.at);
+    EXPECT_EQ(b.camera.up, s.camera.up);
+    EXPECT_EQ(b.camera.fovYDegrees, s.camera.fovYDegrees);
+    EXPECT_EQ(b.lightHeight, s.lightHeight);
+    EXPECT_EQ(b.shadows, s.shadows);
+    EXPECT_EQ(b.phong.ambient, s.phong.ambient);
+    EXPECT_EQ(b.phong.diffuse, s.phong.diffuse);
+    EXPECT_EQ(b.phong.specular, s.phong.specular);
+    EXPECT_EQ(b.phong.shininess, s.phong.shininess);
+    EXPECT_EQ(b.background, s.background);
+    EXPECT_EQ(b.kernel, s.kernel);
+    EXPECT_EQ(b.packet, s.packet);
+    EXPECT_EQ(b.collectCounters, s.collectCounters);
+    EXPECT_EQ(b.view, s.view);
+    EXPECT_EQ(back.bvh.builder, setup.bvh.builder);
+    EXPECT_EQ(back.bvh.leafSize, setup.bvh.leafSize);
+    EXPECT_EQ(back.bvh.traversalCost, setup.bvh.traversalCost);
+    EXPECT_EQ(back.bvh.intersectionCost, setup.bvh.intersectionCost);
+    EXPECT_EQ(back.bvh.binCount, setup.bvh.binCount);
+
+    // Missing keys keep the defaults; unknown keys (a sidecar's "stats") are ignored.
+    const RenderSettings defaults =
+        renderSettingsFromJson(nlohmann::json::parse(R"({"stats": {"fps": 3}})"));
+    EXPECT_EQ(defaults.width, RenderSettings{}.width);
+    EXPECT_EQ(defaults.packet, RenderSettings{}.packet);
+}
+
+TEST(SettingsJson, BadValuesNameTheKey) {
+    const auto errorOf = [](const char* text) -> std::string {
+        try {
+            renderSetupFromJson(nlohmann::json::parse(text));
+        } catch (const Error& e) {
+            return e.what();
+        }
+        return "no error";
+    };
+    EXPECT_NE(errorOf(R"([1, 2])").find("object"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"width": -3})").find("width"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"width": 0})").find("width"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"camera": {"eye": [1, 2]}})").find("camera.eye"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"camera": {"fov_y_degrees": 200}})").find("fov"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"kernel": "warp"})").find("kernel"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"view": "xray"})").find("view"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"packet": {"width": 0, "height": 4}})").find("packet"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"shadows": "yes"})").find("shadows"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"bvh": {"builder": "magic"}})").find("bvh.builder"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"bvh": {"leaf_size": 0}})").find("bvh.leaf_size"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"bvh": {"bin_count": 1}})").find("bvh.bin_count"), std::string::npos);
+
+    const ScratchDir& dir = scratch();
+    std::ofstream(dir / "broken.json") << "{\"width\": 3,";
+    try {
+        readJsonFile((dir / "broken.json").string());
+        ADD_FAILURE() << "no error for broken JSON";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("broken.json"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("byte"), std::string::npos) << e.what();
+    }
+}
+
 }  // namespace
 }  // namespace raypack::test
