@@ -109,12 +109,13 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
                 continue;
             }
         }
-        // Pop the nearest waiting node that may still hold something closer than the best hit
-        // (ties allowed: an equal t with a lower triangle index wins).
+        // Pop the nearest waiting node that may still hold something closer than the best hit,
+        // with the same margin the box test culls with (gpu::kBoxTmaxWiden): the entry distance
+        // carries rounding, and a tie at equal t with a lower triangle index must still be found.
         while (true) {
             if (top == 0) return best;
             const StackEntry entry = stack[--top];
-            if (entry.tEntry <= bestT) {
+            if (entry.tEntry <= bestT * gpu::kBoxTmaxWiden) {
                 nodeIndex = entry.node;
                 break;
             }

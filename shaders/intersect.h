@@ -137,6 +137,23 @@ RP_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float
     return tNear <= min(tFar, tmax * kBoxTmaxWiden);
 }
 
+// The 2D edge function of the edge p -> q at the origin (the ray), cross(q, p) = q.x*p.y - q.y*p.x,
+// which is u for the edge b -> c in Woop et al. Evaluated as cross(q - p, p) from a canonical end
+// of the edge (the lexicographically smaller one) instead of as a difference of two products of
+// coordinates: for a triangle far smaller than its distance from the ray origin, those two
+// products are huge and nearly equal, and their rounding can flip the sign (a ray thousands of
+// units away was reported to hit a 1e-4 triangle); edge vector times coordinate keeps the error
+// relative to the edge's own length. Watertightness is kept: both triangles of an edge pick the
+// same base point, the edge vectors are exact negations (fl(q - p) = -fl(p - q)), and so are the
+// results.
+RP_FUNC float edgeFunction(vec2 p, vec2 q) {
+    const bool baseIsP = p.x < q.x || (p.x == q.x && p.y <= q.y);
+    const vec2 base = baseIsP ? p : q;
+    RP_PRECISE const vec2 edge = (baseIsP ? q : p) - base;
+    RP_PRECISE const float f = edge.x * base.y - edge.y * base.x;  // cross(other, base)
+    return baseIsP ? f : -f;
+}
+
 // Watertight ray/triangle test (Woop, Benthin, Wald 2013), edges and vertices inclusive, both faces.
 // On a hit with 0 <= t <= tmax returns true with t and the barycentric weights of v1 and v2 (the
 // weight of v0 is 1 - bary.x - bary.y).
@@ -144,12 +161,17 @@ RP_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float
 // The paper recomputes the edge functions in double precision when one of them is exactly 0. We do
 // not, on either side: GLSL doubles are optional (and slow where present), and the CPU reference
 // must decide exactly as the GPU does. Watertightness does not need the fallback: a shared edge's
-// edge function is the difference of the same two rounded products in both triangles, so it is
-// exactly negated between them; with inclusive edges a ray on the edge hits at least one of them.
+// edge function is computed from the same rounded numbers in both triangles (edgeFunction), so it
+// is exactly negated between them; with inclusive edges a ray on the edge hits at least one.
 // What the fallback would add is only the exact sign of a product difference that rounds to 0, i.e.
 // which of two triangles sharing an edge a ray grazing that edge reports (both lie at the same t).
-// Beyond the paper, the 2D coordinates are scaled by a power of two per triangle (see below), so
-// neither huge (1e20) nor tiny (1e-20) coordinates overflow or underflow the edge functions.
+// Beyond the paper: the 2D coordinates are scaled by a power of two per triangle (see below), so
+// neither huge (1e20) nor tiny (1e-20) coordinates overflow or underflow the edge functions; and
+// the edge functions are evaluated from edge vectors (edgeFunction), so small triangles far from
+// the ray origin keep the right signs. Both keep the test watertight.
+// A hit's t can still carry a relative error well above an ulp where the hit is close to the ray
+// origin compared to the triangle's size (t is a sum of terms of the triangle's size that cancel),
+// so two triangles meeting the ray at the same point may report t a few 1e-6 apart.
 RP_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax,
                                RP_OUT(float) t, RP_OUT(vec2) bary) {
     t = 0.0f;
@@ -183,9 +205,9 @@ RP_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax
     RP_PRECISE const float scx = cx * scale;
     RP_PRECISE const float scy = cy * scale;
     // Scaled barycentric coordinates (2D edge functions).
-    RP_PRECISE const float u = scx * sby - scy * sbx;
-    RP_PRECISE const float v = sax * scy - say * scx;
-    RP_PRECISE const float w = sbx * say - sby * sax;
+    RP_PRECISE const float u = edgeFunction(vec2(sbx, sby), vec2(scx, scy));
+    RP_PRECISE const float v = edgeFunction(vec2(scx, scy), vec2(sax, say));
+    RP_PRECISE const float w = edgeFunction(vec2(sax, say), vec2(sbx, sby));
     // Inclusive edges: reject only when the signs disagree strictly.
     if ((u < 0.0f || v < 0.0f || w < 0.0f) && (u > 0.0f || v > 0.0f || w > 0.0f)) return false;
     RP_PRECISE const float det = u + v + w;
