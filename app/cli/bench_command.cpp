@@ -10,6 +10,7 @@
 #include "app/cli/tracing.h"
 #include "renderer/error.h"
 #include "renderer/settings_json.h"
+#include "renderer/vk/rt_peer.h"
 
 #include <sys/utsname.h>
 
@@ -32,11 +33,12 @@ struct BenchFlags {
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
     bool noEmbree = false;
+    bool noDriverRt = false;
 };
 
 // What one cell traces.
 struct Cell {
-    enum Kind { Cpu, Embree, GpuPacket, GpuSingle } kind;
+    enum Kind { Cpu, Embree, GpuPacket, GpuSingle, DriverRt } kind;
     PacketShape packet;
     std::string label() const {
         switch (kind) {
@@ -44,6 +46,7 @@ struct Cell {
             case Embree: return "embree";
             case GpuPacket: return "gpu-packet " + toString(packet);
             case GpuSingle: return "gpu-single";
+            case DriverRt: return "driver-rt";
         }
         return "";
     }
@@ -62,28 +65,6 @@ std::string operatingSystem() {
     utsname name{};
     if (uname(&name) != 0) return "unknown";
     return std::string(name.sysname) + " " + name.release + " " + name.machine;
-}
-
-// Whether the device offers what the driver's own ray tracing would need.
-std::string driverRayTracingLine(const GpuSession& session) {
-    uint32_t count = 0;
-    vkEnumerateDeviceExtensionProperties(session.context.physicalDevice, nullptr, &count, nullptr);
-    std::vector<VkExtensionProperties> extensions(count);
-    vkEnumerateDeviceExtensionProperties(session.context.physicalDevice, nullptr, &count,
-                                         extensions.data());
-    bool pipeline = false, structure = false;
-    for (const VkExtensionProperties& e : extensions) {
-        pipeline = pipeline || std::string(e.extensionName) == VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME;
-        structure = structure || std::string(e.extensionName) == VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME;
-    }
-    const std::string device = session.context.info.name;
-    if (!pipeline || !structure)
-        return "driver ray tracing: " + device + " lacks " +
-               (!pipeline ? std::string(VK_KHR_RAY_TRACING_PIPELINE_EXTENSION_NAME) : "") +
-               (!pipeline && !structure ? " and " : "") +
-               (!structure ? std::string(VK_KHR_ACCELERATION_STRUCTURE_EXTENSION_NAME) : "");
-    return "driver ray tracing: " + device +
-           " offers it, but this raypack-cli has no driver ray tracing peer";
 }
 
 json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& bvh,
@@ -227,13 +208,17 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                     {"gpu_type", nullptr},
                     {"embree_version", nullptr}};
     if (gpu) {
-        session.emplace(f.gpu, false);
+        session.emplace(f.gpu, false, !f.noDriverRt);
         const vk::DeviceInfo& info = session->context.info;
         machine["gpu"] = info.name;
         machine["gpu_driver"] = info.driver;
         machine["gpu_type"] = vk::toString(info.type);
-        skipped.push_back(driverRayTracingLine(*session));
         std::fprintf(stderr, "bench: GPU %s\n", vk::describe(info).c_str());
+        if (!f.noDriverRt) {
+            const std::string unsupported = rtPeerUnsupportedReason(session->context);
+            if (unsupported.empty()) cells.push_back({Cell::DriverRt, {}});
+            else skipped.push_back(unsupported);
+        }
     }
 
     json records = json::array();
@@ -262,6 +247,18 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 MeasuredFrames measured = measureFrames(source, settings, repeats, false);
                 addRaypackRecords(records, scene, cell, measured, "");
                 referenceHits = std::move(measured.frame.hits);
+            } else if (cell.kind == Cell::DriverRt) {
+                const RtPeerResult result =
+                    runRtPeer(session->context, loaded.scene, settings, repeats);
+                std::optional<RtPeerAgreement> agreement;
+                if (!referenceHits.empty())
+                    agreement = compareRtPeerHits(result.frame.hits, referenceHits);
+                for (json record : rtPeerRecords(result, agreement ? &*agreement : nullptr)) {
+                    for (const char* key : {"scene", "scene_spec", "camera", "triangles",
+                                            "degenerate_triangles"})
+                        record[key] = scene[key];
+                    records.push_back(record);
+                }
             } else if (cell.kind == Cell::Embree) {
                 const EmbreeResults results =
                     runEmbreePeer(loaded.scene, settings, referenceHits, repeats);
@@ -279,8 +276,11 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 FrameSource source;
                 source.gpu = session->tracer.get();
                 source.uploadSeconds = uploadSeconds;
-                const MeasuredFrames measured = measureFrames(source, gpuSettings, repeats, false);
+                MeasuredFrames measured = measureFrames(source, gpuSettings, repeats, false);
                 addRaypackRecords(records, scene, cell, measured, session->context.info.driver);
+                // Without the CPU reference, the first GPU cell's hits are what the driver's ray
+                // tracing is compared with.
+                if (referenceHits.empty()) referenceHits = std::move(measured.frame.hits);
             }
             ++progress.done;
         }
@@ -324,7 +324,7 @@ CommandRunner addBenchCommand(CLI::App& app) {
     CLI::App* command = app.add_subcommand(
         "bench",
         "Run a benchmark matrix and write one JSON record per cell and ray kind (primary, shadow): "
-        "scene, triangles, tracer (cpu-reference, gpu-packet, gpu-single, embree), device and "
+        "scene, triangles, tracer (cpu-reference, gpu-packet, gpu-single, embree, driver-rt), device and "
         "driver, kernel, packet shape, Table 1 (n_l_leaves, d_avg_leaf_depth, d_max_leaf_depth, "
         "o_avg_prims_per_leaf, t_b_s, sah_cost, bvh_bytes_per_triangle, ...) and Table 2 "
         "(t_r_us_per_ray, n_it_tests_per_ray, n_tr_nodes_per_ray, n_q_rays, t_f_s, t_cu_s, "
@@ -332,7 +332,9 @@ CommandRunner addBenchCommand(CLI::App& app) {
         "machine (CPU model, threads, GPU, driver) and the date. Every cell runs once as a "
         "warm-up that counts N_TR / N_IT, once more untimed, then --repeat times; medians are reported. "
         "Embree (when built in) traces the same rays at build qualities medium and high and its "
-        "hit distances are compared with the CPU reference's. A progress line per cell goes to "
+        "hit distances are compared with the CPU reference's; the driver's own ray tracing "
+        "(VK_KHR_ray_tracing_pipeline) runs where the GPU offers it, and a \"skipped\" line in "
+        "the results says why where it does not. A progress line per cell goes to "
         "stderr. Suites: report (Sibenik, Sponza, Conference, Armadillo, Dragon from the scene "
         "folder, with fixed cameras), scaling (terrain 10k..10M, the dragon subdivided to 13M), "
         "quick (two small generated scenes at 96x96, for CI).");
@@ -365,6 +367,9 @@ CommandRunner addBenchCommand(CLI::App& app) {
     command->add_option("--out", f.out, "Results file (default: bench-SUITE.json)");
     command->add_option("--gpu", f.gpu, "Vulkan device: index or case-insensitive name substring");
     command->add_flag("--no-embree", f.noEmbree, "Do not run the Embree peer");
+    command->add_flag("--no-driver-rt", f.noDriverRt,
+                      "Do not run the driver's ray tracing peer (VK_KHR_ray_tracing_pipeline; "
+                      "it runs where the GPU offers it, after raypack's GPU cells)");
     addBvhFlags(*command, f.bvh);
     return [flags, command] { return runBench(*flags, *command); };
 }

@@ -28,10 +28,11 @@ std::string describeCpuDevice() {
     return "CPU reference, " + cpuModel() + " (" + std::to_string(cpuThreads()) + " threads)";
 }
 
-GpuSession::GpuSession(const std::string& device, bool validation) {
+GpuSession::GpuSession(const std::string& device, bool validation, bool rayTracing) {
     vk::VulkanContextOptions options;
     options.device = device;
     options.validation = validation;
+    options.enableRayTracing = rayTracing;
     options.applicationName = "raypack-cli";
     context = vk::createVulkanContext(options);
     try {

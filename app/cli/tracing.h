@@ -27,7 +27,9 @@ struct GpuSession {
     std::unique_ptr<GpuTracer> tracer;
     // `device`: "" automatic, an index or a name substring (vk::VulkanContextOptions::device).
     // Throws raypack::Error when there is no usable Vulkan device.
-    GpuSession(const std::string& device, bool validation);
+    // `rayTracing` also enables the driver's ray tracing where the device offers it (for the
+    // bench's driver ray tracing peer); the device is chosen the same way either way.
+    GpuSession(const std::string& device, bool validation, bool rayTracing = false);
     ~GpuSession();
     GpuSession(const GpuSession&) = delete;
     GpuSession& operator=(const GpuSession&) = delete;
