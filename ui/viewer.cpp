@@ -20,6 +20,7 @@
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_vulkan.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -65,6 +66,14 @@ std::string canonicalSpec(const std::string& spec) {
     return spec;
 }
 
+// Median of the second half of `values` (the steady state after start-up), 0 when empty.
+double steadyMedian(std::vector<double> values) {
+    values.erase(values.begin(), values.begin() + values.size() / 2);
+    if (values.empty()) return 0.0;
+    std::sort(values.begin(), values.end());
+    return values[values.size() / 2];
+}
+
 std::string bookmarksFile() { return (fs::path(configDirectory()) / "bookmarks.json").string(); }
 
 // Everything the frame loop passes between the modules. Destroyed in the reverse order of use:
@@ -99,6 +108,8 @@ struct Session {
     Clock::time_point lastCounting = Clock::now();
     double smoothedFrameSeconds = 0.0;
     uint32_t frameIndex = 0;
+    // Every frame's wall time and kernel times, for the summary of a scripted run.
+    std::vector<double> frameTimes, primaryKernelTimes, shadowKernelTimes;
 
     explicit Session(const ViewerOptions& o) : options(o) {}
     ~Session() {
@@ -381,6 +392,7 @@ void drawFrame(Session& s, const std::string& screenshotPath, const std::string&
     const Clock::time_point now = Clock::now();
     const double seconds = std::chrono::duration<double>(now - s.lastFrame).count();
     s.lastFrame = now;
+    if (s.frameIndex > 0) s.frameTimes.push_back(seconds);
     s.smoothedFrameSeconds = s.smoothedFrameSeconds == 0.0 ? seconds : 0.9 * s.smoothedFrameSeconds + 0.1 * seconds;
 
     if (s.scene) {
@@ -469,6 +481,8 @@ void drawFrame(Session& s, const std::string& screenshotPath, const std::string&
         st.kernelTimesValid = true;
         st.primaryKernelSeconds = kernel->primarySeconds;
         st.shadowKernelSeconds = kernel->shadowSeconds;
+        s.primaryKernelTimes.push_back(kernel->primarySeconds);
+        s.shadowKernelTimes.push_back(kernel->shadowSeconds);
         st.primaryRays = uint64_t(settings.width) * settings.height;
         const double tracing = kernel->primarySeconds + kernel->shadowSeconds;
         st.nonTracingShare = st.frameSeconds > 0 ? std::max(0.0, 1.0 - tracing / st.frameSeconds) : 0.0;
@@ -558,9 +572,13 @@ int runViewer(const ViewerOptions& options) {
         }
         if (messages) return kViewerExitValidation;
     }
-    if (scripted)
-        std::printf("raypack: %u frames, %.2f ms per frame (smoothed), swapchain re-created %u times\n",
-                    s.frameIndex, s.smoothedFrameSeconds * 1e3, s.window.swapchainRecreations);
+    if (scripted) {
+        std::printf("raypack: %u frames, swapchain re-created %u times\n", s.frameIndex,
+                    s.window.swapchainRecreations);
+        std::printf("raypack: second half of the run, medians: frame %.2f ms, T_K primary %.2f ms, "
+                    "T_K shadow %.2f ms\n", steadyMedian(s.frameTimes) * 1e3,
+                    steadyMedian(s.primaryKernelTimes) * 1e3, steadyMedian(s.shadowKernelTimes) * 1e3);
+    }
     return kViewerExitOk;
 }
 
