@@ -26,11 +26,17 @@
 #endif
 #endif
 
+// The per-ray and per-node functions below take a TraceRay (about 100 bytes) by value, as GLSL
+// must; in C++ they are forced inline so that no copy is made per box or triangle test.
+#ifdef __cplusplus
+#define RP_HOT_FUNC inline __attribute__((always_inline))
+#else
+#define RP_HOT_FUNC
+#endif
+
 RP_BEGIN_NAMESPACE
 
 #ifdef __cplusplus
-using glm::frexp;
-using glm::ldexp;
 using glm::step;
 #endif
 
@@ -73,7 +79,7 @@ struct TraceRay {
 };
 
 // dir need not be normalized (shadow rays use p - light), but must not be zero.
-RP_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
+RP_HOT_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
     TraceRay r;
     r.org = org;
     r.dir = dir;
@@ -116,7 +122,7 @@ RP_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
 // Conservative slab test against [lo, hi] for t in [0, tmax] (tmax widened by kBoxTmaxWiden).
 // Returns whether the ray may touch the box; tEntry is the entry distance (clamped to 0). Boxes are closed: a ray lying in a face plane,
 // or parallel to an axis and inside that slab, hits.
-RP_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
+RP_HOT_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
     const vec3 tLo = (lo - r.org) * r.invDir;
     const vec3 tHi = (hi - r.org) * r.invDir;
     const vec3 tNear3 = min(tLo, tHi);
@@ -146,7 +152,7 @@ RP_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float
 // relative to the edge's own length. Watertightness is kept: both triangles of an edge pick the
 // same base point, the edge vectors are exact negations (fl(q - p) = -fl(p - q)), and so are the
 // results.
-RP_FUNC float edgeFunction(vec2 p, vec2 q) {
+RP_HOT_FUNC float edgeFunction(vec2 p, vec2 q) {
     const bool baseIsP = p.x < q.x || (p.x == q.x && p.y <= q.y);
     const vec2 base = baseIsP ? p : q;
     RP_PRECISE const vec2 edge = (baseIsP ? q : p) - base;
@@ -172,7 +178,7 @@ RP_FUNC float edgeFunction(vec2 p, vec2 q) {
 // A hit's t can still carry a relative error well above an ulp where the hit is close to the ray
 // origin compared to the triangle's size (t is a sum of terms of the triangle's size that cancel),
 // so two triangles meeting the ray at the same point may report t a few 1e-6 apart.
-RP_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax,
+RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax,
                                RP_OUT(float) t, RP_OUT(vec2) bary) {
     t = 0.0f;
     bary = vec2(0.0f);
@@ -195,9 +201,11 @@ RP_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax
     // exponent is clamped so the scale stays a normal float.
     const float largest = max(max(max(abs(ax), abs(ay)), max(abs(bx), abs(by))),
                               max(abs(cx), abs(cy)));
-    int exponent;
-    frexp(largest, exponent);
-    const float scale = ldexp(1.0f, clamp(-exponent, -126, 126));
+    // largest lies in [2^(b-127), 2^(b-126)) for its biased exponent b; scale = 2^(126-b), built
+    // from its bits (exact, and no libm call on the CPU).
+    const int biasedExponent = int((floatBitsToUint(largest) >> 23u) & 255u);
+    const int scaleExponent = clamp(126 - biasedExponent, -126, 126);
+    const float scale = uintBitsToFloat(uint(scaleExponent + 127) << 23u);
     RP_PRECISE const float sax = ax * scale;
     RP_PRECISE const float say = ay * scale;
     RP_PRECISE const float sbx = bx * scale;
@@ -231,7 +239,7 @@ RP_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax
 // The order of closest hits: nearer t first, and among equal t (coplanar or shared-edge triangles)
 // the lower triangle index. With it the closest hit is independent of traversal order, so the
 // CPU reference, a brute-force loop and the GPU kernels agree on `prim` even at ties.
-RP_FUNC bool isCloserHit(float t, uint prim, float bestT, uint bestPrim) {
+RP_HOT_FUNC bool isCloserHit(float t, uint prim, float bestT, uint bestPrim) {
     return t < bestT || (t == bestT && prim < bestPrim);
 }
 
