@@ -25,8 +25,8 @@ double secondsSince(Clock::time_point start) {
 // Timestamp slots: frames the viewer may have in flight before it reads one back.
 constexpr uint32_t kQuerySlots = 4;
 constexpr uint32_t kQueriesPerFrame = 4;  // primary begin/end, shadow begin/end
-// Shared memory of the packet kernel besides its stack: four rotating uvec2 vote sums.
-constexpr uint32_t kVoteBytes = 4 * 8;
+// Shared memory of the packet kernel besides its stack: four rotating uvec4 vote sums.
+constexpr uint32_t kVoteBytes = 4 * 16;
 
 enum Binding : uint32_t {
     kBindNodes,

@@ -15,6 +15,7 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
 
 #include "gpu_types.h"
 #include "frame_types.h"
@@ -45,10 +46,10 @@ layout(std430, set = 0, binding = 6) writeonly buffer Hits { HitRecord hitRecord
 layout(std430, set = 0, binding = 7) buffer Counters { RayCounters counters[]; };
 layout(std430, set = 0, binding = 8) buffer Status { uint status; };
 
-// (node index, count) of the nodes the packet still has to visit; written by invocation 0 only.
+// (node index, count) of the nodes the packet still has to visit; written by one invocation only.
 shared uvec2 sStack[kPacketStackEntries];
-// The packet's vote sums across subgroups, four rotating slots (see packetVote).
-shared uvec2 sVote[4];
+// The packet's vote counts across subgroups, four rotating slots (see packetVote).
+shared uvec4 sVote[4];
 
 // +inf: the t of a miss (HitRecord). GLSL has no infinity literal; 1.0 / 0.0 folds to +inf.
 const float kInfinity = 1.0f / 0.0f;
@@ -110,33 +111,73 @@ void intersectLeaf(inout RayQuery q, uint first, uint count) {
     }
 }
 
-// The packet's vote over one inner node (report 2.2): each ray contributes "left first",
-// "right first" (the nearer of the children it hits), whether it wants both, and whether it is
-// still active. Summed within each subgroup by subgroupAdd, then across subgroups by one shared
-// atomic add per subgroup, so the result is right for any subgroup size, any packet size (16 bits a
-// field) and any assignment of invocations to subgroups. The shared sums rotate through four
-// slots: the slot of vote k is cleared at vote k - 2, after every invocation has read it at vote
-// k - 4 and before any adds to it at vote k, so one barrier per vote suffices.
-uvec4 packetVote(bool leftFirst, bool rightFirst, bool both, bool tracing, inout uint parity) {
-    const uvec2 mine = uvec2((leftFirst ? 1u : 0u) | (rightFirst ? 0x10000u : 0u),
-                             (both ? 1u : 0u) | (tracing ? 0x10000u : 0u));
-    const uvec2 subgroupSum = subgroupAdd(mine);
-    if (gl_NumSubgroups == 1u) {
-        // Orders invocation 0's stack writes before the other lanes' later reads.
-        subgroupBarrier();
-        return uvec4(subgroupSum.x & 0xFFFFu, subgroupSum.x >> 16u, subgroupSum.y & 0xFFFFu,
-                     subgroupSum.y >> 16u);
-    }
+// The packet's vote over one inner node (report 2.2), as counts of rays: those that want the right
+// child first, those that hit either child (the others of them want the left child first), those
+// that hit the left and the right child, and (shadow packets) those still active.
+struct PacketVote {
+    uint rightFirst;
+    uint hitting;
+    uint hitLeft;
+    uint hitRight;
+    uint stillActive;
+};
+
+// Whether the packet is exactly one subgroup, decided once per packet (uniform). Then the vote is
+// a few ballots and bit counts, the stack needs no barrier, and shared memory is touched only by
+// one invocation. Counting the subgroup's invocations instead of trusting gl_NumSubgroups == 1:
+// lavapipe reports one subgroup for a 4x2 workgroup whose rows it runs as separate subgroups.
+bool packetIsOneSubgroup() {
+    return subgroupAdd(1u) == gl_WorkGroupSize.x * gl_WorkGroupSize.y * gl_WorkGroupSize.z;
+}
+
+// The counts over the packet. Within a subgroup each count is one ballot and one bit count (a vote
+// and a population count on NVIDIA, cheaper than an add-reduction); across subgroups the per
+// subgroup counts (16 bits a field, packets of at most 65535 rays) go through one shared atomic add
+// per field and subgroup, so the result is right for any subgroup size, packet size and assignment
+// of invocations to subgroups. The shared sums rotate through four slots: the slot of vote k is
+// cleared at vote k - 2, after every invocation has read it at vote k - 4 and before any adds to it
+// at vote k, so one barrier per vote suffices. `countActive` is a constant at every call.
+PacketVote packetVote(bool oneSubgroup, bool leftHit, bool rightHit, bool rightFirst, bool isActive,
+                      bool countActive, inout uint parity) {
+    const uvec4 left = subgroupBallot(leftHit);
+    const uvec4 right = subgroupBallot(rightHit);
+    PacketVote v;
+    v.rightFirst = subgroupBallotBitCount(subgroupBallot(rightFirst));
+    v.hitting = subgroupBallotBitCount(left | right);
+    v.hitLeft = subgroupBallotBitCount(left);
+    v.hitRight = subgroupBallotBitCount(right);
+    v.stillActive = countActive ? subgroupBallotBitCount(subgroupBallot(isActive)) : 0u;
+    if (oneSubgroup) return v;
     const uint slot = parity & 3u;
     if (subgroupElect()) {
-        atomicAdd(sVote[slot].x, subgroupSum.x);
-        atomicAdd(sVote[slot].y, subgroupSum.y);
+        atomicAdd(sVote[slot].x, v.rightFirst | (v.hitting << 16u));
+        atomicAdd(sVote[slot].y, v.hitLeft | (v.hitRight << 16u));
+        if (countActive) atomicAdd(sVote[slot].z, v.stillActive);
     }
     barrier();
-    const uvec2 total = sVote[slot];
-    if (gl_LocalInvocationIndex == 0u) sVote[(slot + 2u) & 3u] = uvec2(0u);
+    const uvec4 total = sVote[slot];
+    if (gl_LocalInvocationIndex == 0u) sVote[(slot + 2u) & 3u] = uvec4(0u);
     parity += 1u;
-    return uvec4(total.x & 0xFFFFu, total.x >> 16u, total.y & 0xFFFFu, total.y >> 16u);
+    v.rightFirst = total.x & 0xFFFFu;
+    v.hitting = total.x >> 16u;
+    v.hitLeft = total.y & 0xFFFFu;
+    v.hitRight = total.y >> 16u;
+    v.stillActive = total.z;
+    return v;
+}
+
+// The shared stack's accesses. A packet of one subgroup has one invocation write and read the
+// stack and hands popped entries to the others with a broadcast, so it needs no barrier; across
+// subgroups invocation 0 writes and every invocation reads after the next vote's barrier.
+void pushEntry(bool oneSubgroup, uint slot, uvec2 entry) {
+    if (oneSubgroup ? subgroupElect() : gl_LocalInvocationIndex == 0u) sStack[slot] = entry;
+}
+
+uvec2 popEntry(bool oneSubgroup, uint slot) {
+    if (!oneSubgroup) return sStack[slot];
+    uvec2 entry = uvec2(0u);
+    if (subgroupElect()) entry = sStack[slot];
+    return subgroupBroadcastFirst(entry);
 }
 
 // Packet traversal with a stack in shared memory, shared by the packet (report 2.2, 3.3, 3.4).
@@ -150,13 +191,17 @@ void tracePacket(inout RayQuery q) {
     uvec2 current = nodeEntry(root);
     uint parity = 0u;
     uint stackSize = 0u;
+    const bool oneSubgroup = packetIsOneSubgroup();
+    // Primary rays stay active to the end; only shadow rays drop out (at their first occluder), so
+    // only shadow packets count active rays to stop early.
+    const bool countActive = kPass == kPassShadowShade;
     // Slots 0 and 1 start cleared (2 and 3 are cleared by votes 0 and 1), and the barrier orders
     // that before the first adds. A shadow pass restarts here with its own clear.
-    if (gl_LocalInvocationIndex == 0u) sVote[0] = sVote[1] = uvec2(0u);
+    if (gl_LocalInvocationIndex == 0u) sVote[0] = sVote[1] = uvec4(0u);
     barrier();
     uint wantedBits = 0u;  // bit s: this ray wanted stack entry s (s < 32; deeper entries: assumed)
     // Whether any ray hits the root: a vote with all fields but "active" empty.
-    if (packetVote(false, false, false, q.isActive, parity).w == 0u) return;
+    if (packetVote(oneSubgroup, false, false, false, q.isActive, true, parity).stillActive == 0u) return;
 
     while (true) {
         bool haveNext = false;  // a sibling to visit right after a leaf, instead of a push + pop
@@ -175,15 +220,17 @@ void tracePacket(inout RayQuery q) {
                 hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
             }
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
-            const bool leftFirst = hitLeft && !rightFirst;
-            const uvec4 votes = packetVote(leftFirst, rightFirst, hitLeft && hitRight, q.isActive, parity);
-            if (votes.w == 0u) break;  // no ray left to trace (all shadow rays occluded)
-            if (votes.x + votes.y != 0u) {
+            const PacketVote votes = packetVote(oneSubgroup, hitLeft, hitRight, rightFirst,
+                                                q.isActive, countActive, parity);
+            if (countActive && votes.stillActive == 0u) break;  // all shadow rays occluded
+            if (votes.hitting != 0u) {
                 // Sum of +1 (right first) and -1 (left first): left when the sum is below 1. The
                 // child that more rays want first is entered; the other is visited later when at
                 // least one ray wants it (the report's order, not the paper's swapped pseudocode).
-                const bool goRight = int(votes.y) - int(votes.x) >= 1;
-                const bool otherWanted = votes.z != 0u || (goRight ? votes.x != 0u : votes.y != 0u);
+                // A ray that hits the other child wants it (first or second).
+                const int sum = 2 * int(votes.rightFirst) - int(votes.hitting);
+                const bool goRight = sum >= 1;
+                const bool otherWanted = (goRight ? votes.hitLeft : votes.hitRight) != 0u;
                 const GpuNode chosen = goRight ? right : left;
                 const GpuNode other = goRight ? left : right;
                 const bool wantChosen = goRight ? hitRight : hitLeft;
@@ -202,7 +249,7 @@ void tracePacket(inout RayQuery q) {
                             if (gl_LocalInvocationIndex == 0u) atomicOr(status, kStatusStackOverflow);
                             break;
                         }
-                        if (gl_LocalInvocationIndex == 0u) sStack[stackSize] = nodeEntry(other);
+                        pushEntry(oneSubgroup, stackSize, nodeEntry(other));
                         if (stackSize < 32u) {
                             const uint bit = 1u << stackSize;
                             wantedBits = wantOther ? (wantedBits | bit) : (wantedBits & ~bit);
@@ -227,10 +274,10 @@ void tracePacket(inout RayQuery q) {
                 continue;
             }
         }
-        // Pop. The entry was written before at least one vote (a barrier) since.
+        // Pop. Across subgroups the entry was written before at least one vote (a barrier) since.
         if (stackSize == 0u) break;
         --stackSize;
-        current = sStack[stackSize];
+        current = popEntry(oneSubgroup, stackSize);
         wantCurrent = stackSize < 32u ? (wantedBits & (1u << stackSize)) != 0u : true;
     }
 }

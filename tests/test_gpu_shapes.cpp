@@ -56,6 +56,25 @@ TEST_F(GpuShapes, EveryPacketShapeMatchesReference) {
     expectNoValidationMessages();
 }
 
+// Packets of exactly one subgroup take the vote's subgroup-only path (no shared memory, no
+// barrier): 8 rays are one subgroup on lavapipe, 32 on NVIDIA. Shapes narrower than the subgroup
+// (4x2, 2x4, 1x8) once gave wrong images on lavapipe, whose subgroups do not span rows there.
+TEST_F(GpuShapes, PacketsOfOneSubgroupMatchReference) {
+    RenderSettings settings = smallSettings(197, 151);
+    const FrameRequest request{true, true, false};
+    const Frame cpu = renderCpu(scene_->scene, scene_->bvh, settings, request);
+    const PacketShape shapes[] = {{8, 1}, {4, 2}, {2, 4}, {1, 8}, {32, 1}, {16, 2}};
+    settings.kernel = KernelKind::Packet;
+    for (const PacketShape shape : shapes) {
+        settings.packet = shape;
+        const Frame gpu = tracer_->render(settings, request);
+        expectMatchesReference(gpu, cpu,
+                               "packet " + std::to_string(shape.width) + "x" +
+                                   std::to_string(shape.height));
+    }
+    expectNoValidationMessages();
+}
+
 TEST_F(GpuShapes, ShadowsOffAndImagesOfOneRowOrColumn) {
     for (const auto& [w, h] : {std::pair{64u, 1u}, std::pair{1u, 37u}, std::pair{33u, 17u}}) {
         RenderSettings settings = smallSettings(w, h);
