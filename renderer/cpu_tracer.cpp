@@ -1,6 +1,7 @@
 #include "renderer/cpu_tracer.h"
 
 #include "renderer/camera.h"
+#include "renderer/cpu_box_pair.h"
 #include "renderer/error.h"
 #include "shaders/camera.h"
 #include "shaders/intersect.h"
@@ -9,6 +10,7 @@
 #include <tbb/blocked_range2d.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <limits>
@@ -55,7 +57,32 @@ struct SceneTriangles {
     uint32_t prim(uint32_t entry) const { return primIndices[entry]; }
 };
 
-// Ordered closest-hit traversal. `stack` holds at least the tree's depth entries.
+// One step of ordered traversal at an inner node whose children `left` and left + 1 were tested
+// (hits): both hit, the nearer is visited next (the left one at equal entry distances) and the
+// other is pushed with its entry distance; one hit, that one is next. Returns false when neither
+// is hit. Branches, not selects: a predicted branch lets the core fetch the next node before the
+// box test has finished; a branch-free select makes every step wait for it (measured slower).
+__attribute__((always_inline)) inline bool descend(const ChildBoxHits& hits, uint32_t left,
+                                                   StackEntry* stack, uint32_t& top,
+                                                   uint32_t stackEntries, uint32_t& nodeIndex) {
+    const uint32_t right = left + 1;
+    if (hits.mask == 3u) {
+        RAYPACK_CHECK_MSG(top < stackEntries, "traversal stack deeper than the tree");
+        if (hits.tRight < hits.tLeft) {
+            stack[top++] = {left, hits.tLeft};
+            nodeIndex = right;
+        } else {
+            stack[top++] = {right, hits.tRight};
+            nodeIndex = left;
+        }
+        return true;
+    }
+    if (hits.mask == 0u) return false;
+    nodeIndex = hits.mask == 1u ? left : right;
+    return true;
+}
+
+// Ordered closest-hit traversal. `stack` holds at least the tree's depth + 1 entries.
 template <class Triangles>
 ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray,
                       float tmax, StackEntry* stack, uint32_t stackEntries,
@@ -64,17 +91,21 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
     float bestT = tmax;
     float tRoot;
     if (!gpu::intersectBox(ray, nodes[0].lo, nodes[0].hi, bestT, tRoot)) return best;
+    const ChildBoxRay boxRay = makeChildBoxRay(ray);
+    // Counted in locals: through the reference, every stack write might alias them.
+    uint32_t visitedNodes = 0;
+    uint32_t triangleTests = 0;
     uint32_t nodeIndex = 0;
     uint32_t top = 0;
     while (true) {
         const BvhNode& node = nodes[nodeIndex];
-        ++counts.nodes;
+        ++visitedNodes;
         if (node.isLeaf()) {
             const uint32_t end = node.index + node.count;
             for (uint32_t entry = node.index; entry < end; ++entry) {
                 glm::vec3 v0, v1, v2;
                 triangles.fetch(entry, v0, v1, v2);
-                ++counts.tests;
+                ++triangleTests;
                 float t;
                 glm::vec2 bary;
                 if (!gpu::intersectTriangle(ray, v0, v1, v2, bestT, t, bary)) continue;
@@ -87,33 +118,18 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
                 }
             }
         } else {
-            const uint32_t left = node.index;
-            const uint32_t right = node.index + 1;
-            float tLeft, tRight;
-            const bool hitLeft = gpu::intersectBox(ray, nodes[left].lo, nodes[left].hi, bestT, tLeft);
-            const bool hitRight =
-                gpu::intersectBox(ray, nodes[right].lo, nodes[right].hi, bestT, tRight);
-            if (hitLeft && hitRight) {
-                RAYPACK_CHECK_MSG(top < stackEntries, "traversal stack deeper than the tree");
-                if (tRight < tLeft) {
-                    stack[top++] = {left, tLeft};
-                    nodeIndex = right;
-                } else {
-                    stack[top++] = {right, tRight};
-                    nodeIndex = left;
-                }
-                continue;
-            }
-            if (hitLeft || hitRight) {
-                nodeIndex = hitLeft ? left : right;
-                continue;
-            }
+            const ChildBoxHits hits = intersectChildBoxes(boxRay, nodes + node.index, bestT);
+            if (descend(hits, node.index, stack, top, stackEntries, nodeIndex)) continue;
         }
         // Pop the nearest waiting node that may still hold something closer than the best hit,
         // with the same margin the box test culls with (gpu::kBoxTmaxWiden): the entry distance
         // carries rounding, and a tie at equal t with a lower triangle index must still be found.
         while (true) {
-            if (top == 0) return best;
+            if (top == 0) {
+                counts.nodes += visitedNodes;
+                counts.tests += triangleTests;
+                return best;
+            }
             const StackEntry entry = stack[--top];
             if (entry.tEntry <= bestT * gpu::kBoxTmaxWiden) {
                 nodeIndex = entry.node;
@@ -129,44 +145,40 @@ bool anyHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRa
             uint32_t skipPrim, StackEntry* stack, uint32_t stackEntries, TraversalCounts& counts) {
     float tRoot;
     if (!gpu::intersectBox(ray, nodes[0].lo, nodes[0].hi, tmax, tRoot)) return false;
+    const ChildBoxRay boxRay = makeChildBoxRay(ray);
+    uint32_t visitedNodes = 0;
+    uint32_t triangleTests = 0;
+    bool occluded = false;
     uint32_t nodeIndex = 0;
     uint32_t top = 0;
     while (true) {
         const BvhNode& node = nodes[nodeIndex];
-        ++counts.nodes;
+        ++visitedNodes;
         if (node.isLeaf()) {
             const uint32_t end = node.index + node.count;
             for (uint32_t entry = node.index; entry < end; ++entry) {
                 if (triangles.prim(entry) == skipPrim) continue;
                 glm::vec3 v0, v1, v2;
                 triangles.fetch(entry, v0, v1, v2);
-                ++counts.tests;
+                ++triangleTests;
                 float t;
                 glm::vec2 bary;
-                if (gpu::intersectTriangle(ray, v0, v1, v2, tmax, t, bary)) return true;
+                if (gpu::intersectTriangle(ray, v0, v1, v2, tmax, t, bary)) {
+                    occluded = true;
+                    break;
+                }
             }
+            if (occluded) break;
         } else {
-            const uint32_t left = node.index;
-            const uint32_t right = node.index + 1;
-            float tLeft, tRight;
-            const bool hitLeft = gpu::intersectBox(ray, nodes[left].lo, nodes[left].hi, tmax, tLeft);
-            const bool hitRight =
-                gpu::intersectBox(ray, nodes[right].lo, nodes[right].hi, tmax, tRight);
-            if (hitLeft && hitRight) {
-                RAYPACK_CHECK_MSG(top < stackEntries, "traversal stack deeper than the tree");
-                const bool rightFirst = tRight < tLeft;
-                stack[top++] = {rightFirst ? left : right, 0.0f};
-                nodeIndex = rightFirst ? right : left;
-                continue;
-            }
-            if (hitLeft || hitRight) {
-                nodeIndex = hitLeft ? left : right;
-                continue;
-            }
+            const ChildBoxHits hits = intersectChildBoxes(boxRay, nodes + node.index, tmax);
+            if (descend(hits, node.index, stack, top, stackEntries, nodeIndex)) continue;
         }
-        if (top == 0) return false;
+        if (top == 0) break;
         nodeIndex = stack[--top].node;
     }
+    counts.nodes += visitedNodes;
+    counts.tests += triangleTests;
+    return occluded;
 }
 
 // Maximal leaf depth (root at 0), walking the tree; also checks child and leaf ranges.
@@ -241,6 +253,8 @@ CpuSceneView makeCpuSceneView(const Scene& scene, const Bvh& bvh) {
                                   view.leafVertices[3 * i + c] = scene.vertex(prim, c);
                           }
                       });
+    view.nodeStorage.resize(bvh.nodes.size() / 2 + 1);
+    std::copy(bvh.nodes.begin(), bvh.nodes.end(), &view.nodeStorage.front().nodes[1]);
     view.bounds.lo = bvh.nodes[0].lo;
     view.bounds.hi = bvh.nodes[0].hi;
     return view;
@@ -252,7 +266,7 @@ ClosestHit traceClosestHit(const CpuSceneView& view, glm::vec3 origin, glm::vec3
     SmallStack stack(view.stackEntries);
     TraversalCounts local;
     const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
-    const ClosestHit hit = closestHit(view.bvh->nodes.data(), triangles, gpu::makeTraceRay(origin, dir),
+    const ClosestHit hit = closestHit(view.nodes(), triangles, gpu::makeTraceRay(origin, dir),
                                       tmax, stack.data(), stack.size(), local);
     if (counts) *counts = local;
     return hit;
@@ -264,7 +278,7 @@ bool traceOccluded(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, fl
     SmallStack stack(view.stackEntries);
     TraversalCounts local;
     const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
-    const bool occluded = anyHit(view.bvh->nodes.data(), triangles, gpu::makeTraceRay(origin, dir),
+    const bool occluded = anyHit(view.nodes(), triangles, gpu::makeTraceRay(origin, dir),
                                  tmax, skipPrim, stack.data(), stack.size(), local);
     if (counts) *counts = local;
     return occluded;
@@ -326,7 +340,7 @@ Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
     const Clock::time_point frameStart = Clock::now();
     RAYPACK_CHECK_MSG(view.scene && view.bvh, "a CpuSceneView made by makeCpuSceneView");
     const Scene& scene = *view.scene;
-    const BvhNode* nodes = view.bvh->nodes.data();
+    const BvhNode* nodes = view.nodes();
     const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
     const uint32_t width = settings.width;
     const uint32_t height = settings.height;

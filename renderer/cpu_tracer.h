@@ -25,15 +25,27 @@
 
 namespace raypack {
 
+// Two BvhNodes on one 64-byte cache line.
+struct alignas(64) CpuNodePair {
+    BvhNode nodes[2];
+};
+
 // Scene + Bvh prepared for tracing: each leaf entry's three vertices gathered in leaf order, so a
-// leaf's triangles are contiguous in memory. Refers to (does not copy) the scene and the tree,
-// which must outlive it. Build it once per tree; it costs 36 bytes per triangle.
+// leaf's triangles are contiguous in memory, and a verbatim copy of the canonical nodes placed so
+// that sibling pairs share a cache line. Refers to the scene and the tree, which must outlive it.
+// Build it once per tree; it costs 36 bytes per triangle and 32 per node.
 struct CpuSceneView {
     const Scene* scene = nullptr;
     const Bvh* bvh = nullptr;
     std::vector<glm::vec3> leafVertices;  // 3 per entry of bvh->primIndices
-    uint32_t stackEntries = 1;            // maximal leaf depth + 1
-    Aabb bounds;                          // of the scene's triangles (the root's box)
+    // bvh->nodes, copied unchanged, one node slot in: the builders place siblings at (2k+1, 2k+2)
+    // (the root alone at 0), so in bvh->nodes, whose start is 16-byte aligned, every pair the
+    // traversal reads in one go straddles two cache lines; here each pair has a line of its own.
+    std::vector<CpuNodePair> nodeStorage;
+    uint32_t stackEntries = 1;  // maximal leaf depth + 1
+    Aabb bounds;                // of the scene's triangles (the root's box)
+    // The copy of bvh->nodes that is traced: nodes()[i] == bvh->nodes[i] for every i.
+    const BvhNode* nodes() const { return &nodeStorage.front().nodes[1]; }
 };
 
 // Checks that the tree fits the scene (RAYPACK_CHECK: a Bvh built from another scene is a bug).
