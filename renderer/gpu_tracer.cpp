@@ -51,6 +51,7 @@ struct SpecializationData {
     uint32_t view;
     uint32_t packetStackEntries;
     uint32_t rayStackEntries;
+    VkBool32 packetIsOneSubgroup;
 };
 
 // One pipeline per combination, built on first use.
@@ -67,6 +68,17 @@ struct PipelineKey {
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
+
+// Whether a packet of `width` x `height` rays runs as exactly one subgroup on `device`, so that
+// its vote needs no shared memory and no barrier. A workgroup no larger than the subgroup is one
+// subgroup on NVIDIA, AMD and Intel; lavapipe (llvmpipe) runs each row of a workgroup as its own
+// SIMD-8 subgroup (a 4x2 workgroup is two subgroups of 4 although gl_NumSubgroups says 1), so
+// there only single rows qualify. The kernel checks the promise (kStatusSubgroupMismatch).
+bool packetIsOneSubgroup(const vk::DeviceInfo& device, uint32_t width, uint32_t height) {
+    if (uint64_t(width) * height > device.subgroupSize) return false;
+    const bool rowsAreSubgroups = device.name.find("llvmpipe") != std::string::npos;
+    return height == 1 || !rowsAreSubgroups;
+}
 
 uint32_t viewConstant(ViewMode view) {
     switch (view) {
@@ -353,8 +365,12 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
                                   key.statistics ? VK_TRUE : VK_FALSE,
                                   key.view,
                                   packet ? key.stackEntries : 1u,
-                                  packet ? 1u : key.stackEntries};
-    std::array<VkSpecializationMapEntry, 8> entries{};
+                                  packet ? 1u : key.stackEntries,
+                                  packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth,
+                                                                key.packetHeight)
+                                      ? VK_TRUE
+                                      : VK_FALSE};
+    std::array<VkSpecializationMapEntry, 9> entries{};
     for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {i, i * 4u, 4u};
     VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data,
                                         &data};
@@ -577,6 +593,12 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
               "vkWaitForFences");
 
     const uint32_t status = *static_cast<const uint32_t*>(s.status.mapped);
+    if (status & gpu::kStatusSubgroupMismatch)
+        throw Error("GPU: " + s.ctx.info.name + " split a packet of " +
+                    std::to_string(settings.packet.width) + "x" +
+                    std::to_string(settings.packet.height) +
+                    " rays across subgroups although it fits one subgroup of " +
+                    std::to_string(s.ctx.info.subgroupSize) + "; use another packet shape");
     RAYPACK_CHECK_MSG(status == 0, "a GPU traversal stack overflowed despite its sizing");
 
     Frame frame;

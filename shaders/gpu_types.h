@@ -81,6 +81,9 @@ const uint kViewHeatIntersections = 2u;
 // Status word written by the kernels (should stay 0): set when a stack would overflow, which the
 // host's sizing from the tree's depth rules out; checked after every synchronous frame.
 const uint kStatusStackOverflow = 1u;
+// Set when the host compiled a packet as one subgroup (kPacketIsOneSubgroup) but the device split
+// it across subgroups; the packet then traces nothing and render() throws.
+const uint kStatusSubgroupMismatch = 2u;
 
 RP_END_NAMESPACE
 

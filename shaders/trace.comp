@@ -33,6 +33,9 @@ layout(constant_id = 5) const uint kView = kViewShaded;
 layout(constant_id = 6) const uint kPacketStackEntries = 64;
 // Each ray's own stack in the single-ray kernel; 1 for the packet kernel.
 layout(constant_id = 7) const uint kRayStackEntries = 1;
+// Whether one packet is exactly one subgroup (decided by the host, GpuTracer): then the vote needs
+// neither shared memory nor a barrier. Checked once per packet (kStatusSubgroupMismatch).
+layout(constant_id = 8) const bool kPacketIsOneSubgroup = false;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
@@ -122,62 +125,58 @@ struct PacketVote {
     uint stillActive;
 };
 
-// Whether the packet is exactly one subgroup, decided once per packet (uniform). Then the vote is
-// a few ballots and bit counts, the stack needs no barrier, and shared memory is touched only by
-// one invocation. Counting the subgroup's invocations instead of trusting gl_NumSubgroups == 1:
-// lavapipe reports one subgroup for a 4x2 workgroup whose rows it runs as separate subgroups.
-bool packetIsOneSubgroup() {
-    return subgroupAdd(1u) == gl_WorkGroupSize.x * gl_WorkGroupSize.y * gl_WorkGroupSize.z;
-}
-
-// The counts over the packet. Within a subgroup each count is one ballot and one bit count (a vote
-// and a population count on NVIDIA, cheaper than an add-reduction); across subgroups the per
+// The counts over the packet. Within a subgroup by subgroup operations; across subgroups the per
 // subgroup counts (16 bits a field, packets of at most 65535 rays) go through one shared atomic add
 // per field and subgroup, so the result is right for any subgroup size, packet size and assignment
 // of invocations to subgroups. The shared sums rotate through four slots: the slot of vote k is
 // cleared at vote k - 2, after every invocation has read it at vote k - 4 and before any adds to it
 // at vote k, so one barrier per vote suffices. `countActive` is a constant at every call.
-PacketVote packetVote(bool oneSubgroup, bool leftHit, bool rightHit, bool rightFirst, bool isActive,
-                      bool countActive, inout uint parity) {
+PacketVote packetVote(bool leftHit, bool rightHit, bool rightFirst, bool isActive, bool countActive,
+                      inout uint parity) {
+    PacketVote v;
+    // A ballot and a bit count per field: on NVIDIA a vote and a population count, measured faster
+    // than subgroupAdd (docs/gpu.md).
     const uvec4 left = subgroupBallot(leftHit);
     const uvec4 right = subgroupBallot(rightHit);
-    PacketVote v;
     v.rightFirst = subgroupBallotBitCount(subgroupBallot(rightFirst));
     v.hitting = subgroupBallotBitCount(left | right);
     v.hitLeft = subgroupBallotBitCount(left);
     v.hitRight = subgroupBallotBitCount(right);
     v.stillActive = countActive ? subgroupBallotBitCount(subgroupBallot(isActive)) : 0u;
-    if (oneSubgroup) return v;
-    const uint slot = parity & 3u;
-    if (subgroupElect()) {
-        atomicAdd(sVote[slot].x, v.rightFirst | (v.hitting << 16u));
-        atomicAdd(sVote[slot].y, v.hitLeft | (v.hitRight << 16u));
-        if (countActive) atomicAdd(sVote[slot].z, v.stillActive);
+    uvec2 packed = uvec2(v.rightFirst | (v.hitting << 16u), v.hitLeft | (v.hitRight << 16u));
+    if (kPacketIsOneSubgroup) {
+        // Orders the stack writes of one invocation before the other lanes' later reads.
+        subgroupBarrier();
+    } else {
+        const uint slot = parity & 3u;
+        if (subgroupElect()) {
+            atomicAdd(sVote[slot].x, packed.x);
+            atomicAdd(sVote[slot].y, packed.y);
+            if (countActive) atomicAdd(sVote[slot].z, v.stillActive);
+        }
+        barrier();
+        const uvec4 total = sVote[slot];
+        if (gl_LocalInvocationIndex == 0u) sVote[(slot + 2u) & 3u] = uvec4(0u);
+        parity += 1u;
+        packed = total.xy;
+        v.stillActive = total.z;
     }
-    barrier();
-    const uvec4 total = sVote[slot];
-    if (gl_LocalInvocationIndex == 0u) sVote[(slot + 2u) & 3u] = uvec4(0u);
-    parity += 1u;
-    v.rightFirst = total.x & 0xFFFFu;
-    v.hitting = total.x >> 16u;
-    v.hitLeft = total.y & 0xFFFFu;
-    v.hitRight = total.y >> 16u;
-    v.stillActive = total.z;
+    v.rightFirst = packed.x & 0xFFFFu;
+    v.hitting = packed.x >> 16u;
+    v.hitLeft = packed.y & 0xFFFFu;
+    v.hitRight = packed.y >> 16u;
     return v;
 }
 
-// The shared stack's accesses. A packet of one subgroup has one invocation write and read the
-// stack and hands popped entries to the others with a broadcast, so it needs no barrier; across
-// subgroups invocation 0 writes and every invocation reads after the next vote's barrier.
-void pushEntry(bool oneSubgroup, uint slot, uvec2 entry) {
-    if (oneSubgroup ? subgroupElect() : gl_LocalInvocationIndex == 0u) sStack[slot] = entry;
+// The shared stack's accesses: one invocation writes, every invocation reads after the next vote's
+// barrier (a subgroup barrier within one subgroup). Handing popped entries from one reader to the
+// others by a broadcast instead was measured slower on the H100 (docs/gpu.md).
+void pushEntry(uint slot, uvec2 entry) {
+    if (kPacketIsOneSubgroup ? subgroupElect() : gl_LocalInvocationIndex == 0u) sStack[slot] = entry;
 }
 
-uvec2 popEntry(bool oneSubgroup, uint slot) {
-    if (!oneSubgroup) return sStack[slot];
-    uvec2 entry = uvec2(0u);
-    if (subgroupElect()) entry = sStack[slot];
-    return subgroupBroadcastFirst(entry);
+uvec2 popEntry(uint slot) {
+    return sStack[slot];
 }
 
 // Packet traversal with a stack in shared memory, shared by the packet (report 2.2, 3.3, 3.4).
@@ -191,17 +190,24 @@ void tracePacket(inout RayQuery q) {
     uvec2 current = nodeEntry(root);
     uint parity = 0u;
     uint stackSize = 0u;
-    const bool oneSubgroup = packetIsOneSubgroup();
     // Primary rays stay active to the end; only shadow rays drop out (at their first occluder), so
     // only shadow packets count active rays to stop early.
     const bool countActive = kPass == kPassShadowShade;
     // Slots 0 and 1 start cleared (2 and 3 are cleared by votes 0 and 1), and the barrier orders
     // that before the first adds. A shadow pass restarts here with its own clear.
-    if (gl_LocalInvocationIndex == 0u) sVote[0] = sVote[1] = uvec4(0u);
-    barrier();
+    if (kPacketIsOneSubgroup) {
+        // The host's promise, checked: a packet split across subgroups would vote wrong.
+        if (subgroupAdd(1u) != gl_WorkGroupSize.x * gl_WorkGroupSize.y) {
+            if (subgroupElect()) atomicOr(status, kStatusSubgroupMismatch);
+            return;
+        }
+    } else {
+        if (gl_LocalInvocationIndex == 0u) sVote[0] = sVote[1] = uvec4(0u);
+        barrier();
+    }
     uint wantedBits = 0u;  // bit s: this ray wanted stack entry s (s < 32; deeper entries: assumed)
     // Whether any ray hits the root: a vote with all fields but "active" empty.
-    if (packetVote(oneSubgroup, false, false, false, q.isActive, true, parity).stillActive == 0u) return;
+    if (packetVote(false, false, false, q.isActive, true, parity).stillActive == 0u) return;
 
     while (true) {
         bool haveNext = false;  // a sibling to visit right after a leaf, instead of a push + pop
@@ -220,8 +226,8 @@ void tracePacket(inout RayQuery q) {
                 hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
             }
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
-            const PacketVote votes = packetVote(oneSubgroup, hitLeft, hitRight, rightFirst,
-                                                q.isActive, countActive, parity);
+            const PacketVote votes = packetVote(hitLeft, hitRight, rightFirst, q.isActive,
+                                                countActive, parity);
             if (countActive && votes.stillActive == 0u) break;  // all shadow rays occluded
             if (votes.hitting != 0u) {
                 // Sum of +1 (right first) and -1 (left first): left when the sum is below 1. The
@@ -249,7 +255,7 @@ void tracePacket(inout RayQuery q) {
                             if (gl_LocalInvocationIndex == 0u) atomicOr(status, kStatusStackOverflow);
                             break;
                         }
-                        pushEntry(oneSubgroup, stackSize, nodeEntry(other));
+                        pushEntry(stackSize, nodeEntry(other));
                         if (stackSize < 32u) {
                             const uint bit = 1u << stackSize;
                             wantedBits = wantOther ? (wantedBits | bit) : (wantedBits & ~bit);
@@ -277,7 +283,7 @@ void tracePacket(inout RayQuery q) {
         // Pop. Across subgroups the entry was written before at least one vote (a barrier) since.
         if (stackSize == 0u) break;
         --stackSize;
-        current = popEntry(oneSubgroup, stackSize);
+        current = popEntry(stackSize);
         wantCurrent = stackSize < 32u ? (wantedBits & (1u << stackSize)) != 0u : true;
     }
 }
