@@ -3,6 +3,7 @@
 // shadow can be computed by hand; and the frame renderCpu hands back.
 #include "renderer/bvh.h"
 #include "renderer/camera.h"
+#include "renderer/cpu_box_pair.h"
 #include "renderer/cpu_tracer.h"
 #include "renderer/error.h"
 #include "scenes/generators.h"
@@ -13,7 +14,10 @@
 
 #include <gtest/gtest.h>
 
+#include <bit>
+#include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <map>
 #include <random>
@@ -529,6 +533,263 @@ TEST(Camera, FrameSceneAndLight) {
     Camera badFov = camera;
     badFov.fovYDegrees = 180.0f;
     EXPECT_THROW(makeGpuCamera(badFov, 10, 10), Error);
+}
+
+// ---- The fast paths of the reference against the plain code they replace (cpuopt).
+
+// intersectChildBoxes must give, bit for bit, what gpu::intersectBox gives for each child: the
+// same hit decision and the same entry distance (the traversal orders and culls with it).
+void expectChildBoxesMatch(const gpu::TraceRay& ray, const BvhNode* children, float tmax,
+                           const char* what) {
+    const ChildBoxHits pair = intersectChildBoxes(makeChildBoxRay(ray), children, tmax);
+    for (int child = 0; child < 2; ++child) {
+        float tEntry = -1.0f;
+        const bool hit =
+            gpu::intersectBox(ray, children[child].lo, children[child].hi, tmax, tEntry);
+        const float pairEntry = child == 0 ? pair.tLeft : pair.tRight;
+        ASSERT_EQ(((pair.mask >> child) & 1u) != 0, hit)
+            << what << ": child " << child << " dir " << ray.dir.x << "," << ray.dir.y << ","
+            << ray.dir.z << " tmax " << tmax;
+        ASSERT_EQ(std::bit_cast<uint32_t>(pairEntry), std::bit_cast<uint32_t>(tEntry))
+            << what << ": child " << child << " entry " << pairEntry << " vs " << tEntry;
+    }
+}
+
+TEST(ChildBoxes, BitIdenticalToIntersectBoxOnAdversarialBoxes) {
+    std::mt19937 rng(21);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+    std::uniform_int_distribution<uint32_t> word;
+    std::uniform_int_distribution<int> pick(0, 9);
+    // Coordinates of every scale, with exact zeros, signed zeros and values equal to the origin.
+    const float scales[] = {1.0f, 1e-3f, 1e3f, 1e-30f, 1e30f, 3.0e38f};
+    const auto coordinate = [&](float origin) {
+        switch (pick(rng)) {
+            case 0: return 0.0f;
+            case 1: return -0.0f;
+            case 2: return origin;  // a face through the ray origin
+            default: return unit(rng) * scales[pick(rng) % 6];
+        }
+    };
+    const auto directionComponent = [&]() {
+        switch (pick(rng)) {
+            case 0: return 0.0f;               // parallel
+            case 1: return -0.0f;              // parallel, negative zero
+            case 2: return 1e-39f;             // denormal: parallel by kParallelEpsilon
+            case 3: return unit(rng) * 1e-30f; // 1/d overflows the box distances to inf
+            default: return unit(rng);
+        }
+    };
+    int tested = 0;
+    for (int i = 0; i < 200000; ++i) {
+        const glm::vec3 origin(coordinate(0.0f), coordinate(0.0f), coordinate(0.0f));
+        glm::vec3 dir(directionComponent(), directionComponent(), directionComponent());
+        if (dir == glm::vec3(0.0f)) dir.x = 1.0f;
+        const gpu::TraceRay ray = gpu::makeTraceRay(origin, dir);
+        BvhNode children[2];
+        for (BvhNode& node : children) {
+            if (pick(rng) == 0) {  // the empty box of an empty scene's root
+                node.lo = glm::vec3(FLT_MAX);
+                node.hi = glm::vec3(-FLT_MAX);
+            } else {
+                for (int axis = 0; axis < 3; ++axis) {
+                    const float a = coordinate(origin[axis]);
+                    const float b = pick(rng) < 2 ? a : coordinate(origin[axis]);  // flat box
+                    node.lo[axis] = std::min(a, b);
+                    node.hi[axis] = std::max(a, b);
+                }
+            }
+            // Index and count words that read as NaN, infinity or denormals must not matter.
+            node.index = word(rng);
+            node.count = word(rng);
+        }
+        const float tmaxes[] = {kRayTmaxInfinite, std::numeric_limits<float>::infinity(), 0.0f,
+                                std::abs(unit(rng)) * scales[pick(rng) % 6]};
+        for (float tmax : tmaxes) expectChildBoxesMatch(ray, children, tmax, "adversarial");
+        if (HasFatalFailure()) return;
+        ++tested;
+    }
+    EXPECT_EQ(tested, 200000);
+}
+
+TEST(ChildBoxes, BitIdenticalToIntersectBoxOnATree) {
+    const Scene scene = loadScene(std::filesystem::path(RAYPACK_SHARED_SCENES) /
+                                  "sibenik/sibenik_geom_75284.ply");
+    const Bvh bvh = build(scene, 1);
+    const Aabb bounds = scene.bounds();
+    std::mt19937 rng(22);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    for (int i = 0; i < 48; ++i) {
+        const glm::vec3 origin =
+            bounds.lo + glm::vec3(unit(rng), unit(rng), unit(rng)) * bounds.extent();
+        glm::vec3 dir = randomDirection(rng);
+        if (i % 8 == 0) dir = glm::vec3(0.0f, i % 16 == 0 ? 1.0f : -1.0f, 0.0f);  // parallel
+        const gpu::TraceRay ray = gpu::makeTraceRay(origin, dir);
+        const float tmax = i % 2 ? kRayTmaxInfinite : 0.1f * glm::length(bounds.extent());
+        for (const BvhNode& node : bvh.nodes) {
+            if (node.isLeaf()) continue;
+            expectChildBoxesMatch(ray, &bvh.nodes[node.index], tmax, "Sibenik");
+            if (HasFatalFailure()) return;
+        }
+    }
+}
+
+// The view traces a copy of the canonical nodes, unchanged, with each sibling pair on one
+// 64-byte line (the layout the builders produce makes every pair start at an odd index).
+TEST(CpuSceneView, NodesAreAVerbatimCopyWithSiblingsOnOneLine) {
+    const Scene scene = makeSphereFlake(20000);
+    for (BvhBuilder builder : kAllBvhBuilders) {
+        for (uint32_t leafSize : {1u, 4u}) {
+            BvhBuildOptions options;
+            options.builder = builder;
+            options.leafSize = leafSize;
+            const Bvh bvh = buildBvh(scene, options);
+            const CpuSceneView view = makeCpuSceneView(scene, bvh);
+            ASSERT_EQ(std::memcmp(view.nodes(), bvh.nodes.data(),
+                                  bvh.nodes.size() * sizeof(BvhNode)),
+                      0);
+            for (const BvhNode& node : bvh.nodes) {
+                if (node.isLeaf()) continue;
+                EXPECT_EQ(reinterpret_cast<uintptr_t>(view.nodes() + node.index) % 64, 0u)
+                    << toString(builder) << " leaf size " << leafSize;
+            }
+        }
+    }
+}
+
+// The traversal as first written, before the pair test and branch changes: gpu::intersectBox per
+// child, nearer child first, the other pushed with its entry distance and skipped at pop time
+// beyond the widened closest hit. The tracer must visit the same nodes in the same order, so it
+// gives the same hit (t and barycentrics to the bit) and the same N_TR and N_IT.
+struct PlainTrace {
+    ClosestHit hit;
+    bool occluded = false;
+    TraversalCounts counts;
+};
+
+PlainTrace plainTraversal(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir,
+                          float tmax, bool anyHit, uint32_t skipPrim) {
+    const gpu::TraceRay ray = gpu::makeTraceRay(origin, dir);
+    PlainTrace out;
+    float bestT = tmax;
+    float tRoot;
+    if (!gpu::intersectBox(ray, bvh.nodes[0].lo, bvh.nodes[0].hi, bestT, tRoot)) return out;
+    std::vector<std::pair<uint32_t, float>> stack;
+    uint32_t nodeIndex = 0;
+    while (true) {
+        const BvhNode& node = bvh.nodes[nodeIndex];
+        ++out.counts.nodes;
+        bool descended = false;
+        if (node.isLeaf()) {
+            for (uint32_t entry = node.index; entry < node.index + node.count; ++entry) {
+                const uint32_t prim = bvh.primIndices[entry];
+                if (anyHit && prim == skipPrim) continue;
+                ++out.counts.tests;
+                float t;
+                glm::vec2 bary;
+                if (!gpu::intersectTriangle(ray, scene.vertex(prim, 0), scene.vertex(prim, 1),
+                                            scene.vertex(prim, 2), bestT, t, bary))
+                    continue;
+                if (anyHit) {
+                    out.occluded = true;
+                    return out;
+                }
+                if (gpu::isCloserHit(t, prim, bestT, out.hit.prim)) {
+                    bestT = t;
+                    out.hit = {t, prim, bary};
+                }
+            }
+        } else {
+            const uint32_t left = node.index, right = node.index + 1;
+            float tLeft, tRight;
+            const bool hitLeft =
+                gpu::intersectBox(ray, bvh.nodes[left].lo, bvh.nodes[left].hi, bestT, tLeft);
+            const bool hitRight =
+                gpu::intersectBox(ray, bvh.nodes[right].lo, bvh.nodes[right].hi, bestT, tRight);
+            if (hitLeft && hitRight) {
+                if (tRight < tLeft) {
+                    stack.push_back({left, tLeft});
+                    nodeIndex = right;
+                } else {
+                    stack.push_back({right, tRight});
+                    nodeIndex = left;
+                }
+                descended = true;
+            } else if (hitLeft || hitRight) {
+                nodeIndex = hitLeft ? left : right;
+                descended = true;
+            }
+        }
+        if (descended) continue;
+        while (true) {
+            if (stack.empty()) return out;
+            const auto [next, tEntry] = stack.back();
+            stack.pop_back();
+            if (anyHit || tEntry <= bestT * gpu::kBoxTmaxWiden) {
+                nodeIndex = next;
+                break;
+            }
+        }
+    }
+}
+
+void expectSameTraversal(const Scene& scene, const Bvh& bvh, int rays, uint32_t seed) {
+    const CpuSceneView view = makeCpuSceneView(scene, bvh);
+    const Aabb bounds = scene.bounds();
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+    std::uniform_int_distribution<uint32_t> anyTriangle(0, uint32_t(scene.triangleCount() - 1));
+    int hits = 0, occlusions = 0;
+    uint64_t nodes = 0;
+    for (int i = 0; i < rays; ++i) {
+        const glm::vec3 origin = bounds.lo - 0.1f * bounds.extent() +
+                                 glm::vec3(unit(rng), unit(rng), unit(rng)) * 1.2f *
+                                     bounds.extent();
+        const uint32_t tri = anyTriangle(rng);
+        glm::vec3 dir = i % 2 ? randomDirection(rng) : scene.vertex(tri, i % 3) - origin;
+        if (i % 10 == 0) dir = glm::vec3(0.0f);
+        if (i % 10 == 0) dir[i % 3] = 1.0f;  // axis-parallel
+        if (dir == glm::vec3(0.0f)) continue;
+        TraversalCounts counts;
+        const ClosestHit hit = traceClosestHit(view, origin, dir, kRayTmaxInfinite, &counts);
+        const PlainTrace plain =
+            plainTraversal(scene, bvh, origin, dir, kRayTmaxInfinite, false, 0);
+        ASSERT_EQ(hit.prim, plain.hit.prim) << scene.source << " ray " << i;
+        ASSERT_EQ(std::bit_cast<uint32_t>(hit.t), std::bit_cast<uint32_t>(plain.hit.t));
+        ASSERT_EQ(std::bit_cast<uint32_t>(hit.bary.x), std::bit_cast<uint32_t>(plain.hit.bary.x));
+        ASSERT_EQ(std::bit_cast<uint32_t>(hit.bary.y), std::bit_cast<uint32_t>(plain.hit.bary.y));
+        ASSERT_EQ(counts.nodes, plain.counts.nodes) << scene.source << " ray " << i;
+        ASSERT_EQ(counts.tests, plain.counts.tests) << scene.source << " ray " << i;
+        // An any-hit query that ends just before the closest hit (never occluded) or beyond it
+        // (occluded unless the hit triangle is the one skipped), skipping some triangle.
+        const float tmax = !hit.hit() ? 1.0f : i % 3 == 0 ? hit.t * 0.999f : hit.t * 2.0f;
+        const uint32_t skip = i % 5 == 0 ? hit.prim : tri;
+        TraversalCounts occludedCounts;
+        const bool occluded = traceOccluded(view, origin, dir, tmax, skip, &occludedCounts);
+        const PlainTrace plainOccluded = plainTraversal(scene, bvh, origin, dir, tmax, true, skip);
+        ASSERT_EQ(occluded, plainOccluded.occluded) << scene.source << " ray " << i;
+        ASSERT_EQ(occludedCounts.nodes, plainOccluded.counts.nodes);
+        ASSERT_EQ(occludedCounts.tests, plainOccluded.counts.tests);
+        hits += hit.hit() ? 1 : 0;
+        occlusions += occluded ? 1 : 0;
+        nodes += counts.nodes;
+    }
+    // Enough hits, occluded segments and depth for the comparison to mean something.
+    EXPECT_GT(hits, rays / 4) << scene.source;
+    EXPECT_GT(occlusions, rays / 100) << scene.source;
+    EXPECT_GT(nodes, uint64_t(rays) * 4) << scene.source;
+}
+
+TEST(ClosestHit, SameVisitsAsThePlainTraversal) {
+    const Scene soup = randomSoup(3000, 5);
+    expectSameTraversal(soup, build(soup, 1), 3000, 31);
+    expectSameTraversal(soup, build(soup, 8), 1000, 32);
+    const Scene ties = coplanarTies();
+    expectSameTraversal(ties, build(ties, 1), 2000, 33);
+    const Scene cube = tessellatedCube(6);
+    expectSameTraversal(cube, build(cube, 1), 2000, 34);
+    const Scene sibenik = loadScene(std::filesystem::path(RAYPACK_SHARED_SCENES) /
+                                    "sibenik/sibenik_geom_75284.ply");
+    expectSameTraversal(sibenik, build(sibenik, 1), 3000, 35);
 }
 
 }  // namespace
