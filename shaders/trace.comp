@@ -217,14 +217,16 @@ void tracePacket(inout RayQuery q) {
             // Inner node: both children in one 64-byte read (siblings are adjacent).
             const GpuNode left = nodes[current.x];
             const GpuNode right = nodes[current.x + 1u];
-            float entryLeft = kInfinity, entryRight = kInfinity;
-            bool hitLeft = false, hitRight = false;
-            if (q.isActive) {
-                if (kStatistics) q.nodes += 1u;
-                // A child whose entry distance lies beyond the nearest hit counts as missed.
-                hitLeft = intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
-                hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
-            }
+            // A child whose entry distance lies beyond the nearest hit counts as missed. Inactive
+            // rays test too and are masked afterwards (the test first: && would branch): a branch
+            // around the tests, which the packet takes together anyway, was measured 2% slower on
+            // the H100 (docs/gpu.md).
+            if (kStatistics && q.isActive) q.nodes += 1u;
+            float entryLeft, entryRight;
+            const bool hitLeft =
+                intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
+            const bool hitRight =
+                intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
             const PacketVote votes = packetVote(hitLeft, hitRight, rightFirst, q.isActive,
                                                 countActive, parity);
