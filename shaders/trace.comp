@@ -16,6 +16,7 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_vote : require
 
 #include "gpu_types.h"
 #include "frame_types.h"
@@ -192,7 +193,10 @@ void tracePacket(inout RayQuery q) {
     uint stackSize = 0u;
     // Primary rays stay active to the end; only shadow rays drop out (at their first occluder), so
     // only shadow packets count active rays to stop early.
-    const bool countActive = kPass == kPassShadowShade;
+    // A packet of one subgroup checks that after each leaf (the only place a ray drops out) with
+    // one subgroupAny; across subgroups the inner-node vote counts active rays (no extra barrier).
+    const bool shadowPacket = kPass == kPassShadowShade;
+    const bool countActive = shadowPacket && !kPacketIsOneSubgroup;
     // Slots 0 and 1 start cleared (2 and 3 are cleared by votes 0 and 1), and the barrier orders
     // that before the first adds. A shadow pass restarts here with its own clear.
     if (kPacketIsOneSubgroup) {
@@ -276,6 +280,7 @@ void tracePacket(inout RayQuery q) {
                 if (kStatistics) q.nodes += 1u;
                 intersectLeaf(q, current.x, current.y);
             }
+            if (shadowPacket && kPacketIsOneSubgroup && !subgroupAny(q.isActive)) break;
             if (haveNext) {
                 current = next;
                 wantCurrent = wantNext;
