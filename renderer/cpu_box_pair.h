@@ -47,10 +47,21 @@ struct ChildBoxRay {
     __m128 invXY;  // (invDir.x, invDir.x, invDir.y, invDir.y)
     __m128 orgZ;   // org.z in every lane
     __m128 invZ;   // invDir.z in every lane
+    // tmax * gpu::kBoxTmaxWiden in every lane, for the tmax of the last setTmax: the product
+    // intersectBox forms per call, formed here once per change of tmax (a closer hit).
+    __m128 tmaxWidened;
 #endif
+    float tmax = 0.0f;
+
+    void setTmax(float newTmax) {
+        tmax = newTmax;
+#if RAYPACK_CPU_BOX_PAIR_SSE
+        tmaxWidened = _mm_set1_ps(newTmax * gpu::kBoxTmaxWiden);
+#endif
+    }
 };
 
-inline ChildBoxRay makeChildBoxRay(const gpu::TraceRay& ray) {
+inline ChildBoxRay makeChildBoxRay(const gpu::TraceRay& ray, float tmax) {
     ChildBoxRay pair;
     pair.ray = &ray;
     pair.parallel = ray.anyParallel;
@@ -60,6 +71,7 @@ inline ChildBoxRay makeChildBoxRay(const gpu::TraceRay& ray) {
     pair.orgZ = _mm_set1_ps(ray.org.z);
     pair.invZ = _mm_set1_ps(ray.invDir.z);
 #endif
+    pair.setTmax(tmax);
     return pair;
 }
 
@@ -70,10 +82,9 @@ struct ChildBoxHits {
     float tRight;
 };
 
-// Tests children[0] (left) and children[1] (right) for t in [0, tmax].
+// Tests children[0] (left) and children[1] (right) for t in [0, pair.tmax].
 __attribute__((always_inline)) inline ChildBoxHits intersectChildBoxes(const ChildBoxRay& pair,
-                                                                       const BvhNode* children,
-                                                                       float tmax) {
+                                                                       const BvhNode* children) {
 #if RAYPACK_CPU_BOX_PAIR_SSE
     if (!pair.parallel) {
         // BvhNode is {vec3 lo; uint32 index; vec3 hi; uint32 count}: 16-byte halves.
@@ -107,10 +118,9 @@ __attribute__((always_inline)) inline ChildBoxHits intersectChildBoxes(const Chi
         const __m128 tNear = _mm_max_ps(nearMaxZ0, nearMaxXY);
         // tFar = min(min(far.x, far.y), far.z) * kSlabFarWiden.
         const __m128 farMinXY = _mm_min_ps(farY, farXY);
-        const __m128 tFar =
-            _mm_mul_ps(_mm_min_ps(farZ, farMinXY), _mm_set1_ps(gpu::kSlabFarWiden));
+        const __m128 tFar = _mm_mul_ps(_mm_min_ps(farZ, farMinXY), _mm_set1_ps(gpu::kSlabFarWiden));
         // tNear <= min(tFar, tmax * kBoxTmaxWiden).
-        const __m128 limit = _mm_min_ps(_mm_set1_ps(tmax * gpu::kBoxTmaxWiden), tFar);
+        const __m128 limit = _mm_min_ps(pair.tmaxWidened, tFar);
         ChildBoxHits hits;
         hits.mask = uint32_t(_mm_movemask_ps(_mm_cmple_ps(tNear, limit))) & 3u;
         hits.tLeft = _mm_cvtss_f32(tNear);
@@ -120,8 +130,10 @@ __attribute__((always_inline)) inline ChildBoxHits intersectChildBoxes(const Chi
 #endif
     const gpu::TraceRay& ray = *pair.ray;
     ChildBoxHits hits;
-    const bool hitLeft = gpu::intersectBox(ray, children[0].lo, children[0].hi, tmax, hits.tLeft);
-    const bool hitRight = gpu::intersectBox(ray, children[1].lo, children[1].hi, tmax, hits.tRight);
+    const bool hitLeft =
+        gpu::intersectBox(ray, children[0].lo, children[0].hi, pair.tmax, hits.tLeft);
+    const bool hitRight =
+        gpu::intersectBox(ray, children[1].lo, children[1].hi, pair.tmax, hits.tRight);
     hits.mask = (hitLeft ? 1u : 0u) | (hitRight ? 2u : 0u);
     return hits;
 }

@@ -19,8 +19,8 @@
 #include <glm/glm.hpp>
 
 #include <cfloat>
-#include <limits>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace raypack {
@@ -56,8 +56,8 @@ constexpr float kRayTmaxInfinite = FLT_MAX;
 // The closest hit of one ray, with what shading needs.
 struct ClosestHit {
     float t = std::numeric_limits<float>::infinity();  // +inf on a miss
-    uint32_t prim = 0xFFFFFFFFu; // triangle index in file order, gpu::kNoHit on a miss
-    glm::vec2 bary{0.0f};        // barycentric weights of the triangle's vertices 1 and 2
+    uint32_t prim = 0xFFFFFFFFu;  // triangle index in file order, gpu::kNoHit on a miss
+    glm::vec2 bary{0.0f};         // barycentric weights of the triangle's vertices 1 and 2
     bool hit() const { return prim != 0xFFFFFFFFu; }
 };
 

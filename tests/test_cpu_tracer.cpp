@@ -485,6 +485,57 @@ TEST(Render, FrameContents) {
     }
 }
 
+// Every pixel traced exactly once whatever the image size (tiles cut at the edges, pixels visited
+// in Z order within a tile): hits, shadows and counters as single rays give them.
+TEST(Render, EveryPixelOnceAtOddSizes) {
+    const Scene scene = makeSphereFlake(3000);
+    const Bvh bvh = build(scene, 1);
+    const CpuSceneView view = makeCpuSceneView(scene, bvh);
+    for (const auto& [width, height] : {std::pair{37u, 29u}, {1u, 1u}, {17u, 3u}, {5u, 40u}}) {
+        RenderSettings settings;
+        settings.width = width;
+        settings.height = height;
+        settings.camera = frameScene(scene.bounds());
+        const Frame frame =
+            renderCpu(view, settings, {.image = false, .hits = true, .counters = true});
+        ASSERT_EQ(frame.hits.size(), size_t(width) * height);
+        const gpu::GpuCamera camera = makeGpuCamera(settings.camera, width, height);
+        const glm::vec3 eye = gpu::cameraEye(camera);
+        int hits = 0;
+        for (uint32_t y = 0; y < height; ++y) {
+            for (uint32_t x = 0; x < width; ++x) {
+                const size_t i = size_t(y) * width + x;
+                const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
+                TraversalCounts counts;
+                const ClosestHit single =
+                    traceClosestHit(view, eye, dir, kRayTmaxInfinite, &counts);
+                ASSERT_EQ(frame.hits[i].prim, single.prim)
+                    << width << "x" << height << " pixel " << x << "," << y;
+                ASSERT_EQ(std::bit_cast<uint32_t>(frame.hits[i].t),
+                          std::bit_cast<uint32_t>(single.t));
+                ASSERT_EQ(frame.counters[i].primaryNodes, counts.nodes);
+                ASSERT_EQ(frame.counters[i].primaryTests, counts.tests);
+                if (!single.hit()) {
+                    ASSERT_EQ(frame.hits[i].shadow, gpu::kShadowNone);
+                    continue;
+                }
+                ++hits;
+                TraversalCounts shadowCounts;
+                const bool occluded = traceShadowOccluded(
+                    view, frame.light, gpu::hitPosition(eye, dir, single.t), single.prim,
+                    &shadowCounts);
+                ASSERT_EQ(frame.hits[i].shadow,
+                          occluded ? gpu::kShadowOccluded : gpu::kShadowLit);
+                ASSERT_EQ(frame.counters[i].shadowNodes, shadowCounts.nodes);
+                ASSERT_EQ(frame.counters[i].shadowTests, shadowCounts.tests);
+            }
+        }
+        if (width * height > 100) {
+            EXPECT_GT(hits, 0) << width << "x" << height;
+        }
+    }
+}
+
 TEST(Render, BadCameraThrows) {
     const Scene scene = plateOverGround();
     const Bvh bvh = build(scene);
@@ -541,7 +592,7 @@ TEST(Camera, FrameSceneAndLight) {
 // same hit decision and the same entry distance (the traversal orders and culls with it).
 void expectChildBoxesMatch(const gpu::TraceRay& ray, const BvhNode* children, float tmax,
                            const char* what) {
-    const ChildBoxHits pair = intersectChildBoxes(makeChildBoxRay(ray), children, tmax);
+    const ChildBoxHits pair = intersectChildBoxes(makeChildBoxRay(ray, tmax), children);
     for (int child = 0; child < 2; ++child) {
         float tEntry = -1.0f;
         const bool hit =
