@@ -4,6 +4,8 @@
 // still be spliced into one array in an order that does not depend on the thread count.
 #include "renderer/bvh.h"
 
+#include <oneapi/tbb/task_group.h>
+
 #include <cstdint>
 #include <cstring>
 #include <memory>
@@ -68,6 +70,13 @@ inline double leafCost(uint32_t count, const BvhBuildOptions& options) {
 // thousand primitives so that a 10M-primitive build stops within a few milliseconds.
 inline void throwIfCancelled(BuildProgress* progress) {
     if (progress && progress->cancel.load(std::memory_order_relaxed)) throw BuildCancelled{};
+}
+// A parallel loop or parallel_invoke run inside a task whose group is being cancelled (a sibling
+// task threw, e.g. BuildCancelled) stops early *without* an exception of its own, leaving its result
+// partial. Every nested parallel step of a builder calls this before it uses that result.
+inline void throwIfInterrupted(BuildProgress* progress) {
+    if (tbb::is_current_task_group_canceling()) throw BuildCancelled{};
+    throwIfCancelled(progress);
 }
 inline void addPlaced(BuildProgress* progress, uint64_t count) {
     if (progress) progress->placed.fetch_add(count, std::memory_order_relaxed);

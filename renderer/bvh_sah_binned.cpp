@@ -122,6 +122,7 @@ public:
                 a.grow(b);
                 return a;
             });
+        throwIfInterrupted(progress_);
 
         Fragment root;
         root.nodes.resize(1);
@@ -244,6 +245,7 @@ private:
             BinFiller filler(*this, binning, binCount);
             tbb::parallel_reduce(
                 tbb::blocked_range<uint32_t>(work.begin, work.end, kCancelCheckInterval), filler);
+            throwIfInterrupted(progress_);
             parallelGrid = std::move(filler.grid);
         } else {
             fillBins(binning, work.begin, work.end, localGrid);
@@ -340,6 +342,7 @@ private:
                 }
             }
         });
+        throwIfInterrupted(progress_);
         uint32_t leftTotal = 0;
         for (const Chunk& chunk : chunks) leftTotal += chunk.leftCount;
         uint32_t leftOffset = work.begin, rightOffset = work.begin + leftTotal;
@@ -361,10 +364,12 @@ private:
                 spill_[goesLeft(prim) ? left++ : right++] = prim;
             }
         });
+        throwIfInterrupted(progress_);
         tbb::parallel_for(uint32_t(0), chunkCount, [&](uint32_t c) {
             const auto [from, to] = chunkRange(c);
             std::memcpy(&prims_[from], &spill_[from], (to - from) * sizeof(uint32_t));
         });
+        throwIfInterrupted(progress_);
         return work.begin + leftTotal;
     }
 

@@ -95,6 +95,7 @@ public:
         const uint32_t n = uint32_t(bounds_.size());
         // Presort: one list of primitive indices per axis, ordered by centroid then index.
         tbb::parallel_invoke([&] { presort(0); }, [&] { presort(1); }, [&] { presort(2); });
+        throwIfInterrupted(progress_);
         for (auto& scratch : leftMeasures_) scratch = makeLargeVector<double>(n);
         for (auto& spill : spill_) spill = makeLargeVector<uint32_t>(n);
         goesLeft_ = makeLargeVector<uint8_t>(n);
@@ -181,11 +182,13 @@ private:
         const SahMeasure measure = SahMeasure::forParent(work.box);
         std::array<Split, 3> perAxis;
         auto sweepAxis = [&](int axis) { perAxis[axis] = sweep(axis, work, measure); };
-        if (work.end - work.begin > kParallelNodeMinPrimitives)
+        if (work.end - work.begin > kParallelNodeMinPrimitives) {
             tbb::parallel_invoke([&] { sweepAxis(0); }, [&] { sweepAxis(1); },
                                  [&] { sweepAxis(2); });
-        else
+            throwIfInterrupted(progress_);
+        } else {
             for (int axis = 0; axis < 3; ++axis) sweepAxis(axis);
+        }
 
         Split best;
         for (const Split& candidate : perAxis)  // strict <: ties go to the lower axis
@@ -266,8 +269,10 @@ private:
         if (work.end - work.begin > kParallelNodeMinPrimitives) {
             tbb::parallel_invoke([&] { mark(work.begin, split.mid, 1, leftBox); },
                                  [&] { mark(split.mid, work.end, 0, rightBox); });
+            throwIfInterrupted(progress_);
             tbb::parallel_invoke([&] { stablePartition(otherA, spill_[0]); },
                                  [&] { stablePartition(otherB, spill_[1]); });
+            throwIfInterrupted(progress_);
         } else {
             mark(work.begin, split.mid, 1, leftBox);
             mark(split.mid, work.end, 0, rightBox);
