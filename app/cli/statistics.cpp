@@ -113,7 +113,7 @@ nlohmann::json toJson(const FrameStats& s) {
 
 void printTable2(std::FILE* out, const FrameStats& s) {
     std::fprintf(out, "device     %s\n", s.device.c_str());
-    std::fprintf(out, "image      %ux%u, %u timed run%s after 2 warm-ups; times are medians\n",
+    std::fprintf(out, "image      %ux%u, %u timed run%s after untimed warm-ups; times are medians\n",
                  s.width, s.height, s.repeats, s.repeats == 1 ? "" : "s");
     std::fprintf(out, "Table 2    %-8s %12s %8s %8s %10s %9s %9s %9s %12s %12s\n", "rays",
                  "T_R[us/ray]", "N_IT", "N_TR", "N_Q", "T_F[s]", "T_CU[s]", "T_K[s]",

@@ -2,6 +2,7 @@
 
 #include "renderer/error.h"
 
+#include <chrono>
 #include <fstream>
 #include <thread>
 
@@ -50,6 +51,10 @@ GpuSession::~GpuSession() {
 
 namespace {
 
+// Untimed frames right before the timed ones on a GPU: at least this long, at most this many.
+constexpr double kGpuWarmUpSeconds = 0.5;
+constexpr uint32_t kGpuWarmUpMaxFrames = 10000;
+
 Frame renderWith(const FrameSource& source, const RenderSettings& settings,
                  const FrameRequest& request) {
     RAYPACK_CHECK((source.cpu != nullptr) != (source.gpu != nullptr));
@@ -81,7 +86,19 @@ MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& se
     timedRequest.image = true;  // the frame as a user gets it
     // A second warm-up in the timed configuration: the counting run used another kernel variant
     // on the GPU, and a driver may compile a pipeline at its first dispatch (lavapipe's JIT).
-    renderWith(source, timed, timedRequest);
+    // On a GPU it lasts kGpuWarmUpSeconds rather than one frame: a GPU lowers its clocks when it
+    // idles, and frames of a millisecond with a read-back after each leave it mostly idle. On the
+    // H100 the SM clock fell from 1980 to 345 MHz about 3 s into such a bench run (nvidia-smi,
+    // 2026-11-22) and the cells after that measured up to 5.7x slower than in a process of their
+    // own; with a timed warm-up right before them the timed frames run at the clock a sustained
+    // load gets.
+    const auto warmUpStart = std::chrono::steady_clock::now();
+    for (uint32_t frames = 0;; ++frames) {
+        renderWith(source, timed, timedRequest);
+        const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - warmUpStart;
+        if (!source.gpu || elapsed.count() >= kGpuWarmUpSeconds || frames >= kGpuWarmUpMaxFrames)
+            break;
+    }
     std::vector<FrameTimings> timings;
     for (uint32_t i = 0; i < repeats; ++i)
         timings.push_back(renderWith(source, timed, timedRequest).timings);
