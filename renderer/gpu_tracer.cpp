@@ -552,6 +552,23 @@ std::optional<FrameTimings> GpuTracer::lastKernelTimes() {
     return std::nullopt;
 }
 
+void GpuTracer::traceBackToBack(const RenderSettings& settings, uint32_t frames) {
+    State& s = *state_;
+    vk::check(vkResetCommandBuffer(s.syncCommands, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vk::check(vkBeginCommandBuffer(s.syncCommands, &begin), "vkBeginCommandBuffer");
+    for (uint32_t i = 0; i < frames; ++i) recordPasses(s, s.syncCommands, settings, {}, false, false);
+    vk::check(vkEndCommandBuffer(s.syncCommands), "vkEndCommandBuffer");
+    vk::check(vkResetFences(s.ctx.device, 1, &s.syncFence), "vkResetFences");
+    VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &s.syncCommands;
+    vk::check(vkQueueSubmit(s.ctx.queue, 1, &submit, s.syncFence), "vkQueueSubmit");
+    vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX),
+              "vkWaitForFences");
+}
+
 Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& request) {
     State& s = *state_;
     const auto start = Clock::now();

@@ -50,6 +50,11 @@ public:
     // maxComputeWorkGroupInvocations) or when no scene is uploaded.
     Frame render(const RenderSettings& settings, const FrameRequest& request = {});
 
+    // Traces `frames` frames back to back in one submission and waits, reading nothing back: keeps
+    // the GPU busy so that its clocks are up before frames are timed (a GPU lowers its clocks when
+    // it idles, as it mostly does between short frames that each wait for a read-back).
+    void traceBackToBack(const RenderSettings& settings, uint32_t frames);
+
     // For the viewer: records the frame into `cmd`, a command buffer the caller owns, begun and not
     // yet ended, on the context's queue. Starts with a barrier against earlier frames on the queue
     // (so one tracer's frames may be in flight back to back) and ends with a barrier making

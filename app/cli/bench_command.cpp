@@ -1,6 +1,6 @@
 // `raypack-cli bench`: issue 5's matrix runner. For every scene of a suite: load, build the BVH
 // (Table 1), then one cell per tracer configuration (CPU reference; Embree; GPU packet kernel per
-// packet shape; GPU single-ray kernel), each with untimed warm-up runs (one counting N_TR / N_IT, then 0.5 s of frames on a GPU) and N timed runs, written as one
+// packet shape; GPU single-ray kernel), each with untimed warm-up runs (one counting N_TR / N_IT, then 0.3 s of frames back to back on a GPU) and N timed runs, written as one
 // JSON record per cell and ray kind (primary, shadow) with the machine and the date.
 #include "app/cli/arguments.h"
 #include "app/cli/bench_suites.h"
@@ -330,7 +330,7 @@ CommandRunner addBenchCommand(CLI::App& app) {
         "(t_r_us_per_ray, n_it_tests_per_ray, n_tr_nodes_per_ray, n_q_rays, t_f_s, t_cu_s, "
         "t_k_s with t_k_min_s / t_k_max_s, perf_mrays_s, perf_with_upload_mrays_s), plus the "
         "machine (CPU model, threads, GPU, driver) and the date. Every cell runs once as a "
-        "warm-up that counts N_TR / N_IT, then untimed (once on the CPU, for at least 0.5 s on a GPU, so that its clocks are "
+        "warm-up that counts N_TR / N_IT, then untimed (once on the CPU, plus 0.3 s of frames back to back on a GPU, so that its clocks are "
         "up), then --repeat times; medians are reported. "
         "Embree (when built in) traces the same rays at build qualities medium and high and its "
         "hit distances are compared with the CPU reference's; the driver's own ray tracing "

@@ -109,7 +109,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         "creation and upload, s; 0 on the CPU), T_K (tracing time, s: GPU timestamp queries, CPU "
         "wall clock), PERF (Mrays/s = N_Q / T_K, and with T_CU included).\n"
         "Warm-up runs are not timed: one counts N_TR / N_IT, then untimed frames in the timed configuration (one on the CPU; "
-        "on a GPU for at least 0.5 s, so that its clocks are up); the --repeat N timed runs give the "
+        "on a GPU 0.3 s of frames back to back, so that its clocks are up); the --repeat N timed runs give the "
         "median (and min/max).\n"
         "Without --eye/--at (and no --from camera) the camera frames the scene: it looks at the "
         "centre of the scene's bounding box from direction (0.5, 0.4, 1.0) (front, right, above), "

@@ -2,7 +2,8 @@
 
 #include "renderer/error.h"
 
-#include <chrono>
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <thread>
 
@@ -51,9 +52,9 @@ GpuSession::~GpuSession() {
 
 namespace {
 
-// Untimed frames right before the timed ones on a GPU: at least this long, at most this many.
-constexpr double kGpuWarmUpSeconds = 0.5;
-constexpr uint32_t kGpuWarmUpMaxFrames = 10000;
+// GPU time traced back to back right before the timed frames (at most so many frames).
+constexpr double kGpuWarmUpSeconds = 0.3;
+constexpr uint32_t kGpuWarmUpMaxFrames = 2000;
 
 Frame renderWith(const FrameSource& source, const RenderSettings& settings,
                  const FrameRequest& request) {
@@ -86,18 +87,17 @@ MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& se
     timedRequest.image = true;  // the frame as a user gets it
     // A second warm-up in the timed configuration: the counting run used another kernel variant
     // on the GPU, and a driver may compile a pipeline at its first dispatch (lavapipe's JIT).
-    // On a GPU it lasts kGpuWarmUpSeconds rather than one frame: a GPU lowers its clocks when it
-    // idles, and frames of a millisecond with a read-back after each leave it mostly idle. On the
-    // H100 the SM clock fell from 1980 to 345 MHz about 3 s into such a bench run (nvidia-smi,
-    // 2026-11-22) and the cells after that measured up to 5.7x slower than in a process of their
-    // own; with a timed warm-up right before them the timed frames run at the clock a sustained
-    // load gets.
-    const auto warmUpStart = std::chrono::steady_clock::now();
-    for (uint32_t frames = 0;; ++frames) {
-        renderWith(source, timed, timedRequest);
-        const std::chrono::duration<double> elapsed = std::chrono::steady_clock::now() - warmUpStart;
-        if (!source.gpu || elapsed.count() >= kGpuWarmUpSeconds || frames >= kGpuWarmUpMaxFrames)
-            break;
+    const Frame first = renderWith(source, timed, timedRequest);
+    // On a GPU, then kGpuWarmUpSeconds of frames back to back: a GPU lowers its clocks when it
+    // idles, and frames of a millisecond, each followed by a wait and a read-back, leave it mostly
+    // idle. On the H100 the SM clock fell from 1980 to its idle 345 MHz a few seconds into a bench
+    // run (nvidia-smi, 2026-11-22), and later cells measured up to 5.7x slower than the same cell
+    // in a process of its own. The timed frames follow at once, before the clocks can fall again.
+    if (source.gpu) {
+        const double frameSeconds =
+            std::max(first.timings.primarySeconds + first.timings.shadowSeconds, 1e-6);
+        const double frames = std::ceil(kGpuWarmUpSeconds / frameSeconds);
+        source.gpu->traceBackToBack(timed, uint32_t(std::clamp(frames, 1.0, double(kGpuWarmUpMaxFrames))));
     }
     std::vector<FrameTimings> timings;
     for (uint32_t i = 0; i < repeats; ++i)
