@@ -10,6 +10,7 @@
 #include <array>
 #include <chrono>
 #include <cstring>
+#include <functional>
 #include <map>
 #include <tuple>
 
@@ -113,6 +114,7 @@ struct GpuTracer::State {
     // Scene.
     vk::Buffer nodes, triangles, normals, materials, dummy;
     bool hasScene = false, hasNormals = false, hasMaterials = false;
+    bool hostTimedPasses = false;  // setHostTimedPasses
     uint32_t stackEntries = 1;
     Aabb sceneBounds;
 
@@ -452,8 +454,18 @@ void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessF
 }
 
 // Records both passes; returns the light position.
+// Host timing of the passes (GpuTracer::setHostTimedPasses): `split` submits what was recorded so
+// far, waits for it, re-opens the command buffer and returns the time; recordPasses calls it around
+// each dispatch.
+struct HostPassClock {
+    std::function<Clock::time_point()> split;
+    double primarySeconds = 0.0;
+    double shadowSeconds = 0.0;
+};
+
 glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSettings& settings,
-                       const GpuRecordOptions& options, bool writeHits, bool statistics) {
+                       const GpuRecordOptions& options, bool writeHits, bool statistics,
+                       HostPassClock* hostClock = nullptr) {
     checkSettings(s, settings);
     ensureFrameBuffers(s, settings.width, settings.height);
     glm::vec3 light;
@@ -488,15 +500,31 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
     if (s.queries)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery);
+    const Clock::time_point primaryStart = hostClock ? hostClock->split() : Clock::time_point{};
+    // A split re-opened the command buffer: bind again what the dispatches use.
+    auto bindState = [&] {
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1,
+                                &s.descriptorSet, 0, nullptr);
+        vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params,
+                           &params);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
+    };
+    if (hostClock) bindState();
     vkCmdDispatch(cmd, groupsX, groupsY, 1);
     if (s.queries)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 1);
+    Clock::time_point shadowStart{};
+    if (hostClock) {
+        shadowStart = hostClock->split();
+        hostClock->primarySeconds = std::chrono::duration<double>(shadowStart - primaryStart).count();
+    }
 
     if (settings.shadows) {
         memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                       VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         key.pass = gpu::kPassShadowShade;
+        if (hostClock) bindState();
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
         if (s.queries)
             vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries,
@@ -505,6 +533,9 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
         if (s.queries)
             vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries,
                                 firstQuery + 3);
+        if (hostClock)
+            hostClock->shadowSeconds =
+                std::chrono::duration<double>(hostClock->split() - shadowStart).count();
     } else if (s.queries) {
         // Keep the slot's four queries written so that availability reads stay simple.
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 2);
@@ -552,6 +583,8 @@ std::optional<FrameTimings> GpuTracer::lastKernelTimes() {
     return std::nullopt;
 }
 
+void GpuTracer::setHostTimedPasses(bool on) { state_->hostTimedPasses = on; }
+
 void GpuTracer::traceBackToBack(const RenderSettings& settings, uint32_t frames) {
     State& s = *state_;
     vk::check(vkResetCommandBuffer(s.syncCommands, 0), "vkResetCommandBuffer");
@@ -584,8 +617,25 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
     VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
     begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     vk::check(vkBeginCommandBuffer(s.syncCommands, &begin), "vkBeginCommandBuffer");
-    const glm::vec3 light =
-        recordPasses(s, s.syncCommands, settings, {}, request.hits, request.counters);
+    HostPassClock hostClock;
+    if (s.hostTimedPasses) {
+        hostClock.split = [&] {
+            vk::check(vkEndCommandBuffer(s.syncCommands), "vkEndCommandBuffer");
+            vk::check(vkResetFences(s.ctx.device, 1, &s.syncFence), "vkResetFences");
+            VkSubmitInfo part{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+            part.commandBufferCount = 1;
+            part.pCommandBuffers = &s.syncCommands;
+            vk::check(vkQueueSubmit(s.ctx.queue, 1, &part, s.syncFence), "vkQueueSubmit");
+            vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX),
+                      "vkWaitForFences");
+            const Clock::time_point now = Clock::now();
+            vk::check(vkResetCommandBuffer(s.syncCommands, 0), "vkResetCommandBuffer");
+            vk::check(vkBeginCommandBuffer(s.syncCommands, &begin), "vkBeginCommandBuffer");
+            return now;
+        };
+    }
+    const glm::vec3 light = recordPasses(s, s.syncCommands, settings, {}, request.hits,
+                                         request.counters, s.hostTimedPasses ? &hostClock : nullptr);
     const uint32_t slot = (s.frameCounter - 1) % kQuerySlots;
     VkDeviceSize offset = 0;
     auto copy = [&](const vk::Buffer& from, VkDeviceSize bytes) {
@@ -635,7 +685,10 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
         frame.counters.resize(pixels);
         std::memcpy(frame.counters.data(), bytes + imageBytes + hitBytes, counterBytes);
     }
-    if (auto t = slotTimings(s, slot, true)) {
+    if (s.hostTimedPasses) {
+        frame.timings.primarySeconds = hostClock.primarySeconds;
+        frame.timings.shadowSeconds = hostClock.shadowSeconds;
+    } else if (auto t = slotTimings(s, slot, true)) {
         frame.timings.primarySeconds = t->primarySeconds;
         frame.timings.shadowSeconds = t->shadowSeconds;
     }

@@ -73,6 +73,12 @@ public:
 
     // Stack entries the kernels are compiled with: the uploaded tree's maximal depth + 1.
     uint32_t stackEntries() const;
+
+    // render() times each pass on the host (the wall time of a submission holding only that pass)
+    // instead of by timestamp queries. For lavapipe in the viewer: once graphics work has run on
+    // its queue, lavapipe's timestamps no longer bracket the dispatches (a 57 ms pass read 17 us),
+    // while on a CPU device the host's clock sees exactly the work. Off by default.
+    void setHostTimedPasses(bool on);
     // Shared memory one packet of `shape` needs (stack + vote sums), in bytes.
     uint32_t sharedMemoryBytes(PacketShape shape) const;
     const vk::DeviceInfo& device() const;

@@ -114,6 +114,30 @@ TEST_F(GpuShapes, CountersDoNotChangeTheImageAndCountWork) {
     expectNoValidationMessages();
 }
 
+// Host-timed passes (the viewer's choice on CPU devices) split the frame into several submissions:
+// the image and hits stay the same, and each pass gets a time that fits inside the frame's.
+TEST_F(GpuShapes, HostTimedPassesKeepTheFrameAndTimeEachPass) {
+    const RenderSettings settings = smallSettings(96, 80);
+    const Frame byTimestamps = tracer_->render(settings, {true, true, false});
+    tracer_->setHostTimedPasses(true);
+    const Frame byHost = tracer_->render(settings, {true, true, false});
+    RenderSettings noShadows = settings;
+    noShadows.shadows = false;
+    const Frame byHostNoShadows = tracer_->render(noShadows, {true, false, false});
+    tracer_->setHostTimedPasses(false);
+    EXPECT_EQ(byTimestamps.rgba, byHost.rgba);
+    ASSERT_EQ(byTimestamps.hits.size(), byHost.hits.size());
+    EXPECT_EQ(0, std::memcmp(byTimestamps.hits.data(), byHost.hits.data(),
+                             byHost.hits.size() * sizeof(HitRecord)));
+    EXPECT_GT(byHost.timings.primarySeconds, 0.0);
+    EXPECT_GT(byHost.timings.shadowSeconds, 0.0);
+    EXPECT_LE(byHost.timings.primarySeconds + byHost.timings.shadowSeconds,
+              byHost.timings.totalSeconds);
+    EXPECT_GT(byHostNoShadows.timings.primarySeconds, 0.0);
+    EXPECT_EQ(byHostNoShadows.timings.shadowSeconds, 0.0);
+    expectNoValidationMessages();
+}
+
 TEST_F(GpuShapes, HeatViewsShowWork) {
     RenderSettings settings = smallSettings(64, 64);
     const Frame shaded = tracer_->render(settings);

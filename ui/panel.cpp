@@ -91,8 +91,10 @@ PanelActions drawPanel(PanelState& state, const PanelInfo& info) {
                     ImGui::Text("T_K shadow  %.2f ms", st.shadowKernelSeconds * 1e3);
             }
             ImGui::Text("Not tracing: %.0f%% of the frame", st.nonTracingShare * 100.0);
+            if (st.kernelTimesFromCountingFrame)
+                ImGui::TextDisabled("T_K: counting frame, host clock (CPU device)");
         } else {
-            ImGui::TextDisabled("kernel times: waiting for timestamps");
+            ImGui::TextDisabled("kernel times: waiting for the first measurement");
         }
         ImGui::Checkbox("Live N_TR / N_IT (a counting frame each second)", &state.liveCounters);
         if (st.countersValid) {

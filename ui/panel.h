@@ -20,6 +20,7 @@ struct LiveStatistics {
     double frameSeconds = 0.0;          // wall clock between frames, smoothed
     double nonTracingShare = 0.0;       // share of the frame not spent in the kernels
     bool kernelTimesValid = false;
+    bool kernelTimesFromCountingFrame = false;  // CPU devices: the statistics kernel, host-timed
     double primaryKernelSeconds = 0.0;  // T_K of primary rays
     double shadowKernelSeconds = 0.0;   // T_K of shadow rays
     uint64_t primaryRays = 0;           // N_Q: one per pixel
