@@ -454,6 +454,25 @@ void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessF
 }
 
 // Records both passes; returns the light position.
+// The synchronous command buffer: begin it anew, and end + submit + wait for it.
+void beginSyncCommands(GpuTracer::State& s) {
+    vk::check(vkResetCommandBuffer(s.syncCommands, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vk::check(vkBeginCommandBuffer(s.syncCommands, &begin), "vkBeginCommandBuffer");
+}
+
+void submitSyncCommandsAndWait(GpuTracer::State& s) {
+    vk::check(vkEndCommandBuffer(s.syncCommands), "vkEndCommandBuffer");
+    vk::check(vkResetFences(s.ctx.device, 1, &s.syncFence), "vkResetFences");
+    VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    submit.commandBufferCount = 1;
+    submit.pCommandBuffers = &s.syncCommands;
+    vk::check(vkQueueSubmit(s.ctx.queue, 1, &submit, s.syncFence), "vkQueueSubmit");
+    vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX),
+              "vkWaitForFences");
+}
+
 // Host timing of the passes (GpuTracer::setHostTimedPasses): `split` submits what was recorded so
 // far, waits for it, re-opens the command buffer and returns the time; recordPasses calls it around
 // each dispatch.
@@ -587,19 +606,9 @@ void GpuTracer::setHostTimedPasses(bool on) { state_->hostTimedPasses = on; }
 
 void GpuTracer::traceBackToBack(const RenderSettings& settings, uint32_t frames) {
     State& s = *state_;
-    vk::check(vkResetCommandBuffer(s.syncCommands, 0), "vkResetCommandBuffer");
-    VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    vk::check(vkBeginCommandBuffer(s.syncCommands, &begin), "vkBeginCommandBuffer");
+    beginSyncCommands(s);
     for (uint32_t i = 0; i < frames; ++i) recordPasses(s, s.syncCommands, settings, {}, false, false);
-    vk::check(vkEndCommandBuffer(s.syncCommands), "vkEndCommandBuffer");
-    vk::check(vkResetFences(s.ctx.device, 1, &s.syncFence), "vkResetFences");
-    VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &s.syncCommands;
-    vk::check(vkQueueSubmit(s.ctx.queue, 1, &submit, s.syncFence), "vkQueueSubmit");
-    vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX),
-              "vkWaitForFences");
+    submitSyncCommandsAndWait(s);
 }
 
 Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& request) {
@@ -613,24 +622,13 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
     const VkDeviceSize counterBytes = request.counters ? pixels * sizeof(RayCounters) : 0u;
     ensureReadback(s, std::max<VkDeviceSize>(imageBytes + hitBytes + counterBytes, 16));
 
-    vk::check(vkResetCommandBuffer(s.syncCommands, 0), "vkResetCommandBuffer");
-    VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    vk::check(vkBeginCommandBuffer(s.syncCommands, &begin), "vkBeginCommandBuffer");
+    beginSyncCommands(s);
     HostPassClock hostClock;
     if (s.hostTimedPasses) {
         hostClock.split = [&] {
-            vk::check(vkEndCommandBuffer(s.syncCommands), "vkEndCommandBuffer");
-            vk::check(vkResetFences(s.ctx.device, 1, &s.syncFence), "vkResetFences");
-            VkSubmitInfo part{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-            part.commandBufferCount = 1;
-            part.pCommandBuffers = &s.syncCommands;
-            vk::check(vkQueueSubmit(s.ctx.queue, 1, &part, s.syncFence), "vkQueueSubmit");
-            vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX),
-                      "vkWaitForFences");
+            submitSyncCommandsAndWait(s);
             const Clock::time_point now = Clock::now();
-            vk::check(vkResetCommandBuffer(s.syncCommands, 0), "vkResetCommandBuffer");
-            vk::check(vkBeginCommandBuffer(s.syncCommands, &begin), "vkBeginCommandBuffer");
+            beginSyncCommands(s);
             return now;
         };
     }
@@ -649,15 +647,7 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
     copy(s.counters, counterBytes);
     memoryBarrier(s.syncCommands, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
                   VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
-    vk::check(vkEndCommandBuffer(s.syncCommands), "vkEndCommandBuffer");
-
-    vk::check(vkResetFences(s.ctx.device, 1, &s.syncFence), "vkResetFences");
-    VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-    submit.commandBufferCount = 1;
-    submit.pCommandBuffers = &s.syncCommands;
-    vk::check(vkQueueSubmit(s.ctx.queue, 1, &submit, s.syncFence), "vkQueueSubmit");
-    vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX),
-              "vkWaitForFences");
+    submitSyncCommandsAndWait(s);
 
     const uint32_t status = *static_cast<const uint32_t*>(s.status.mapped);
     if (status & gpu::kStatusSubgroupMismatch)
