@@ -2,6 +2,11 @@
 
 #include "renderer/error.h"
 
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cfloat>
 #include <cstring>
 #include <utility>
 
@@ -25,14 +30,17 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
     RAYPACK_CHECK(!bvh.nodes.empty());
     GpuLayout layout;
     layout.nodes.resize(bvh.nodes.size());
-    layout.triangles.reserve(bvh.primIndices.size());
-    layout.leafToFile.reserve(bvh.primIndices.size());
     const bool normals = scene.hasNormals();
     const bool materials = scene.hasMaterials();
-    if (normals) layout.normals.reserve(bvh.primIndices.size());
 
-    // Depth-first walk from the root with an explicit stack: converts every node and gathers the
-    // triangles of each leaf in the order the walk meets them.
+    // 1. A depth-first walk from the root with an explicit stack converts every node and gives each
+    //    leaf its first slot in leaf order: the order the walk meets the leaves.
+    struct LeafSlot {
+        uint32_t node;
+        uint32_t first;
+    };
+    std::vector<LeafSlot> leaves;
+    uint32_t placed = 0;
     std::vector<std::pair<uint32_t, uint32_t>> stack{{0u, 0u}};  // (node, depth)
     while (!stack.empty()) {
         const auto [index, depth] = stack.back();
@@ -41,27 +49,15 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
         layout.maxDepth = std::max(layout.maxDepth, depth);
         const BvhNode& node = bvh.nodes[index];
         if (node.isLeaf()) {
-            const uint32_t first = uint32_t(layout.triangles.size());
-            for (uint32_t k = 0; k < node.count; ++k) {
-                const uint32_t tri = bvh.primIndices[node.index + k];
-                RAYPACK_CHECK(tri < scene.triangles.size());
-                const glm::uvec3 v = scene.triangles[tri];
-                const uint32_t material = materials ? scene.triangleMaterial[tri] : 0u;
-                layout.triangles.push_back({withBits(scene.positions[v.x], tri),
-                                            withBits(scene.positions[v.y], material),
-                                            glm::vec4(scene.positions[v.z], 0.0f)});
-                layout.leafToFile.push_back(tri);
-                if (normals)
-                    layout.normals.push_back({glm::vec4(scene.normals[v.x], 0.0f),
-                                              glm::vec4(scene.normals[v.y], 0.0f),
-                                              glm::vec4(scene.normals[v.z], 0.0f)});
-            }
-            layout.nodes[index] = {withBits(node.lo, first), withBits(node.hi, node.count)};
+            RAYPACK_CHECK(uint64_t(node.index) + node.count <= bvh.primIndices.size());
+            layout.nodes[index] = {withBits(node.lo, placed), withBits(node.hi, node.count)};
             if (node.count == 0) {
                 // Only an empty scene has an empty leaf: give it a box no ray can hit.
-                layout.nodes[index] = {withBits(glm::vec3(FLT_MAX), first),
+                layout.nodes[index] = {withBits(glm::vec3(FLT_MAX), placed),
                                        withBits(glm::vec3(-FLT_MAX), 0u)};
             }
+            leaves.push_back({index, placed});
+            placed += node.count;
         } else {
             RAYPACK_CHECK(node.index + 1 < bvh.nodes.size());
             layout.nodes[index] = {withBits(node.lo, node.index), withBits(node.hi, 0u)};
@@ -69,6 +65,35 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
             stack.push_back({node.index, depth + 1});
         }
     }
+
+    // 2. The leaves' triangles, gathered in parallel into their slots (the gather reads vertices
+    //    scattered over the scene). Measured here (2 threads, 2M-triangle terrain, 2026-11-22):
+    //    T_CU 2.28-2.35 s with the sequential gather, 2.21-2.25 s with this one, of which this
+    //    function is 0.8 s, mostly first touches of the new arrays' pages.
+    layout.triangles.resize(placed);
+    layout.leafToFile.resize(placed);
+    if (normals) layout.normals.resize(placed);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024),
+                      [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t l = range.begin(); l != range.end(); ++l) {
+            const BvhNode& node = bvh.nodes[leaves[l].node];
+            for (uint32_t k = 0; k < node.count; ++k) {
+                const uint32_t slot = leaves[l].first + k;
+                const uint32_t tri = bvh.primIndices[node.index + k];
+                RAYPACK_CHECK(tri < scene.triangles.size());
+                const glm::uvec3 v = scene.triangles[tri];
+                const uint32_t material = materials ? scene.triangleMaterial[tri] : 0u;
+                layout.triangles[slot] = {withBits(scene.positions[v.x], tri),
+                                          withBits(scene.positions[v.y], material),
+                                          glm::vec4(scene.positions[v.z], 0.0f)};
+                layout.leafToFile[slot] = tri;
+                if (normals)
+                    layout.normals[slot] = {glm::vec4(scene.normals[v.x], 0.0f),
+                                            glm::vec4(scene.normals[v.y], 0.0f),
+                                            glm::vec4(scene.normals[v.z], 0.0f)};
+            }
+        }
+    });
     if (materials) {
         layout.materials.reserve(scene.materials.size());
         for (const Material& m : scene.materials) layout.materials.emplace_back(m.diffuse, 1.0f);
