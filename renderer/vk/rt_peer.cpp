@@ -185,6 +185,25 @@ void uploadGeometry(RtPeerObjects& o, const Scene& scene) {
     vk::uploadToBuffer(o.ctx, o.pool, o.indices, scene.triangles.data(), indexBytes);
 }
 
+// An acceleration structure at offset 0 of a buffer of its own (the offset must be a multiple of
+// 256), sized by vkGetAccelerationStructureBuildSizesKHR.
+VkAccelerationStructureKHR createStructure(RtPeerObjects& o, VkDeviceSize size,
+                                           VkAccelerationStructureTypeKHR type, vk::Buffer& storage,
+                                           const char* what) {
+    storage = createAddressedBuffer(o.ctx, size,
+                                    VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR, what);
+    VkAccelerationStructureCreateInfoKHR create{
+        VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_KHR};
+    create.buffer = storage.buffer;
+    create.offset = 0;
+    create.size = size;
+    create.type = type;
+    VkAccelerationStructureKHR structure = VK_NULL_HANDLE;
+    vk::check(o.fn.createStructure(o.ctx.device, &create, nullptr, &structure),
+              (std::string("vkCreateAccelerationStructureKHR (") + what + ")").c_str());
+    return structure;
+}
+
 struct BuildTimes {
     double blasSeconds = 0.0;
     double tlasSeconds = 0.0;
@@ -228,18 +247,9 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
     o.fn.getBuildSizes(device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &blasInfo,
                        &triangleCount, &blasSizes);
 
-    // Structures live at offset 0 of their own buffer (the offset must be a multiple of 256).
-    const VkBufferUsageFlags storageUsage = VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR;
-    o.blasStorage = createAddressedBuffer(o.ctx, blasSizes.accelerationStructureSize, storageUsage,
-                                          "the bottom-level acceleration structure");
-    VkAccelerationStructureCreateInfoKHR blasCreate{
-        VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_KHR};
-    blasCreate.buffer = o.blasStorage.buffer;
-    blasCreate.offset = 0;
-    blasCreate.size = blasSizes.accelerationStructureSize;
-    blasCreate.type = VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR;
-    vk::check(o.fn.createStructure(device, &blasCreate, nullptr, &o.blas),
-              "vkCreateAccelerationStructureKHR (BLAS)");
+    o.blas = createStructure(o, blasSizes.accelerationStructureSize,
+                             VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, o.blasStorage,
+                             "the bottom-level acceleration structure");
 
     // The instance refers to the BLAS by its device address, known once it is created.
     VkAccelerationStructureDeviceAddressInfoKHR blasAddressInfo{
@@ -284,16 +294,9 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
         VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
     o.fn.getBuildSizes(device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &tlasInfo,
                        &instanceCount, &tlasSizes);
-    o.tlasStorage = createAddressedBuffer(o.ctx, tlasSizes.accelerationStructureSize, storageUsage,
-                                          "the top-level acceleration structure");
-    VkAccelerationStructureCreateInfoKHR tlasCreate{
-        VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_KHR};
-    tlasCreate.buffer = o.tlasStorage.buffer;
-    tlasCreate.offset = 0;
-    tlasCreate.size = tlasSizes.accelerationStructureSize;
-    tlasCreate.type = VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR;
-    vk::check(o.fn.createStructure(device, &tlasCreate, nullptr, &o.tlas),
-              "vkCreateAccelerationStructureKHR (TLAS)");
+    o.tlas = createStructure(o, tlasSizes.accelerationStructureSize,
+                             VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, o.tlasStorage,
+                             "the top-level acceleration structure");
 
     // One scratch buffer for both builds (a barrier orders them), its address rounded up to
     // minAccelerationStructureScratchOffsetAlignment: the allocation is only as aligned as the
