@@ -21,7 +21,7 @@ bool isFinite(const glm::vec3& v) {
 
 }  // namespace
 
-GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height) {
+GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height, glm::vec2 pixelJitter) {
     if (width == 0 || height == 0)
         throw Error("camera: the image is empty (" + std::to_string(width) + "x" +
                     std::to_string(height) + ")");
@@ -48,7 +48,13 @@ GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height) {
     const float aspect = float(width) / float(height);
     GpuCamera gpu;
     gpu.eye = glm::vec4(camera.eye, tanHalfFov * aspect);
-    gpu.forward = glm::vec4(forward, tanHalfFov);
+    // u grows by 2 * jitter.x / W * (tan * aspect) across the image, v falls by 2 * jitter.y / H *
+    // tan (shaders/camera.h): the same offset for every pixel, so it moves the image plane's centre.
+    glm::vec3 centre = forward;
+    if (pixelJitter != glm::vec2(0.0f))
+        centre += (2.0f * pixelJitter.x / float(width) * tanHalfFov * aspect) * right -
+                  (2.0f * pixelJitter.y / float(height) * tanHalfFov) * up;
+    gpu.forward = glm::vec4(centre, tanHalfFov);
     gpu.right = glm::vec4(right, float(width));
     gpu.up = glm::vec4(up, float(height));
     return gpu;

@@ -359,83 +359,17 @@ bool traceOccluded(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::ve
     return occluded;
 }
 
-Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
-                const FrameRequest& request) {
-    const Clock::time_point frameStart = Clock::now();
-    RAYPACK_CHECK_MSG(view.scene && view.bvh, "a CpuSceneView made by makeCpuSceneView");
-    const Scene& scene = *view.scene;
-    const BvhNode* nodes = view.nodes();
-    const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
+void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu::GpuCamera& camera,
+                   const std::vector<ClosestHit>& hits, const std::vector<uint32_t>& shadowState,
+                   const std::vector<RayCounters>& counters, const FrameRequest& request, Frame& frame) {
     const uint32_t width = settings.width;
     const uint32_t height = settings.height;
-    const gpu::GpuCamera camera = makeGpuCamera(settings.camera, width, height);
-    const glm::vec3 eye = gpu::cameraEye(camera);
-    const glm::vec3 light = lightPosition(settings.camera, view.bounds, settings.lightHeight);
     const size_t pixels = size_t(width) * height;
+    RAYPACK_CHECK(hits.size() == pixels && shadowState.size() == pixels && counters.size() == pixels);
+    const glm::vec3 eye = gpu::cameraEye(camera);
+    const glm::vec3 light = frame.light;
     const bool heatView = settings.view != ViewMode::Shaded;
-
-    Frame frame;
-    frame.width = width;
-    frame.height = height;
-    frame.light = light;
-
-    std::vector<ClosestHit> hits(pixels);
-    std::vector<RayCounters> counters(pixels, RayCounters{0, 0, 0, 0});
-    std::vector<uint32_t> shadowState(pixels, gpu::kShadowNone);
-
     const tbb::blocked_range2d<uint32_t> tiles(0, height, kTile, 0, width, kTile);
-    const uint32_t stackEntries = view.stackEntries;
-
-    // Pass 1: primary rays.
-    Clock::time_point passStart = Clock::now();
-    tbb::parallel_for(
-        tiles,
-        [&](const tbb::blocked_range2d<uint32_t>& tile) {
-            std::vector<StackEntry> stack(stackEntries);
-            forEachPixelInZOrder(tile, [&](uint32_t x, uint32_t y) {
-                const size_t pixel = size_t(y) * width + x;
-                const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
-                TraversalCounts counts;
-                hits[pixel] = closestHit(nodes, triangles, gpu::makeTraceRay(eye, dir),
-                                         kRayTmaxInfinite, stack.data(), stackEntries, counts);
-                counters[pixel].primaryNodes = counts.nodes;
-                counters[pixel].primaryTests = counts.tests;
-            });
-        },
-        tbb::simple_partitioner());
-    frame.timings.primarySeconds = secondsSince(passStart);
-
-    // Pass 2: shadow rays from the light towards each hit point (report 2.3, 3.5).
-    if (settings.shadows) {
-        passStart = Clock::now();
-        tbb::parallel_for(
-            tiles,
-            [&](const tbb::blocked_range2d<uint32_t>& tile) {
-                std::vector<StackEntry> stack(stackEntries);
-                forEachPixelInZOrder(tile, [&](uint32_t x, uint32_t y) {
-                    const size_t pixel = size_t(y) * width + x;
-                    const ClosestHit& hit = hits[pixel];
-                    if (!hit.hit()) return;
-                    const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
-                    const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
-                    const gpu::ShadowRay shadow = gpu::makeShadowRay(light, point, hit.prim);
-                    bool occluded = false;
-                    TraversalCounts counts;
-                    if (!gpu::isDegenerateShadowRay(shadow))
-                        occluded = anyHit(nodes, triangles,
-                                          gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
-                                          shadow.skipPrim, stack.data(), stackEntries, counts);
-                    shadowState[pixel] = occluded ? gpu::kShadowOccluded : gpu::kShadowLit;
-                    counters[pixel].shadowNodes = counts.nodes;
-                    counters[pixel].shadowTests = counts.tests;
-                });
-            },
-            tbb::simple_partitioner());
-        frame.timings.shadowSeconds = secondsSince(passStart);
-    }
-
-    // Pass 3: shading (or heat map), hits and counters out.
-    passStart = Clock::now();
     if (request.image) frame.rgba.resize(pixels);
     if (request.hits) frame.hits.resize(pixels);
     const glm::vec4 phong(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular,
@@ -499,6 +433,85 @@ Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
             }
         },
         tbb::simple_partitioner());
+}
+
+Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
+                const FrameRequest& request) {
+    const Clock::time_point frameStart = Clock::now();
+    RAYPACK_CHECK_MSG(view.scene && view.bvh, "a CpuSceneView made by makeCpuSceneView");
+    const Scene& scene = *view.scene;
+    const BvhNode* nodes = view.nodes();
+    const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
+    const uint32_t width = settings.width;
+    const uint32_t height = settings.height;
+    const gpu::GpuCamera camera = makeGpuCamera(settings.camera, width, height, settings.pixelJitter);
+    const glm::vec3 eye = gpu::cameraEye(camera);
+    const glm::vec3 light = lightPosition(settings.camera, view.bounds, settings.lightHeight);
+    const size_t pixels = size_t(width) * height;
+
+    Frame frame;
+    frame.width = width;
+    frame.height = height;
+    frame.light = light;
+
+    std::vector<ClosestHit> hits(pixels);
+    std::vector<RayCounters> counters(pixels, RayCounters{0, 0, 0, 0});
+    std::vector<uint32_t> shadowState(pixels, gpu::kShadowNone);
+
+    const tbb::blocked_range2d<uint32_t> tiles(0, height, kTile, 0, width, kTile);
+    const uint32_t stackEntries = view.stackEntries;
+
+    // Pass 1: primary rays.
+    Clock::time_point passStart = Clock::now();
+    tbb::parallel_for(
+        tiles,
+        [&](const tbb::blocked_range2d<uint32_t>& tile) {
+            std::vector<StackEntry> stack(stackEntries);
+            forEachPixelInZOrder(tile, [&](uint32_t x, uint32_t y) {
+                const size_t pixel = size_t(y) * width + x;
+                const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
+                TraversalCounts counts;
+                hits[pixel] = closestHit(nodes, triangles, gpu::makeTraceRay(eye, dir),
+                                         kRayTmaxInfinite, stack.data(), stackEntries, counts);
+                counters[pixel].primaryNodes = counts.nodes;
+                counters[pixel].primaryTests = counts.tests;
+            });
+        },
+        tbb::simple_partitioner());
+    frame.timings.primarySeconds = secondsSince(passStart);
+
+    // Pass 2: shadow rays from the light towards each hit point (report 2.3, 3.5).
+    if (settings.shadows) {
+        passStart = Clock::now();
+        tbb::parallel_for(
+            tiles,
+            [&](const tbb::blocked_range2d<uint32_t>& tile) {
+                std::vector<StackEntry> stack(stackEntries);
+                forEachPixelInZOrder(tile, [&](uint32_t x, uint32_t y) {
+                    const size_t pixel = size_t(y) * width + x;
+                    const ClosestHit& hit = hits[pixel];
+                    if (!hit.hit()) return;
+                    const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
+                    const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
+                    const gpu::ShadowRay shadow = gpu::makeShadowRay(light, point, hit.prim);
+                    bool occluded = false;
+                    TraversalCounts counts;
+                    if (!gpu::isDegenerateShadowRay(shadow))
+                        occluded = anyHit(nodes, triangles,
+                                          gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
+                                          shadow.skipPrim, stack.data(), stackEntries, counts);
+                    shadowState[pixel] = occluded ? gpu::kShadowOccluded : gpu::kShadowLit;
+                    counters[pixel].shadowNodes = counts.nodes;
+                    counters[pixel].shadowTests = counts.tests;
+                });
+            },
+            tbb::simple_partitioner());
+        frame.timings.shadowSeconds = secondsSince(passStart);
+    }
+
+    // Pass 3: shading (or heat map), hits and counters out.
+    passStart = Clock::now();
+    shadeCpuFrame(scene, settings, camera, hits, shadowState, counters, request, frame);
     frame.timings.shadeSeconds = secondsSince(passStart);
     if (request.counters) frame.counters = std::move(counters);
     frame.timings.totalSeconds = secondsSince(frameStart);

@@ -87,6 +87,14 @@ HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm
 bool traceOccluded(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax,
                    uint32_t skipPrim = 0xFFFFFFFFu, RayCounters* counters = nullptr);
 
+// The last pass of a CPU frame, shared by every CPU tracer: from each pixel's closest hit, its
+// shadow state (gpu::kShadowNone/Lit/Occluded) and its counters, the shaded or heat-map image,
+// the HitRecords and the counters that `request` asks for, into `frame` (whose width, height and
+// light are set). `camera` is makeGpuCamera of settings; the vectors hold one entry per pixel.
+void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu::GpuCamera& camera,
+                   const std::vector<ClosestHit>& hits, const std::vector<uint32_t>& shadowState,
+                   const std::vector<RayCounters>& counters, const FrameRequest& request, Frame& frame);
+
 // One frame: a primary ray through each pixel centre (shaders/camera.h), the closest hit, a shadow
 // ray to the light (lightPosition over the scene's bounds) when settings.shadows, Phong shading or
 // the heat view settings.view asks for. Multithreaded over 16x16 tiles with TBB (the caller's

@@ -429,7 +429,7 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
 gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings& settings,
                                 const GpuRecordOptions& options, bool writeHits, glm::vec3* light) {
     gpu::GpuFrameParams p{};
-    p.camera = makeGpuCamera(settings.camera, settings.width, settings.height);
+    p.camera = makeGpuCamera(settings.camera, settings.width, settings.height, settings.pixelJitter);
     *light = lightPosition(settings.camera, s.sceneBounds, settings.lightHeight);
     p.light = glm::vec4(*light, 0.0f);
     p.background = glm::vec4(settings.background, 0.0f);

@@ -35,6 +35,9 @@ struct RenderSettings {
     bool shadows = true;
     PhongParams phong;
     glm::vec3 background{0.08f, 0.09f, 0.11f};
+    // Offset of every primary ray from its pixel's centre, in pixels (each component in
+    // [-0.5, 0.5)): one sample of an anti-aliasing pattern (renderer/accumulate.h). Zero: centres.
+    glm::vec2 pixelJitter{0.0f};
     // GPU path only.
     KernelKind kernel = KernelKind::Packet;
     PacketShape packet;

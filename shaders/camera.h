@@ -12,7 +12,7 @@ RP_BEGIN_NAMESPACE
 // 64 bytes. Built on the CPU by makeGpuCamera (renderer/camera.h).
 struct GpuCamera {
     vec4 eye;      // xyz: eye position, w: tan(fov/2) * W/H  (horizontal scale of u)
-    vec4 forward;  // xyz: normalized view direction, w: tan(fov/2) (vertical scale of v)
+    vec4 forward;  // xyz: view direction (+ the pixel jitter, renderer/camera.h), w: tan(fov/2)
     vec4 right;    // xyz: normalized right vector, w: image width as float
     vec4 up;       // xyz: up' = cross(right, forward), w: image height as float
 };

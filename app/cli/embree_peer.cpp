@@ -266,7 +266,7 @@ EmbreeResults runEmbreePeer(const Scene& scene, const RenderSettings& settings,
     results.threads = uint32_t(tbb::info::default_concurrency());
 
     EmbreeDevice device;
-    const Rays rays{makeGpuCamera(settings.camera, settings.width, settings.height), settings.width,
+    const Rays rays{makeGpuCamera(settings.camera, settings.width, settings.height, settings.pixelJitter), settings.width,
                     settings.height, settings.camera.eye};
     const glm::vec3 light = lightPosition(settings.camera, scene.bounds(), settings.lightHeight);
 

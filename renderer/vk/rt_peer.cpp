@@ -632,7 +632,7 @@ RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene,
     if (repeats == 0) throw Error("driver ray tracing: at least one timed repetition is needed");
     const RtProperties props = queryRtProperties(context.physicalDevice);
     gpu::RtPeerParams params{};
-    params.camera = makeGpuCamera(settings.camera, settings.width, settings.height);
+    params.camera = makeGpuCamera(settings.camera, settings.width, settings.height, settings.pixelJitter);
     checkLaunch(context, props, settings.width, settings.height);
     const glm::vec3 light = lightPosition(settings.camera, scene.bounds(), settings.lightHeight);
     params.light = glm::vec4(light, 0.0f);
