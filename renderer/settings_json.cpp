@@ -1,5 +1,7 @@
 #include "renderer/settings_json.h"
 
+#include "renderer/progressive.h"
+
 #include "renderer/error.h"
 
 #include <cmath>
@@ -147,6 +149,9 @@ nlohmann::json toJson(const RenderSetup& setup) {
     json j = toJson(setup.settings);
     j["scene"] = setup.scene;
     j["bvh"] = toJson(setup.bvh);
+    j["samples_per_pixel"] = setup.samples;
+    j["sample_pattern"] = kSamplePatternName;
+    j["resolution_scale"] = setup.resolutionScale;
     return j;
 }
 
@@ -218,6 +223,13 @@ RenderSetup renderSetupFromJson(const nlohmann::json& j) {
     setup.settings = renderSettingsFromJson(j);
     setup.scene = readString(j, "scene", "");
     if (const json* bvh = readObject(j, "bvh", "")) setup.bvh = bvhBuildOptionsFromJson(*bvh);
+    readUint(j, "samples_per_pixel", "", setup.samples);
+    if (setup.samples == 0 || setup.samples > kMaxSamplesPerPixel)
+        badKey("samples_per_pixel", "must be 1.." + std::to_string(kMaxSamplesPerPixel));
+    if (j.contains("sample_pattern") && readString(j, "sample_pattern", "") != kSamplePatternName)
+        badKey("sample_pattern", std::string("must be \"") + kSamplePatternName + "\" (the only pattern raypack has)");
+    readUint(j, "resolution_scale", "", setup.resolutionScale);
+    if (setup.resolutionScale == 0 || setup.resolutionScale > 64) badKey("resolution_scale", "must be 1..64");
     return setup;
 }
 

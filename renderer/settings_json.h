@@ -15,7 +15,8 @@
 //     "kernel": "packet" | "single", "packet": {"width": 8, "height": 4},
 //     "collect_counters": false, "view": "shaded" | "nodes" | "tests",
 //     "bvh": {"builder": "sah-exact" | "sah-binned", "leaf_size": 2, "traversal_cost": 1,
-//             "intersection_cost": 1, "bin_count": 32}
+//             "intersection_cost": 1, "bin_count": 32},
+//     "samples_per_pixel": 1, "sample_pattern": "halton-2-3", "resolution_scale": 1
 //   }
 // Floats are written as doubles with full precision, so a float survives the round trip exactly.
 #include "renderer/bvh.h"
@@ -33,6 +34,10 @@ struct RenderSetup {
     std::string scene;  // file path or generator spec; empty when unknown
     RenderSettings settings;
     BvhBuildOptions bvh;
+    // Progressive display (renderer/progressive.h): samples per pixel of the pattern, averaged,
+    // and the resolution divisor of an image traced smaller and scaled up to width x height.
+    uint32_t samples = 1;
+    uint32_t resolutionScale = 1;
 };
 
 nlohmann::json toJson(const RenderSettings& settings);

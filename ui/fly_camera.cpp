@@ -63,9 +63,14 @@ bool FlyCamera::update(const FlyInput& input, float seconds) {
     if (input.left) move -= right;
     if (input.up) move += worldUp;
     if (input.down) move -= worldUp;
-    if (move != glm::vec3(0.0f) && seconds > 0.0f) {
-        const float step = speed() * (input.fast ? kFastFactor : 1.0f) * seconds;
-        const glm::vec3 delta = glm::normalize(move) * step;
+    // In seconds of flight: the held keys for `seconds`, the timed ones for their own durations.
+    glm::vec3 travel(0.0f);
+    if (move != glm::vec3(0.0f) && seconds > 0.0f) travel = glm::normalize(move) * seconds;
+    travel += input.heldSeconds.x * right + input.heldSeconds.y * worldUp + input.heldSeconds.z * forward;
+    const float travelSeconds = glm::length(travel);
+    if (travelSeconds > 0.0f) {
+        if (travelSeconds > kMaxStepSeconds) travel *= kMaxStepSeconds / travelSeconds;
+        const glm::vec3 delta = travel * (speed() * (input.fast ? kFastFactor : 1.0f));
         camera_.eye += delta;
         camera_.at += delta;
         changed = true;

@@ -11,9 +11,13 @@
 namespace raypack::ui {
 
 struct FlyInput {
+    // Keys held for the whole frame (moved by update's `seconds`)...
     bool forward = false, back = false;  // W, S
     bool left = false, right = false;    // A, D
     bool down = false, up = false;       // Q, E
+    // ... and, from ui/input.h's HeldKeys, seconds each direction was held during the frame:
+    // x right minus left, y up minus down, z forward minus back.
+    glm::vec3 heldSeconds{0.0f};
     bool fast = false;                   // Shift
     glm::vec2 lookPixels{0.0f};          // mouse motion while the right button is held
     float wheel = 0.0f;                  // scroll steps this frame (positive: faster)
@@ -28,13 +32,16 @@ public:
     static constexpr float kRadiansPerPixel = 0.0035f;  // mouse look sensitivity
     // Pitch stops this far from straight up or down, so `up` never becomes parallel to the view.
     static constexpr float kMaxPitchRadians = 1.55f;
+    // One frame moves the camera by at most this many seconds of flight, however long the frame
+    // took: a one-second frame cannot carry the camera through a wall.
+    static constexpr float kMaxStepSeconds = 0.1f;
 
     // Starts at `camera` (the CLI's default framing of the scene when the viewer opens one).
     void reset(const Camera& camera, const Aabb& sceneBounds);
     // F: back to the default framing of the whole scene (frameScene), speed kept.
     void frameAll();
-    // Moves and turns the camera by one frame of input lasting `seconds`. Returns whether the
-    // camera changed.
+    // Moves and turns the camera by one frame of input lasting `seconds`; the step is at most
+    // kMaxStepSeconds of flight. Returns whether the camera changed.
     bool update(const FlyInput& input, float seconds);
 
     const Camera& camera() const { return camera_; }

@@ -91,12 +91,12 @@ PanelActions drawPanel(PanelState& state, const PanelInfo& info) {
                     ImGui::Text("T_K shadow  %.2f ms", st.shadowKernelSeconds * 1e3);
             }
             ImGui::Text("Not tracing: %.0f%% of the frame", st.nonTracingShare * 100.0);
-            if (st.kernelTimesFromCountingFrame)
-                ImGui::TextDisabled("T_K: counting frame, host clock (CPU device)");
+            if (!st.kernelTimesNote.empty()) ImGui::TextDisabled("%s", st.kernelTimesNote.c_str());
         } else {
-            ImGui::TextDisabled("kernel times: waiting for the first measurement");
+            ImGui::TextDisabled("kernel times: no frame traced yet");
         }
-        ImGui::Checkbox("Live N_TR / N_IT (a counting frame each second)", &state.liveCounters);
+        ImGui::Checkbox("Live N_TR / N_IT", &state.liveCounters);
+        if (!st.countersNote.empty()) ImGui::TextDisabled("%s", st.countersNote.c_str());
         if (st.countersValid) {
             ImGui::Text("primary: N_TR %.1f  N_IT %.1f  (N_Q %" PRIu64 ")", st.counters.primaryNodes,
                         st.counters.primaryTests, st.counters.primaryRays);
@@ -123,6 +123,8 @@ PanelActions drawPanel(PanelState& state, const PanelInfo& info) {
             }
         }
     }
+
+    drawInteractivitySection(state, info, actions);
 
     // ---- Scene and BVH build
     if (ImGui::CollapsingHeader("Scene and BVH", ImGuiTreeNodeFlags_DefaultOpen)) {

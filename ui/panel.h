@@ -6,6 +6,7 @@
 #include "renderer/bvh.h"
 #include "renderer/frame.h"
 #include "renderer/settings.h"
+#include "ui/frame_loop.h"
 
 #include <vulkan/vulkan.h>
 
@@ -20,12 +21,13 @@ struct LiveStatistics {
     double frameSeconds = 0.0;          // wall clock between frames, smoothed
     double nonTracingShare = 0.0;       // share of the frame not spent in the kernels
     bool kernelTimesValid = false;
-    bool kernelTimesFromCountingFrame = false;  // CPU devices: the statistics kernel, host-timed
+    std::string kernelTimesNote;        // where T_K comes from (which frame, which clock)
     double primaryKernelSeconds = 0.0;  // T_K of primary rays
     double shadowKernelSeconds = 0.0;   // T_K of shadow rays
     uint64_t primaryRays = 0;           // N_Q: one per pixel
     bool countersValid = false;         // from the newest counting frame
     CounterSummary counters;            // N_TR, N_IT averages and the shadow N_Q
+    std::string countersNote;           // which frame the counters are from, and how old
 };
 
 struct CompareResult {
@@ -46,6 +48,9 @@ struct PanelState {
     std::string openPath;
     bool liveCounters = true;  // one counting frame per second for N_TR / N_IT
     Showing showing = Showing::Traced;
+    // Interactivity (issue 8): which tracer draws, the frame budget, refinement when still.
+    TracerChoice tracer = TracerChoice::VulkanPacket;
+    FrameLoopSettings frameLoop;
 };
 
 // What the panel shows.
@@ -68,6 +73,10 @@ struct PanelInfo {
     VkPresentModeKHR presentMode = VK_PRESENT_MODE_FIFO_KHR;
     uint32_t maxPacketRays = 1024;  // the device's maxComputeWorkGroupInvocations
     float flySpeed = 0.0f;          // scene units per second
+    // Interactivity: what the frame loop did with the newest frame, and why this tracer draws.
+    FrameLoopStatus frameLoop;
+    std::string tracerReason;
+    std::vector<TracerChoice> tracers;  // the tracers this device offers
 };
 
 struct PanelActions {
@@ -81,7 +90,11 @@ struct PanelActions {
     int saveBookmark = 0;     // 1..9, 0 for none
     int recallBookmark = 0;
     std::optional<VkPresentModeKHR> presentMode;
+    bool tracerChanged = false;  // PanelState::tracer was changed
 };
+
+// The panel's "Interactivity" section: tracer, frame budget, resolution scale, samples.
+void drawInteractivitySection(PanelState& state, const PanelInfo& info, PanelActions& actions);
 
 PanelActions drawPanel(PanelState& state, const PanelInfo& info);
 

@@ -5,11 +5,15 @@
 #include "renderer/error.h"
 #include "renderer/gpu_tracer.h"
 #include "renderer/image.h"
+#include "renderer/progressive.h"
 #include "renderer/settings_json.h"
 #include "renderer/vk/context.h"
 #include "scenes/load.h"
 #include "ui/bookmarks.h"
+#include "ui/camera_path.h"
 #include "ui/fly_camera.h"
+#include "ui/frame_loop.h"
+#include "ui/input.h"
 #include "ui/panel.h"
 #include "ui/screenshot.h"
 #include "ui/viewer_window.h"
@@ -20,13 +24,20 @@
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_vulkan.h>
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <cinttypes>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
+
+#include <sys/resource.h>
 
 namespace raypack::ui {
 
@@ -53,7 +64,42 @@ uint32_t parseCount(const std::string& text, const std::string& what) {
     throw Error(what + ": \"" + text + "\" is not a positive integer");
 }
 
-// Swaps R and B of every texel: Frame::rgba is RGBA8, a B8G8R8A8 swapchain wants BGRA8.
+// "x,y" or "x,y,z" of finite floats.
+template <int N>
+glm::vec<N, float> parseFloats(const std::string& text, const std::string& what) {
+    glm::vec<N, float> v(0.0f);
+    size_t start = 0;
+    for (int i = 0; i < N; ++i) {
+        const size_t comma = text.find(',', start);
+        const bool last = i == N - 1;
+        if (last != (comma == std::string::npos)) throw Error(what + ": \"" + text + "\" is not " + std::to_string(N) + " numbers separated by commas");
+        const std::string part = text.substr(start, last ? std::string::npos : comma - start);
+        try {
+            size_t used = 0;
+            v[i] = std::stof(part, &used);
+            if (used != part.size() || !std::isfinite(v[i])) throw std::invalid_argument(part);
+        } catch (const std::exception&) {
+            throw Error(what + ": \"" + part + "\" is not a finite number");
+        }
+        start = comma + 1;
+    }
+    return v;
+}
+
+// Copies RGBA8 texels into `dst`, swapping R and B when the swapchain wants B8G8R8A8.
+void copyTexels(uint32_t* dst, const std::vector<uint32_t>& src, bool bgra) {
+    if (!bgra) {
+        std::memcpy(dst, src.data(), src.size() * 4);
+        return;
+    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, src.size(), 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+            const uint32_t t = src[i];
+            dst[i] = (t & 0xFF00FF00u) | ((t & 0xFFu) << 16) | ((t >> 16) & 0xFFu);
+        }
+    });
+}
+
 void swapRedBlue(std::vector<uint32_t>& texels) {
     for (uint32_t& t : texels) t = (t & 0xFF00FF00u) | ((t & 0xFFu) << 16) | ((t >> 16) & 0xFFu);
 }
@@ -66,15 +112,45 @@ std::string canonicalSpec(const std::string& spec) {
     return spec;
 }
 
-// Median of the second half of `values` (the steady state after start-up), 0 when empty.
-double steadyMedian(std::vector<double> values) {
-    values.erase(values.begin(), values.begin() + values.size() / 2);
+double median(std::vector<double> values) {
     if (values.empty()) return 0.0;
     std::sort(values.begin(), values.end());
     return values[values.size() / 2];
 }
 
+// Median of the second half of `values` (the steady state after start-up), 0 when empty.
+double steadyMedian(std::vector<double> values) {
+    values.erase(values.begin(), values.begin() + values.size() / 2);
+    return median(std::move(values));
+}
+
+double processCpuSeconds() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+           1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
 std::string bookmarksFile() { return (fs::path(configDirectory()) / "bookmarks.json").string(); }
+
+// Where the image on screen came from, so that it can be presented again without tracing.
+enum class ShownSource { Nothing, TracerOutput, Host };
+
+// One frame of the run, for the summary.
+struct FrameRecord {
+    double startSeconds = 0.0;  // since the run started
+    double seconds = 0.0;       // until the next frame started
+    FrameKind kind = FrameKind::Idle;
+    uint32_t scale = 1;
+    bool presented = false;
+    double inputLatencySeconds = -1.0;  // from the first input event to the present, when input came
+};
+
+// A key pressed since the last frame that acts once (F, F1, F12, bookmarks), from the callback.
+struct KeyPress {
+    int key = 0;
+    int mods = 0;
+};
 
 // Everything the frame loop passes between the modules. Destroyed in the reverse order of use:
 // the worker first (it may still be building), then the tracer, the window and the context.
@@ -84,11 +160,14 @@ struct Session {
     ViewerWindow window;
     std::unique_ptr<GpuTracer> tracer;
     std::unique_ptr<AsyncSceneBuilder> builder;
+    bool cpuDevice = false;
 
     std::shared_ptr<const Scene> scene;
     std::shared_ptr<const Bvh> bvh;
+    std::optional<CpuSceneView> cpuView;  // made when a CPU tracer first draws this tree
     std::string sceneSpec;
     bool firstScene = true;
+    bool firstLoadFailed = false;
     double uploadSeconds = 0.0;
 
     PanelState panel;
@@ -96,20 +175,60 @@ struct Session {
     FlyCamera fly;
     std::optional<BookmarkStore> bookmarks;
     std::vector<std::string> droppedFiles;
-    glm::dvec2 lastCursor{0.0};
+
+    // Input, filled by the GLFW callbacks between frames (ui/input.h).
+    HeldKeys keys;
+    std::vector<KeyPress> pressed;
     bool looking = false;
+    glm::dvec2 lastCursor{0.0};
+    glm::vec2 lookPixels{0.0f};
+    double firstInputSeconds = -1.0;  // time of the first input event since the last frame
+    int uiFramesPending = 2;          // frames to draw for the panel after an event
+    bool showHelp = false;
+    GLFWkeyfun previousKey = nullptr;
+    GLFWcharfun previousChar = nullptr;
+    GLFWmousebuttonfun previousMouseButton = nullptr;
+    GLFWcursorposfun previousCursor = nullptr;
+    GLFWscrollfun previousScroll = nullptr;
+    GLFWwindowfocusfun previousFocus = nullptr;
 
-    // The compare view: images shown instead of the traced one.
-    Image referenceImage, differenceImage;
-    vk::Buffer shownImage;  // host-visible copy of the image shown, in the swapchain's byte order
+    // The frame loop (ui/frame_loop.h) and what is on screen.
+    FrameLoop loop;
+    SampleAccumulator accumulator;
+    std::string tracedViewKey;  // the view of the image on screen
+    std::optional<uint32_t> forcedScale;
+    ShownSource shown = ShownSource::Nothing;
+    Image shownHost;  // the image on screen when it came from the host, RGBA8, window-sized
+    vk::Buffer shownImage;  // host-visible copy of it, in the swapchain's byte order
     vk::Buffer screenshotReadback;
+    Image referenceImage, differenceImage;  // the compare view
 
+    // Counters of the Vulkan kernels: a counting frame within budget (measureCounters).
+    Clock::time_point lastCounting{};
+    bool lastFrameCounted = false;
+    double countingSeconds = 0.0;
+    std::string countedViewKey;
+    Clock::time_point countersTime{};
+    std::string countersSource;
+
+    // Camera paths.
+    std::optional<CameraPath> playing;
+    Clock::time_point playStart{};
+    uint32_t playFrame = 0;
+    bool playbackOver = false;
+    CameraPath recording;
+
+    // Timing and the run's summary.
+    const Clock::time_point runStart = Clock::now();
     Clock::time_point lastFrame = Clock::now();
-    Clock::time_point lastCounting = Clock::now();
+    Clock::time_point lastTitle{};
     double smoothedFrameSeconds = 0.0;
     uint32_t frameIndex = 0;
-    // Every frame's wall time and kernel times, for the summary of a scripted run.
     std::vector<double> frameTimes, primaryKernelTimes, shadowKernelTimes;
+    std::vector<FrameRecord> records;
+    double idleWallSeconds = 0.0, idleCpuSeconds = 0.0;
+    uint64_t idleFrames = 0;  // frames that traced and presented nothing
+    double lastChangeSeconds = -1.0, fullAfterChangeSeconds = -1.0, convergedAfterChangeSeconds = -1.0;
 
     explicit Session(const ViewerOptions& o) : options(o) {}
     ~Session() {
@@ -123,15 +242,117 @@ struct Session {
         glfwTerminate();
     }
 
+    double secondsSinceStart(Clock::time_point t = Clock::now()) const {
+        return std::chrono::duration<double>(t - runStart).count();
+    }
     void report(const std::string& message) {
         info.error = message;
         if (options.frames) std::fprintf(stderr, "raypack: %s\n", message.c_str());
     }
+    void noteInput() {
+        if (firstInputSeconds < 0.0) firstInputSeconds = secondsSinceStart();
+        uiFramesPending = std::max(uiFramesPending, 3);
+    }
 };
 
+Session& sessionOf(GLFWwindow* window) { return *static_cast<Session*>(glfwGetWindowUserPointer(window)); }
+
+std::optional<FlyKey> flyKeyOf(int key) {
+    switch (key) {
+    case GLFW_KEY_W: return FlyKey::Forward;
+    case GLFW_KEY_S: return FlyKey::Back;
+    case GLFW_KEY_A: return FlyKey::Left;
+    case GLFW_KEY_D: return FlyKey::Right;
+    case GLFW_KEY_Q: return FlyKey::Down;
+    case GLFW_KEY_E: return FlyKey::Up;
+    default: return std::nullopt;
+    }
+}
+
+// GLFW callbacks: each first calls the one it replaced (ImGui's backend), then records the event.
+void onKey(GLFWwindow* window, int key, int scancode, int action, int mods) {
+    Session& s = sessionOf(window);
+    if (s.previousKey) s.previousKey(window, key, scancode, action, mods);
+    s.noteInput();
+    const double now = s.secondsSinceStart();
+    const std::optional<FlyKey> fly = flyKeyOf(key);
+    if (action == GLFW_RELEASE) {
+        if (fly) s.keys.release(*fly, now);  // always, so no key sticks
+        return;
+    }
+    if (ImGui::GetIO().WantCaptureKeyboard) return;  // typing into the panel
+    if (action == GLFW_PRESS) {
+        if (fly) s.keys.press(*fly, now);
+        else s.pressed.push_back({key, mods});
+    }
+}
+
+void onChar(GLFWwindow* window, unsigned int codepoint) {
+    Session& s = sessionOf(window);
+    if (s.previousChar) s.previousChar(window, codepoint);
+    s.noteInput();
+    if (codepoint == '?' && !ImGui::GetIO().WantCaptureKeyboard) s.showHelp = !s.showHelp;
+}
+
+void onMouseButton(GLFWwindow* window, int button, int action, int mods) {
+    Session& s = sessionOf(window);
+    if (s.previousMouseButton) s.previousMouseButton(window, button, action, mods);
+    s.noteInput();
+    if (button != GLFW_MOUSE_BUTTON_RIGHT) return;
+    // A drag looks only when it started over the image, not over the panel.
+    if (action == GLFW_PRESS) {
+        s.looking = !ImGui::GetIO().WantCaptureMouse;
+        glfwGetCursorPos(window, &s.lastCursor.x, &s.lastCursor.y);
+    } else if (action == GLFW_RELEASE) {
+        s.looking = false;
+    }
+}
+
+void onCursor(GLFWwindow* window, double x, double y) {
+    Session& s = sessionOf(window);
+    if (s.previousCursor) s.previousCursor(window, x, y);
+    s.noteInput();
+    if (s.looking) s.lookPixels += glm::vec2(glm::dvec2(x, y) - s.lastCursor);
+    s.lastCursor = glm::dvec2(x, y);
+}
+
+void onScroll(GLFWwindow* window, double dx, double dy) {
+    Session& s = sessionOf(window);
+    if (s.previousScroll) s.previousScroll(window, dx, dy);
+    s.noteInput();
+}
+
+void onFocus(GLFWwindow* window, int focused) {
+    Session& s = sessionOf(window);
+    if (s.previousFocus) s.previousFocus(window, focused);
+    s.noteInput();
+    if (!focused) {  // no release events will come for keys held now
+        s.keys.releaseAll(s.secondsSinceStart());
+        s.looking = false;
+    }
+}
+
 void onDrop(GLFWwindow* window, int count, const char** paths) {
-    auto* session = static_cast<Session*>(glfwGetWindowUserPointer(window));
-    for (int i = 0; i < count; ++i) session->droppedFiles.emplace_back(paths[i]);
+    Session& s = sessionOf(window);
+    s.noteInput();
+    for (int i = 0; i < count; ++i) s.droppedFiles.emplace_back(paths[i]);
+}
+
+void onRefresh(GLFWwindow* window) { sessionOf(window).noteInput(); }
+void onFramebufferSize(GLFWwindow* window, int, int) { sessionOf(window).noteInput(); }
+
+void installCallbacks(Session& s) {
+    GLFWwindow* w = s.window.window;
+    glfwSetWindowUserPointer(w, &s);
+    s.previousKey = glfwSetKeyCallback(w, onKey);
+    s.previousChar = glfwSetCharCallback(w, onChar);
+    s.previousMouseButton = glfwSetMouseButtonCallback(w, onMouseButton);
+    s.previousCursor = glfwSetCursorPosCallback(w, onCursor);
+    s.previousScroll = glfwSetScrollCallback(w, onScroll);
+    s.previousFocus = glfwSetWindowFocusCallback(w, onFocus);
+    glfwSetDropCallback(w, onDrop);
+    glfwSetWindowRefreshCallback(w, onRefresh);
+    glfwSetFramebufferSizeCallback(w, onFramebufferSize);
 }
 
 void requestLoad(Session& s, const std::string& spec) {
@@ -139,12 +360,30 @@ void requestLoad(Session& s, const std::string& spec) {
     if (s.options.frames) std::printf("raypack: frame %u: open %s\n", s.frameIndex, spec.c_str());
 }
 
+KernelKind kernelOf(TracerChoice tracer) {
+    return tracer == TracerChoice::VulkanSingle ? KernelKind::Single : KernelKind::Packet;
+}
+
+void setTracer(Session& s, TracerChoice tracer, const std::string& reason) {
+    s.panel.tracer = tracer;
+    if (!isCpuTracer(tracer)) s.panel.settings.kernel = kernelOf(tracer);
+    s.info.tracerReason = reason;
+}
+
 // At the frame boundary: swap in what the worker finished (upload, then trace it from this frame
 // on), and show what failed.
 void takeWorkerResults(Session& s) {
-    if (std::optional<BuildFailure> failure = s.builder->takeFailure())
-        s.report((failure->scenePath.empty() ? std::string("rebuild: ") : failure->scenePath + ": ") +
-                 failure->message);
+    if (std::optional<BuildFailure> failure = s.builder->takeFailure()) {
+        // Loaders name the file in their messages; add it only where the message does not.
+        const std::string& path = failure->scenePath;
+        const bool named = path.empty() || failure->message.find(path) != std::string::npos;
+        s.report(path.empty() ? "rebuild: " + failure->message
+                              : (named ? failure->message : path + ": " + failure->message));
+        if (!path.empty() && !s.scene) {
+            s.firstLoadFailed = true;
+            s.info.scene = path + " (failed to load)";
+        }
+    }
     std::optional<SceneBuild> build = s.builder->takeFinished();
     if (!build) return;
     try {
@@ -156,12 +395,14 @@ void takeWorkerResults(Session& s) {
     const bool newScene = build->scene != s.scene;
     s.scene = build->scene;
     s.bvh = build->bvh;
+    s.cpuView.reset();
     s.info.bvhStats = s.bvh->stats;
     s.info.builtWith = s.bvh->options;
     s.info.hasBvh = true;
     s.info.compare.valid = false;
     s.panel.showing = Showing::Traced;
     if (!newScene) return;
+    s.firstLoadFailed = false;
     s.sceneSpec = canonicalSpec(build->scenePath);
     s.info.scene = s.sceneSpec;
     s.info.triangles = s.scene->triangleCount();
@@ -180,83 +421,11 @@ void takeWorkerResults(Session& s) {
     }
 }
 
-void applyScriptStep(Session& s, const ScriptStep& step) {
-    RenderSettings& settings = s.panel.settings;
-    std::printf("raypack: frame %u: %s %s\n", s.frameIndex, step.action.c_str(), step.value.c_str());
-    if (step.action == "resize") {
-        const PacketShape size = parseShape(step.value, "resize");
-        glfwSetWindowSize(s.window.window, int(size.width), int(size.height));
-    } else if (step.action == "packet") {
-        settings.packet = parseShape(step.value, "packet");
-    } else if (step.action == "leaf-size" || step.action == "builder") {
-        if (step.action == "leaf-size") s.panel.bvh.leafSize = parseCount(step.value, "leaf-size");
-        else s.panel.bvh.builder = parseBvhBuilder(step.value);
-        s.builder->requestRebuild(s.scene, s.panel.bvh);
-    } else if (step.action == "shadows") {
-        if (step.value != "on" && step.value != "off") throw Error("shadows: \"" + step.value + "\" is not on or off");
-        settings.shadows = step.value == "on";
-    } else if (step.action == "kernel") {
-        const std::optional<KernelKind> kind = parseKernelKind(step.value);
-        if (!kind) throw Error("kernel: \"" + step.value + "\" is not packet or single");
-        settings.kernel = *kind;
-    } else if (step.action == "view") {
-        const std::optional<ViewMode> mode = parseViewMode(step.value);
-        if (!mode) throw Error("view: \"" + step.value + "\" is not shaded, nodes or tests");
-        settings.view = *mode;
-    } else if (step.action == "open") {
-        const BuildStatus status = s.builder->status();
-        std::printf("raypack: frame %u: worker %s when the load was requested\n", s.frameIndex,
-                    toString(status.phase));
-        requestLoad(s, step.value);
-    } else if (step.action == "wait") {
-        s.builder->waitIdle();
-        takeWorkerResults(s);
-    } else {
-        throw Error("script: unknown action \"" + step.action + "\"");
-    }
-}
-
-FlyInput readFlyInput(Session& s) {
-    FlyInput input;
-    const ImGuiIO& io = ImGui::GetIO();
-    GLFWwindow* w = s.window.window;
-    if (!io.WantCaptureKeyboard) {
-        input.forward = glfwGetKey(w, GLFW_KEY_W) == GLFW_PRESS;
-        input.back = glfwGetKey(w, GLFW_KEY_S) == GLFW_PRESS;
-        input.left = glfwGetKey(w, GLFW_KEY_A) == GLFW_PRESS;
-        input.right = glfwGetKey(w, GLFW_KEY_D) == GLFW_PRESS;
-        input.down = glfwGetKey(w, GLFW_KEY_Q) == GLFW_PRESS;
-        input.up = glfwGetKey(w, GLFW_KEY_E) == GLFW_PRESS;
-        input.fast = glfwGetKey(w, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS ||
-                     glfwGetKey(w, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
-    }
-    glm::dvec2 cursor;
-    glfwGetCursorPos(w, &cursor.x, &cursor.y);
-    const bool rightDown = glfwGetMouseButton(w, GLFW_MOUSE_BUTTON_RIGHT) == GLFW_PRESS;
-    // A drag looks only when it started over the image, not over the panel.
-    if (rightDown && !s.looking && !io.WantCaptureMouse) s.looking = true;
-    if (!rightDown) s.looking = false;
-    if (s.looking) input.lookPixels = glm::vec2(cursor - s.lastCursor);
-    s.lastCursor = cursor;
-    if (!io.WantCaptureMouse) input.wheel = io.MouseWheel;
-    return input;
-}
-
-void handleKeys(PanelActions& actions) {
-    const ImGuiIO& io = ImGui::GetIO();
-    if (io.WantCaptureKeyboard) return;
-    if (ImGui::IsKeyPressed(GLFW_KEY_F, false)) actions.frameAll = true;
-    for (int n = 1; n <= kBookmarkSlots; ++n) {
-        if (!ImGui::IsKeyPressed(GLFW_KEY_0 + n, false)) continue;
-        if (io.KeyCtrl) actions.saveBookmark = n;
-        else actions.recallBookmark = n;
-    }
-}
-
 nlohmann::json statisticsJson(const Session& s) {
     const LiveStatistics& st = s.info.stats;
     nlohmann::json stats = {
         {"device", s.info.device},
+        {"tracer", cliName(s.panel.tracer)},
         {"frame_s", st.frameSeconds},
         {"primary_rays", st.primaryRays},
         {"primary_kernel_s", st.primaryKernelSeconds},
@@ -270,6 +439,7 @@ nlohmann::json statisticsJson(const Session& s) {
         stats["shadow_rays"] = st.counters.shadowRays;
         stats["shadow_nodes_per_ray"] = st.counters.shadowNodes;
         stats["shadow_tests_per_ray"] = st.counters.shadowTests;
+        stats["counters_from"] = s.countersSource;
     }
     if (s.bvh) {
         const BvhStats& b = s.bvh->stats;
@@ -290,14 +460,27 @@ void ensureHostBuffer(Session& s, vk::Buffer& buffer, VkDeviceSize bytes, VkBuff
                               VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, what);
 }
 
+const CpuSceneView& cpuViewOf(Session& s) {
+    if (!s.cpuView) s.cpuView.emplace(makeCpuSceneView(*s.scene, *s.bvh));
+    return *s.cpuView;
+}
+
+// One frame traced synchronously on the host's side: the CPU tracers, or a Vulkan kernel through
+// GpuTracer::render (which reads the image back).
+Frame traceOnHost(Session& s, const RenderSettings& settings, const FrameRequest& request) {
+    if (isCpuTracer(s.panel.tracer)) return renderCpu(cpuViewOf(s), settings, request);
+    return s.tracer->render(settings, request);
+}
+
 // The CPU reference of the same view and the difference, shown in the panel (raypack-cli diff's
 // numbers) and, on request, in place of the traced image.
 void compareWithReference(Session& s) {
     if (!s.scene || !s.bvh) return;
     RenderSettings settings = s.panel.settings;
     settings.collectCounters = false;
+    settings.pixelJitter = glm::vec2(0.0f);
     const Frame gpuFrame = s.tracer->render(settings);
-    const Frame cpuFrame = renderCpu(*s.scene, *s.bvh, settings);
+    const Frame cpuFrame = renderCpu(cpuViewOf(s), settings);
     const Image gpuImage{gpuFrame.width, gpuFrame.height, gpuFrame.rgba};
     s.referenceImage = Image{cpuFrame.width, cpuFrame.height, cpuFrame.rgba};
     const ImageDiff diff = diffImages(s.referenceImage, gpuImage, 0, "CPU reference", "GPU image");
@@ -309,18 +492,204 @@ void compareWithReference(Session& s) {
                     (unsigned long long)diff.pixels);
 }
 
-void saveScreenshot(Session& s, const std::string& path, const FrameTarget& target) {
-    std::vector<uint32_t> texels(size_t(target.extent.width) * target.extent.height);
-    std::memcpy(texels.data(), s.screenshotReadback.mapped, texels.size() * 4);
-    if (target.bgra) swapRedBlue(texels);
-    RenderSetup setup{s.sceneSpec, s.panel.settings, s.bvh ? s.bvh->options : s.panel.bvh};
-    setup.settings.width = target.extent.width;
-    setup.settings.height = target.extent.height;
-    writeScreenshot(path, Image{target.extent.width, target.extent.height, std::move(texels)}, setup,
-                    statisticsJson(s));
-    s.info.lastScreenshot = path;
-    std::printf("raypack: screenshot %s (%ux%u) and %s\n", path.c_str(), target.extent.width,
-                target.extent.height, sidecarPath(path).c_str());
+// The image on screen, RGBA8, as the user sees it (reduced, refined or plain).
+Image shownImageNow(Session& s) {
+    if (s.shown == ShownSource::Host) return s.shownHost;
+    if (s.shown != ShownSource::TracerOutput) throw Error("screenshot: no image shown yet");
+    const VkDeviceSize bytes = s.tracer->outputBytes();
+    ensureHostBuffer(s, s.screenshotReadback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, "screenshot");
+    vk::check(vkDeviceWaitIdle(s.context.device), "vkDeviceWaitIdle (screenshot)");
+    vk::submitAndWait(s.context, s.window.commandPool, [&](VkCommandBuffer cmd) {
+        const VkBufferCopy region{0, 0, bytes};
+        vkCmdCopyBuffer(cmd, s.tracer->outputBuffer(), s.screenshotReadback.buffer, 1, &region);
+    });
+    const uint32_t width = s.panel.settings.width, height = s.panel.settings.height;
+    RAYPACK_CHECK(bytes == VkDeviceSize(width) * height * 4);
+    Image image{width, height, std::vector<uint32_t>(size_t(width) * height)};
+    std::memcpy(image.rgba.data(), s.screenshotReadback.mapped, bytes);
+    if (s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM) swapRedBlue(image.rgba);
+    return image;
+}
+
+void saveScreenshot(Session& s, const std::string& path) {
+    try {
+        Image image = shownImageNow(s);
+        RenderSetup setup{s.sceneSpec, s.panel.settings, s.bvh ? s.bvh->options : s.panel.bvh};
+        setup.settings.width = image.width;
+        setup.settings.height = image.height;
+        setup.settings.pixelJitter = glm::vec2(0.0f);
+        const FrameLoopStatus& st = s.info.frameLoop;
+        setup.samples = std::max(1u, st.samplesShown);
+        setup.resolutionScale = st.scale;
+        writeScreenshot(path, image, setup, statisticsJson(s));
+        s.info.lastScreenshot = path;
+        std::printf("raypack: screenshot %s (%ux%u, %u samples, 1/%u resolution) and %s\n", path.c_str(), image.width,
+                    image.height, setup.samples, setup.resolutionScale, sidecarPath(path).c_str());
+    } catch (const Error& e) {
+        s.report(e.what());
+    }
+}
+
+void recallBookmark(Session& s, int slot) {
+    if (!s.bookmarks || !s.bookmarks->slot(slot)) return;
+    s.panel.settings.camera = *s.bookmarks->slot(slot);
+    s.fly.setCamera(s.panel.settings.camera);
+}
+
+void saveBookmark(Session& s, int slot) {
+    if (!s.bookmarks) return;
+    try {
+        s.bookmarks->save(slot, s.panel.settings.camera);
+    } catch (const Error& e) {
+        s.report(e.what());
+    }
+}
+
+void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
+    RenderSettings& settings = s.panel.settings;
+    std::printf("raypack: frame %u: %s %s\n", s.frameIndex, step.action.c_str(), step.value.c_str());
+    if (step.action == "resize") {
+        const PacketShape size = parseShape(step.value, "resize");
+        glfwSetWindowSize(s.window.window, int(size.width), int(size.height));
+    } else if (step.action == "packet") {
+        settings.packet = parseShape(step.value, "packet");
+    } else if (step.action == "leaf-size" || step.action == "builder") {
+        if (step.action == "leaf-size") s.panel.bvh.leafSize = parseCount(step.value, "leaf-size");
+        else s.panel.bvh.builder = parseBvhBuilder(step.value);
+        s.builder->requestRebuild(s.scene, s.panel.bvh);
+    } else if (step.action == "shadows") {
+        if (step.value != "on" && step.value != "off") throw Error("shadows: \"" + step.value + "\" is not on or off");
+        settings.shadows = step.value == "on";
+    } else if (step.action == "kernel") {
+        const std::optional<KernelKind> kind = parseKernelKind(step.value);
+        if (!kind) throw Error("kernel: \"" + step.value + "\" is not packet or single");
+        settings.kernel = *kind;
+        if (!isCpuTracer(s.panel.tracer))
+            setTracer(s, *kind == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle, "script");
+    } else if (step.action == "tracer") {
+        const std::optional<TracerChoice> tracer = parseTracerChoice(step.value);
+        if (!tracer) throw Error("tracer: \"" + step.value + "\" is not vulkan-packet, vulkan-single or cpu-reference");
+        setTracer(s, *tracer, "chosen by the script");
+    } else if (step.action == "view") {
+        const std::optional<ViewMode> mode = parseViewMode(step.value);
+        if (!mode) throw Error("view: \"" + step.value + "\" is not shaded, nodes or tests");
+        settings.view = *mode;
+    } else if (step.action == "open") {
+        const BuildStatus status = s.builder->status();
+        std::printf("raypack: frame %u: worker %s when the load was requested\n", s.frameIndex,
+                    toString(status.phase));
+        requestLoad(s, step.value);
+    } else if (step.action == "wait") {
+        s.builder->waitIdle();
+        takeWorkerResults(s);
+    } else if (step.action == "move") {
+        input.heldSeconds += parseFloats<3>(step.value, "move");
+    } else if (step.action == "look") {
+        input.lookPixels += parseFloats<2>(step.value, "look");
+    } else if (step.action == "bookmark" || step.action == "save-bookmark") {
+        const uint32_t slot = parseCount(step.value, step.action);
+        if (slot > uint32_t(kBookmarkSlots)) throw Error(step.action + ": slot " + step.value + " is not 1..9");
+        if (step.action == "bookmark") recallBookmark(s, int(slot));
+        else saveBookmark(s, int(slot));
+    } else if (step.action == "frame-all") {
+        s.fly.frameAll();
+        settings.camera = s.fly.camera();
+    } else if (step.action == "scale") {
+        const uint32_t scale = parseCount(step.value, "scale");
+        if (scale > 64) throw Error("scale: " + step.value + " is above 64");
+        s.forcedScale = scale;
+    } else if (step.action == "samples") {
+        s.panel.frameLoop.samples = std::min(parseCount(step.value, "samples"), kMaxSamplesPerPixel);
+    } else if (step.action == "budget") {
+        s.panel.frameLoop.frameBudgetMs = float(parseCount(step.value, "budget"));
+    } else {
+        throw Error("script: unknown action \"" + step.action + "\"");
+    }
+}
+
+// The camera for this frame from the keys held, the mouse, the wheel, or the path being played.
+void moveCamera(Session& s, FlyInput& input, double frameSeconds) {
+    if (!s.scene) return;
+    const std::array<double, kFlyKeyCount> held = s.keys.take(s.secondsSinceStart());
+    const auto seconds = [&](FlyKey k) { return float(held[uint32_t(k)]); };
+    input.heldSeconds += glm::vec3(seconds(FlyKey::Right) - seconds(FlyKey::Left),
+                                   seconds(FlyKey::Up) - seconds(FlyKey::Down),
+                                   seconds(FlyKey::Forward) - seconds(FlyKey::Back));
+    input.lookPixels += s.lookPixels;
+    s.lookPixels = glm::vec2(0.0f);
+    const ImGuiIO& io = ImGui::GetIO();
+    if (!io.WantCaptureMouse) input.wheel += io.MouseWheel;
+    GLFWwindow* w = s.window.window;
+    input.fast = glfwGetKey(w, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(w, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+
+    if (s.playing && !s.playbackOver) {
+        const CameraPath& path = *s.playing;
+        if (s.options.playFrames) {
+            s.panel.settings.camera = path.keys[std::min<size_t>(s.playFrame, path.keys.size() - 1)].camera;
+            s.playbackOver = ++s.playFrame >= path.keys.size();
+        } else {
+            const double t = std::chrono::duration<double>(Clock::now() - s.playStart).count();
+            s.panel.settings.camera = cameraAt(path, t);
+            s.playbackOver = t >= path.duration();
+        }
+        s.fly.setCamera(s.panel.settings.camera);
+        if (s.playbackOver) std::printf("raypack: frame %u: camera path played to its end\n", s.frameIndex);
+        return;
+    }
+    s.fly.setCamera(s.panel.settings.camera);
+    if (s.fly.update(input, float(frameSeconds))) s.panel.settings.camera = s.fly.camera();
+}
+
+void handleKeys(Session& s, PanelActions& actions) {
+    for (const KeyPress& press : s.pressed) {
+        if (press.key == GLFW_KEY_F) actions.frameAll = true;
+        else if (press.key == GLFW_KEY_F1) s.showHelp = !s.showHelp;
+        else if (press.key == GLFW_KEY_F12) actions.screenshot = true;
+        else if (press.key >= GLFW_KEY_1 && press.key <= GLFW_KEY_9) {
+            const int n = press.key - GLFW_KEY_0;
+            if (press.mods & GLFW_MOD_CONTROL) actions.saveBookmark = n;
+            else actions.recallBookmark = n;
+        }
+    }
+    s.pressed.clear();
+}
+
+void drawHelp(Session& s) {
+    if (!s.showHelp) return;
+    const ImGuiIO& io = ImGui::GetIO();
+    ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x * 0.5f, io.DisplaySize.y * 0.5f), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
+    ImGui::SetNextWindowBgAlpha(0.9f);
+    if (!ImGui::Begin("Controls (F1 or ? closes)", &s.showHelp, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoCollapse)) {
+        ImGui::End();
+        return;
+    }
+    constexpr const char* kControls[][2] = {
+        {"W / S", "fly forward / back"},
+        {"A / D", "fly left / right"},
+        {"Q / E", "fly down / up"},
+        {"Shift", "fly faster (x4)"},
+        {"mouse wheel", "flying speed (x1.2 a step)"},
+        {"right drag", "look around"},
+        {"F", "frame the whole scene"},
+        {"1 .. 9", "recall a camera bookmark"},
+        {"Ctrl+1 .. 9", "save a camera bookmark"},
+        {"F12", "screenshot of the image shown (PNG + JSON sidecar)"},
+        {"F1 or ?", "this help"},
+        {"drop a file", "open a scene (OBJ, PLY, glTF, GLB)"},
+    };
+    if (ImGui::BeginTable("controls", 2, ImGuiTableFlags_RowBg)) {
+        for (const auto& row : kControls) {
+            ImGui::TableNextRow();
+            ImGui::TableNextColumn();
+            ImGui::TextUnformatted(row[0]);
+            ImGui::TableNextColumn();
+            ImGui::TextUnformatted(row[1]);
+        }
+        ImGui::EndTable();
+    }
+    ImGui::TextDisabled("Moving: the image is traced at a lower resolution to keep the frame budget;");
+    ImGui::TextDisabled("still: full resolution, then anti-aliasing samples, then no tracing at all.");
+    ImGui::End();
 }
 
 void handleActions(Session& s, const PanelActions& a, const RenderSettings& before) {
@@ -336,17 +705,13 @@ void handleActions(Session& s, const PanelActions& a, const RenderSettings& befo
         ImGui::SetClipboardText(s.info.cameraArguments.c_str());
         std::printf("%s\n", s.info.cameraArguments.c_str());
     }
-    if (a.saveBookmark && s.bookmarks) {
-        try {
-            s.bookmarks->save(a.saveBookmark, s.panel.settings.camera);
-        } catch (const Error& e) {
-            s.report(e.what());
-        }
-    }
-    if (a.recallBookmark && s.bookmarks && s.bookmarks->slot(a.recallBookmark)) {
-        s.panel.settings.camera = *s.bookmarks->slot(a.recallBookmark);
-        s.fly.setCamera(s.panel.settings.camera);
-    }
+    if (a.saveBookmark) saveBookmark(s, a.saveBookmark);
+    if (a.recallBookmark) recallBookmark(s, a.recallBookmark);
+    if (a.tracerChanged) setTracer(s, s.panel.tracer, "chosen in the panel");
+    // The kernel radio buttons of the Tracer section pick among the Vulkan kernels.
+    if (!isCpuTracer(s.panel.tracer) && s.panel.settings.kernel != kernelOf(s.panel.tracer))
+        setTracer(s, s.panel.settings.kernel == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle,
+                  "chosen in the panel");
     if (a.compare) {
         try {
             compareWithReference(s);
@@ -364,65 +729,208 @@ void handleActions(Session& s, const PanelActions& a, const RenderSettings& befo
     }
 }
 
-// Once a second (when asked), a synchronous frame of the counting kernel for N_TR / N_IT.
-// On lavapipe (a CPU device) the timestamps of the window's frames do not bracket the dispatches
-// (measured: 17 us for a 57 ms pass), so there the panel's T_K comes from the counting frame, which
-// GpuTracer::render times on the host (setHostTimedPasses) and which runs the statistics variant of
-// the kernel: a little slower than the frames shown.
-bool frameTimestampsReliable(const Session& s) {
-    return s.context.info.type != VK_PHYSICAL_DEVICE_TYPE_CPU;
+// What the image depends on; a change starts the frame loop over (reduced frames, then full,
+// then refinement).
+std::string viewKey(const Session& s) {
+    RenderSettings settings = s.panel.settings;
+    settings.pixelJitter = glm::vec2(0.0f);
+    settings.collectCounters = false;
+    nlohmann::json key = toJson(settings);
+    key["tracer"] = cliName(s.panel.tracer);
+    key["tree"] = reinterpret_cast<uintptr_t>(s.bvh.get());
+    return key.dump();
 }
 
-// Kernel times T_K into the panel's statistics (and the scripted run's medians).
-void recordKernelTimes(Session& s, const FrameTimings& kernel, const RenderSettings& settings) {
+std::string describeSize(uint32_t width, uint32_t height) {
+    return std::to_string(width) + "x" + std::to_string(height);
+}
+
+// Kernel times T_K of a traced frame into the panel's statistics (and the scripted run's medians).
+void recordKernelTimes(Session& s, const FrameTimings& kernel, uint32_t width, uint32_t height, const std::string& note) {
     LiveStatistics& st = s.info.stats;
     st.kernelTimesValid = true;
-    st.kernelTimesFromCountingFrame = !frameTimestampsReliable(s);
+    st.kernelTimesNote = note;
     st.primaryKernelSeconds = kernel.primarySeconds;
     st.shadowKernelSeconds = kernel.shadowSeconds;
     s.primaryKernelTimes.push_back(kernel.primarySeconds);
     s.shadowKernelTimes.push_back(kernel.shadowSeconds);
-    st.primaryRays = uint64_t(settings.width) * settings.height;
+    st.primaryRays = uint64_t(width) * height;
     const double tracing = kernel.primarySeconds + kernel.shadowSeconds;
     st.nonTracingShare = st.frameSeconds > 0 ? std::max(0.0, 1.0 - tracing / st.frameSeconds) : 0.0;
 }
 
-void measureCounters(Session& s) {
-    if (!s.panel.liveCounters || !s.tracer->hasScene()) return;
-    if (Clock::now() - s.lastCounting < std::chrono::seconds(1)) return;
-    s.lastCounting = Clock::now();
+void takeCounters(Session& s, const Frame& frame, const std::string& source) {
+    s.info.stats.counters = summarizeCounters(frame);
+    s.info.stats.countersValid = true;
+    s.countersTime = Clock::now();
+    s.countersSource = source;
+}
+
+// The Vulkan kernels count N_TR / N_IT only in their statistics variant: a counting frame of its
+// own, kept within budget: at most once a second, never twice in a row, at most 10% of the wall
+// time, at the resolution whose predicted cost is at most 5% of a second, and only for a view
+// the counters do not already describe.
+void measureCounters(Session& s, const std::string& key) {
+    s.lastFrameCounted = false;
+    if (!s.panel.liveCounters || isCpuTracer(s.panel.tracer) || !s.tracer->hasScene()) return;
+    const Clock::time_point now = Clock::now();
+    if (key == s.countedViewKey || now - s.lastCounting < std::chrono::seconds(1)) return;
+    if (s.countingSeconds > 0.1 * s.secondsSinceStart(now)) return;
+    const FrameCostModel& cost = s.loop.cost();
+    const uint32_t width = s.panel.settings.width, height = s.panel.settings.height;
+    uint32_t scale = 1;
+    // The statistics variant costs about twice a plain frame (measured on lavapipe and the H100).
+    while (scale < 64 && cost.measured() &&
+           2.0 * cost.secondsPerPixel() * double(scaledExtent(width, scale)) * scaledExtent(height, scale) > 0.05)
+        scale *= 2;
     RenderSettings settings = s.panel.settings;
+    settings.width = scaledExtent(width, scale);
+    settings.height = scaledExtent(height, scale);
+    settings.pixelJitter = glm::vec2(0.0f);
     settings.collectCounters = true;
     FrameRequest request;
     request.image = false;
     request.counters = true;
     try {
+        const Clock::time_point start = Clock::now();
         const Frame frame = s.tracer->render(settings, request);
-        s.info.stats.counters = summarizeCounters(frame);
-        s.info.stats.countersValid = true;
-        if (!frameTimestampsReliable(s)) recordKernelTimes(s, frame.timings, settings);
+        s.countingSeconds += std::chrono::duration<double>(Clock::now() - start).count();
+        takeCounters(s, frame, "counting frame " + describeSize(settings.width, settings.height));
+        s.lastCounting = now;
+        s.lastFrameCounted = true;
+        s.countedViewKey = key;
     } catch (const Error& e) {
         s.report(e.what());
     }
 }
 
-void drawFrame(Session& s, const std::string& screenshotPath, const std::string& windowShotPath) {
+void updateCountersNote(Session& s) {
+    LiveStatistics& st = s.info.stats;
+    if (!s.panel.liveCounters) {
+        st.countersNote = st.countersValid ? "off; the numbers below are of an earlier frame" : "off";
+        return;
+    }
+    if (!st.countersValid) {
+        st.countersNote = isCpuTracer(s.panel.tracer) ? "from the next traced frame"
+                                                      : "from the next counting frame (at most one a second)";
+        return;
+    }
+    const double age = std::chrono::duration<double>(Clock::now() - s.countersTime).count();
+    char text[160];
+    std::snprintf(text, sizeof text, "from the %s, %.1f s ago%s", s.countersSource.c_str(), age,
+                  s.countedViewKey == s.tracedViewKey || isCpuTracer(s.panel.tracer) ? "" : " (the view changed since)");
+    st.countersNote = text;
+}
+
+void updateTitle(Session& s) {
+    const Clock::time_point now = Clock::now();
+    if (now - s.lastTitle < std::chrono::milliseconds(500)) return;
+    s.lastTitle = now;
+    const std::string scene = s.sceneSpec.empty() ? s.options.scene : fs::path(s.sceneSpec).filename().string();
+    char title[512];
+    std::snprintf(title, sizeof title, "raypack - %s - %s - %.1f fps", scene.c_str(), toString(s.panel.tracer),
+                  s.smoothedFrameSeconds > 0 ? 1.0 / s.smoothedFrameSeconds : 0.0);
+    glfwSetWindowTitle(s.window.window, title);
+}
+
+// Traces what `plan` asks for into what is shown; returns the tracing seconds.
+double traceFrame(Session& s, const FramePlan& plan, const FrameTarget* target) {
+    RenderSettings& settings = s.panel.settings;
+    const uint32_t width = settings.width, height = settings.height;
+    const bool gpuDevicePath = !s.cpuDevice && !isCpuTracer(s.panel.tracer) && plan.scale == 1 &&
+                               plan.kind != FrameKind::Refine && target;
+    if (gpuDevicePath) {
+        // On a GPU the plain frame stays on the device: recorded into the window's command buffer.
+        GpuRecordOptions recordOptions;
+        recordOptions.bgra = target->bgra;
+        s.tracer->recordFrame(target->cmd, settings, recordOptions);
+        s.shown = ShownSource::TracerOutput;
+        double seconds = 0.0;
+        if (std::optional<FrameTimings> kernel = s.tracer->lastKernelTimes()) {
+            recordKernelTimes(s, *kernel, width, height, "T_K: GPU timestamps of a recent frame");
+            seconds = kernel->primarySeconds + kernel->shadowSeconds;
+        }
+        return seconds;
+    }
+    RenderSettings traced = settings;
+    traced.width = scaledExtent(width, plan.scale);
+    traced.height = scaledExtent(height, plan.scale);
+    traced.pixelJitter = plan.jitter;
+    traced.collectCounters = false;
+    FrameRequest request;
+    request.counters = isCpuTracer(s.panel.tracer) && s.panel.liveCounters;  // free on the CPU
+    const Clock::time_point start = Clock::now();
+    const Frame frame = traceOnHost(s, traced, request);
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    recordKernelTimes(s, frame.timings, traced.width, traced.height,
+                      std::string("T_K: ") + (isCpuTracer(s.panel.tracer) ? "host clock" : s.cpuDevice ? "host clock (CPU device)" : "GPU timestamps") +
+                          ", frame of " + describeSize(traced.width, traced.height));
+    if (request.counters) takeCounters(s, frame, "frame shown (" + describeSize(traced.width, traced.height) + ")");
+    Image image{frame.width, frame.height, frame.rgba};
+    switch (plan.kind) {
+    case FrameKind::Moving:
+        s.shownHost = scaleImage(image, width, height,
+                                 settings.view == ViewMode::Shaded ? ScaleFilter::Bilinear : ScaleFilter::Nearest);
+        break;
+    case FrameKind::Full: s.shownHost = std::move(image); break;
+    case FrameKind::Refine:
+        if (plan.sampleIndex == 0) s.accumulator.reset(width, height);
+        s.accumulator.add(image.rgba);
+        s.shownHost = Image{width, height, s.accumulator.resolve()};
+        break;
+    case FrameKind::Idle: break;
+    }
+    s.shown = ShownSource::Host;
+    return seconds;
+}
+
+// Copies what is shown into the acquired swapchain image.
+void presentShown(Session& s, const FrameTarget& target) {
+    const RenderSettings& settings = s.panel.settings;
+    const Image* compare = s.panel.showing == Showing::Reference ? &s.referenceImage
+                           : s.panel.showing == Showing::Difference ? &s.differenceImage
+                                                                    : nullptr;
+    if (compare && (compare->width != settings.width || compare->height != settings.height)) {
+        s.panel.showing = Showing::Traced;  // the window changed size since the comparison
+        compare = nullptr;
+    }
+    const Image* host = compare ? compare : s.shown == ShownSource::Host ? &s.shownHost : nullptr;
+    if (host && host->width == target.extent.width && host->height == target.extent.height) {
+        const VkDeviceSize bytes = VkDeviceSize(host->width) * host->height * 4;
+        ensureHostBuffer(s, s.shownImage, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "image shown");
+        copyTexels(static_cast<uint32_t*>(s.shownImage.mapped), host->rgba, target.bgra);
+        copyImage(s.window, target, s.shownImage.buffer);
+    } else if (s.shown == ShownSource::TracerOutput && !compare &&
+               s.tracer->outputBytes() == VkDeviceSize(target.extent.width) * target.extent.height * 4) {
+        copyImage(s.window, target, s.tracer->outputBuffer());
+    } else {
+        clearImage(s.window, target, settings.background.x, settings.background.y, settings.background.z);
+    }
+}
+
+struct FrameResult {
+    bool traced = false;
+    bool presented = false;
+    FrameKind kind = FrameKind::Idle;
+};
+
+FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::string& windowShotPath,
+                      FlyInput scriptedInput) {
+    FrameResult result;
     const RenderSettings before = s.panel.settings;
+    const Clock::time_point frameStart = Clock::now();
+    const double seconds = std::chrono::duration<double>(frameStart - s.lastFrame).count();
+    s.lastFrame = frameStart;
+
+    // The window's size decides the traced size; a minimised window traces nothing.
+    int fbWidth = 0, fbHeight = 0;
+    glfwGetFramebufferSize(s.window.window, &fbWidth, &fbHeight);
+    if (fbWidth <= 0 || fbHeight <= 0) return result;
+
     ImGui_ImplVulkan_NewFrame();
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
-
-    const Clock::time_point now = Clock::now();
-    const double seconds = std::chrono::duration<double>(now - s.lastFrame).count();
-    s.lastFrame = now;
-    if (s.frameIndex > 0) s.frameTimes.push_back(seconds);
-    s.smoothedFrameSeconds = s.smoothedFrameSeconds == 0.0 ? seconds : 0.9 * s.smoothedFrameSeconds + 0.1 * seconds;
-
-    if (s.scene) {
-        s.fly.setCamera(s.panel.settings.camera);
-        if (s.fly.update(readFlyInput(s), float(seconds))) s.panel.settings.camera = s.fly.camera();
-    }
-    s.info.stats.frameSeconds = s.smoothedFrameSeconds;
+    moveCamera(s, scriptedInput, seconds);
     s.info.build = s.builder->status();
     s.info.cameraArguments = cameraCliArguments(s.panel.settings.camera);
     s.info.flySpeed = s.fly.speed();
@@ -431,79 +939,181 @@ void drawFrame(Session& s, const std::string& screenshotPath, const std::string&
     s.info.bookmarkSet.assign(kBookmarkSlots, false);
     if (s.bookmarks)
         for (int n = 1; n <= kBookmarkSlots; ++n) s.info.bookmarkSet[n - 1] = s.bookmarks->slot(n).has_value();
+    updateCountersNote(s);
+    s.info.frameLoop.samplesWanted = s.panel.frameLoop.samples;
+    s.info.frameLoop.costMeasured = s.loop.cost().measured();
+    s.info.frameLoop.secondsPerMegapixel = s.loop.cost().secondsPerPixel() * 1e6;
+    s.info.frameLoop.fixedSeconds = s.loop.cost().fixedSeconds();
 
     PanelActions actions;
     if (!s.options.hidePanel) actions = drawPanel(s.panel, s.info);
-    handleKeys(actions);
+    drawHelp(s);
+    handleKeys(s, actions);
     ImGui::Render();
     handleActions(s, actions, before);
+    // The panel's Screenshot button and F12: a fresh name in the current folder.
+    const bool userScreenshot = actions.screenshot;
 
-    std::optional<FrameTarget> target = beginFrame(s.context, s.window);
-    if (!target) {
-        glfwWaitEventsTimeout(0.05);  // minimised or out of date: nothing to draw this time
-        return;
-    }
     RenderSettings& settings = s.panel.settings;
-    settings.width = target->extent.width;
-    settings.height = target->extent.height;
-    const VkDeviceSize imageBytes = VkDeviceSize(settings.width) * settings.height * 4;
-
-    const Image* shown = s.panel.showing == Showing::Reference ? &s.referenceImage
-                         : s.panel.showing == Showing::Difference ? &s.differenceImage
-                                                                  : nullptr;
-    if (shown && (shown->width != settings.width || shown->height != settings.height)) {
-        s.panel.showing = Showing::Traced;  // the window changed size since the comparison
-        shown = nullptr;
+    settings.width = uint32_t(fbWidth);
+    settings.height = uint32_t(fbHeight);
+    const std::string key = viewKey(s);
+    const bool changed = key != s.tracedViewKey;
+    FramePlan plan;
+    if (s.tracer->hasScene() && s.panel.showing == Showing::Traced)
+        plan = s.loop.plan(s.panel.frameLoop, settings.width, settings.height, changed, s.forcedScale,
+                           settings.view == ViewMode::Shaded);
+    s.forcedScale.reset();
+    const bool nothingNew = plan.kind == FrameKind::Idle;
+    const bool wantShot = !screenshotPath.empty() || userScreenshot;
+    const bool present = !nothingNew || s.uiFramesPending > 0 || !windowShotPath.empty() ||
+                         s.shown == ShownSource::Nothing || s.info.build.phase != BuildPhase::Idle;
+    if (!present) {
+        if (wantShot) saveScreenshot(s, screenshotPath.empty() ? nextScreenshotName() : screenshotPath);
+        return result;
     }
+    s.uiFramesPending = std::max(0, s.uiFramesPending - 1);
+
+    // Frames traced on the host come first, before the swapchain image is acquired.
+    double traceSeconds = 0.0;
     bool traced = false;
-    if (shown) {
-        ensureHostBuffer(s, s.shownImage, imageBytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "compare image");
-        std::vector<uint32_t> texels = shown->rgba;
-        if (target->bgra) swapRedBlue(texels);
-        std::memcpy(s.shownImage.mapped, texels.data(), imageBytes);
-        copyImage(s.window, *target, s.shownImage.buffer);
-    } else if (s.tracer->hasScene()) {
-        GpuRecordOptions recordOptions;
-        recordOptions.bgra = target->bgra;
-        s.tracer->recordFrame(target->cmd, settings, recordOptions);
-        copyImage(s.window, *target, s.tracer->outputBuffer());
-        traced = true;
-    } else {
-        clearImage(s.window, *target, settings.background.x, settings.background.y, settings.background.z);
+    const bool recordOnGpu = !s.cpuDevice && !isCpuTracer(s.panel.tracer) && plan.scale == 1 &&
+                             plan.kind != FrameKind::Refine;
+    if (!nothingNew && !recordOnGpu) {
+        try {
+            traceSeconds = traceFrame(s, plan, nullptr);
+            traced = true;
+        } catch (const Error& e) {
+            s.report(e.what());
+            s.loop.invalidate();
+        }
     }
-    const bool wantShot = !screenshotPath.empty() && traced;
-    if (wantShot) {
-        ensureHostBuffer(s, s.screenshotReadback, imageBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, "screenshot");
-        const VkBufferCopy region{0, 0, imageBytes};
-        vkCmdCopyBuffer(target->cmd, s.tracer->outputBuffer(), s.screenshotReadback.buffer, 1, &region);
-        VkBufferMemoryBarrier toHost{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
-        toHost.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-        toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-        toHost.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        toHost.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-        toHost.buffer = s.screenshotReadback.buffer;
-        toHost.size = VK_WHOLE_SIZE;
-        vkCmdPipelineBarrier(target->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
-                             nullptr, 1, &toHost, 0, nullptr);
+    std::optional<FrameTarget> target = beginFrame(s.context, s.window);
+    if (!target) return result;  // out of date: drawn again next time
+    if (!nothingNew && recordOnGpu) {
+        try {
+            traceSeconds = traceFrame(s, plan, &*target);
+            traced = true;
+        } catch (const Error& e) {
+            s.report(e.what());
+            s.loop.invalidate();
+        }
     }
+    presentShown(s, *target);
     finishFrame(s.context, s.window, *target, ImGui::GetDrawData(), !windowShotPath.empty());
+    result.presented = true;
+    const double frameSeconds = std::chrono::duration<double>(Clock::now() - frameStart).count();
+    if (traced) {
+        s.loop.traced(plan, uint64_t(scaledExtent(settings.width, plan.scale)) * scaledExtent(settings.height, plan.scale),
+                      traceSeconds, frameSeconds);
+        s.tracedViewKey = key;
+        result.traced = true;
+        result.kind = plan.kind;
+        FrameLoopStatus& st = s.info.frameLoop;
+        st.lastKind = plan.kind;
+        st.scale = plan.scale;
+        st.samplesShown = plan.kind == FrameKind::Refine ? s.loop.samplesDone() : 0;
+        ++st.framesTraced;
+    }
+    ++s.info.frameLoop.framesPresented;
 
-    if (wantShot || !windowShotPath.empty())
-        vk::check(vkWaitForFences(s.context.device, 1, &s.window.frameDone, VK_TRUE, UINT64_MAX),
-                  "vkWaitForFences (screenshot)");
-    if (wantShot) saveScreenshot(s, screenshotPath, *target);
+    if (wantShot) saveScreenshot(s, screenshotPath.empty() ? nextScreenshotName() : screenshotPath);
     if (!windowShotPath.empty()) {
         uint32_t w = 0, h = 0;
         std::vector<uint32_t> texels = readWindowImage(s.context, s.window, w, h);
         writePng(windowShotPath, w, h, texels);
         std::printf("raypack: window screenshot %s (%ux%u)\n", windowShotPath.c_str(), w, h);
     }
+    if (traced) measureCounters(s, key);
+    s.smoothedFrameSeconds = s.smoothedFrameSeconds == 0.0 ? frameSeconds : 0.9 * s.smoothedFrameSeconds + 0.1 * frameSeconds;
+    s.info.stats.frameSeconds = s.smoothedFrameSeconds;
+    s.frameTimes.push_back(frameSeconds);
+    updateTitle(s);
+    return result;
+}
 
-    if (frameTimestampsReliable(s))
-        if (std::optional<FrameTimings> kernel = s.tracer->lastKernelTimes())
-            recordKernelTimes(s, *kernel, settings);
-    measureCounters(s);
-    ++s.frameIndex;
+nlohmann::json summaryJson(const Session& s) {
+    std::vector<double> moving, still, latency;
+    std::map<uint32_t, uint64_t> scales;
+    uint64_t traced = 0, presented = 0;
+    for (const FrameRecord& r : s.records) {
+        if (r.kind != FrameKind::Idle) {
+            ++traced;
+            (r.kind == FrameKind::Moving ? moving : still).push_back(r.seconds);
+            ++scales[r.scale];
+        }
+        presented += r.presented;
+        if (r.inputLatencySeconds >= 0.0) latency.push_back(r.inputLatencySeconds);
+    }
+    nlohmann::json scaleJson = nlohmann::json::object();
+    for (const auto& [scale, count] : scales) scaleJson[std::to_string(scale)] = count;
+    const auto fps = [](const std::vector<double>& v) { const double m = median(v); return m > 0 ? 1.0 / m : 0.0; };
+    return {
+        {"device", s.info.device},
+        {"tracer", cliName(s.panel.tracer)},
+        {"scene", s.sceneSpec},
+        {"window", {s.panel.settings.width, s.panel.settings.height}},
+        {"frame_budget_ms", s.panel.frameLoop.frameBudgetMs},
+        {"samples_wanted", s.panel.frameLoop.samples},
+        {"frames", s.records.size()},
+        {"frames_traced", traced},
+        {"frames_presented", presented},
+        {"frames_moving", moving.size()},
+        {"fps_moving_median", fps(moving)},
+        {"fps_still_median", fps(still)},
+        {"resolution_scales", scaleJson},
+        {"input_to_photon_ms_median", median(latency) * 1e3},
+        {"input_frames", latency.size()},
+        {"idle_frames", s.idleFrames},
+        {"idle_wall_s", s.idleWallSeconds},
+        {"idle_cpu_share", s.idleWallSeconds > 0 ? s.idleCpuSeconds / s.idleWallSeconds : 0.0},
+        {"full_resolution_after_stop_s", s.fullAfterChangeSeconds},
+        {"converged_after_stop_s", s.convergedAfterChangeSeconds},
+    };
+}
+
+// After a frame: the run's record, the times from the last change to full resolution and to
+// convergence.
+void recordFrame(Session& s, const FrameResult& result, double startSeconds) {
+    FrameRecord record;
+    record.startSeconds = startSeconds;
+    record.kind = result.traced ? result.kind : FrameKind::Idle;
+    record.scale = s.info.frameLoop.scale;
+    record.presented = result.presented;
+    const double end = s.secondsSinceStart();
+    if (result.presented && s.firstInputSeconds >= 0.0) record.inputLatencySeconds = end - s.firstInputSeconds;
+    if (result.presented) s.firstInputSeconds = -1.0;
+    if (!s.records.empty()) s.records.back().seconds = startSeconds - s.records.back().startSeconds;
+    s.records.push_back(record);
+    if (result.traced && result.kind == FrameKind::Moving) {
+        s.lastChangeSeconds = end;
+        s.fullAfterChangeSeconds = s.convergedAfterChangeSeconds = -1.0;
+    }
+    if (s.lastChangeSeconds >= 0.0 && result.traced) {
+        if (result.kind == FrameKind::Full || (result.kind == FrameKind::Moving && record.scale == 1))
+            s.fullAfterChangeSeconds = end - s.lastChangeSeconds;
+        if (result.kind == FrameKind::Refine && s.info.frameLoop.samplesShown >= s.panel.frameLoop.samples)
+            s.convergedAfterChangeSeconds = end - s.lastChangeSeconds;
+    }
+    if (!result.presented) ++s.idleFrames;
+    if (!s.options.recordPath.empty() && s.scene) s.recording.keys.push_back({end, s.panel.settings.camera});
+}
+
+// Where the viewer starts: the tracer by device, the camera path to play.
+void chooseStartTracer(Session& s) {
+    s.info.tracers.assign(std::begin(kAllTracerChoices), std::end(kAllTracerChoices));
+    if (s.options.tracer) {
+        setTracer(s, *s.options.tracer, "chosen by --tracer");
+    } else if (s.cpuDevice) {
+        // Measured on a 2-core EPYC with lavapipe (docs/viewer.md): the CPU reference traces the
+        // same view about ten times faster than the Vulkan kernels on lavapipe.
+        setTracer(s, TracerChoice::CpuReference,
+                  "Default on a CPU device: the CPU reference tracer, about 10x faster here than the Vulkan kernels on "
+                  "lavapipe (docs/viewer.md).");
+    } else {
+        setTracer(s, s.options.settings.kernel == KernelKind::Single ? TracerChoice::VulkanSingle : TracerChoice::VulkanPacket,
+                  "Default on a GPU: the Vulkan packet kernel.");
+    }
 }
 
 }  // namespace
@@ -524,6 +1134,8 @@ ScriptStep parseScriptStep(const std::string& text) {
 }
 
 int runViewer(const ViewerOptions& options) {
+    std::optional<CameraPath> path;
+    if (!options.playPath.empty()) path = readCameraPath(options.playPath);  // before any window opens
     initWindowSystem();
     Session s(options);
     vk::VulkanContextOptions contextOptions;
@@ -531,15 +1143,17 @@ int runViewer(const ViewerOptions& options) {
     contextOptions.validation = options.validation;
     addWindowRequirements(contextOptions);
     s.context = vk::createVulkanContext(contextOptions);
+    s.cpuDevice = s.context.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
     ViewerWindowOptions windowOptions;
     windowOptions.width = options.width;
     windowOptions.height = options.height;
     windowOptions.presentMode = options.presentMode;
     s.window = createViewerWindow(s.context, windowOptions);
-    glfwSetWindowUserPointer(s.window.window, &s);
-    glfwSetDropCallback(s.window.window, onDrop);
+    installCallbacks(s);
     s.tracer = std::make_unique<GpuTracer>(s.context);
-    s.tracer->setHostTimedPasses(!frameTimestampsReliable(s));
+    // On lavapipe the timestamps of the window's frames do not bracket the dispatches (measured: 17
+    // us for a 57 ms pass), so there GpuTracer::render times each pass on the host.
+    s.tracer->setHostTimedPasses(s.cpuDevice);
     s.builder = std::make_unique<AsyncSceneBuilder>(
         [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); });
 
@@ -547,24 +1161,38 @@ int runViewer(const ViewerOptions& options) {
     s.panel.bvh = options.bvh;
     s.panel.liveCounters = options.liveCounters;
     s.panel.openPath = options.scene;
+    s.panel.frameLoop = options.frameLoop;
     s.info.device = describe(s.context.info);
     s.info.maxPacketRays = s.context.info.maxWorkgroupInvocations;
     s.info.scene = options.scene + " (loading)";
-    std::printf("raypack: device %s\n", s.info.device.c_str());
+    chooseStartTracer(s);
+    s.playing = std::move(path);
+    std::printf("raypack: device %s; tracer %s\n", s.info.device.c_str(), cliName(s.panel.tracer));
     requestLoad(s, options.scene);
 
     const bool scripted = options.frames > 0;
+    bool idle = false;
     while (!glfwWindowShouldClose(s.window.window) && (!scripted || s.frameIndex < options.frames)) {
-        glfwPollEvents();
-        for (const std::string& path : s.droppedFiles) requestLoad(s, path);
+        const Clock::time_point iterationStart = Clock::now();
+        const double cpuStart = processCpuSeconds();
+        if (idle) {
+            // Nothing to trace: sleep until an event (or, while the worker loads or builds, until
+            // its progress is worth showing). A scripted run counts the frame and goes on.
+            const bool working = s.builder->status().phase != BuildPhase::Idle;
+            glfwWaitEventsTimeout(scripted ? 0.01 : working ? 0.05 : 0.5);
+        } else {
+            glfwPollEvents();
+        }
+        for (const std::string& file : s.droppedFiles) requestLoad(s, file);
         s.droppedFiles.clear();
         std::string screenshot, windowShot;
+        FlyInput scriptedInput;
         if (scripted) {
             for (const ScriptStep& step : options.script) {
                 if (step.frame != s.frameIndex) continue;
                 if (step.action == "screenshot") screenshot = step.value;
                 else if (step.action == "window-screenshot") windowShot = step.value;
-                else applyScriptStep(s, step);
+                else applyScriptStep(s, step, scriptedInput);
             }
             if (s.frameIndex + 1 == options.frames) {
                 // The last frame shows the last request: wait for the worker once, here only.
@@ -573,12 +1201,34 @@ int runViewer(const ViewerOptions& options) {
                 if (windowShot.empty()) windowShot = options.windowScreenshot;
             }
         }
+        if (s.playing && !s.playbackOver && s.scene && s.playFrame == 0 && s.playStart == Clock::time_point{})
+            s.playStart = Clock::now();
         takeWorkerResults(s);
-        // A frame skipped while minimised is not counted, so the last one is always drawn.
-        drawFrame(s, screenshot, windowShot);
+        const double startSeconds = s.secondsSinceStart(iterationStart);
+        const FrameResult result = drawFrame(s, screenshot, windowShot, scriptedInput);
+        idle = !result.presented;
+        if (idle) {
+            s.idleWallSeconds += std::chrono::duration<double>(Clock::now() - iterationStart).count();
+            s.idleCpuSeconds += processCpuSeconds() - cpuStart;
+        }
+        recordFrame(s, result, startSeconds);
+        ++s.frameIndex;
     }
     vkDeviceWaitIdle(s.context.device);
 
+    if (!options.recordPath.empty()) {
+        CameraPath recorded = s.recording;
+        recorded.scene = s.sceneSpec;
+        const double t0 = recorded.keys.empty() ? 0.0 : recorded.keys.front().seconds;
+        for (CameraKey& k : recorded.keys) k.seconds -= t0;
+        writeCameraPath(options.recordPath, recorded);
+        std::printf("raypack: camera path of %zu frames (%.2f s) in %s\n", recorded.keys.size(), recorded.duration(),
+                    options.recordPath.c_str());
+    }
+    if (!options.summaryPath.empty()) {
+        writeJsonFile(options.summaryPath, summaryJson(s));
+        std::printf("raypack: summary in %s\n", options.summaryPath.c_str());
+    }
     if (options.validation) {
         const uint32_t messages = vk::validationMessageCount(s.context);
         std::printf("raypack: %u validation messages\n", messages);
@@ -589,11 +1239,15 @@ int runViewer(const ViewerOptions& options) {
         if (messages) return kViewerExitValidation;
     }
     if (scripted) {
-        std::printf("raypack: %u frames, swapchain re-created %u times\n", s.frameIndex,
-                    s.window.swapchainRecreations);
+        std::printf("raypack: %u frames (%" PRIu64 " traced), swapchain re-created %u times\n", s.frameIndex,
+                    s.info.frameLoop.framesTraced, s.window.swapchainRecreations);
         std::printf("raypack: second half of the run, medians: frame %.2f ms, T_K primary %.2f ms, "
                     "T_K shadow %.2f ms\n", steadyMedian(s.frameTimes) * 1e3,
                     steadyMedian(s.primaryKernelTimes) * 1e3, steadyMedian(s.shadowKernelTimes) * 1e3);
+        if (s.firstLoadFailed) {
+            std::fprintf(stderr, "raypack: the scene %s could not be loaded\n", options.scene.c_str());
+            return kViewerExitError;
+        }
     }
     return kViewerExitOk;
 }

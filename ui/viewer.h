@@ -5,10 +5,12 @@
 // ui/screenshot.h); this file only passes values between them once per frame.
 #include "renderer/bvh.h"
 #include "renderer/settings.h"
+#include "ui/frame_loop.h"
 
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,8 +18,12 @@ namespace raypack::ui {
 
 // One step of a scripted run, applied before frame `frame` (counted from 0):
 //   resize WxH | packet WxH | leaf-size N | builder NAME | shadows on|off | kernel packet|single |
-//   view shaded|nodes|tests | open SCENE | wait (block until the worker is idle; scripts only) |
-//   screenshot FILE.png | window-screenshot FILE.png
+//   tracer NAME | view shaded|nodes|tests | open SCENE | wait (block until the worker is idle) |
+//   screenshot FILE.png | window-screenshot FILE.png |
+//   move RIGHT,UP,FORWARD (seconds of flight along the camera's axes, as held keys; one frame's
+//   step is bounded as for keys) | look DX,DY (mouse-look pixels, as a right-button drag) |
+//   bookmark N (recall) | save-bookmark N | frame-all | scale S (trace this frame at 1/S
+//   resolution, as while moving) | samples N | budget MS
 struct ScriptStep {
     uint32_t frame = 0;
     std::string action;
@@ -39,9 +45,15 @@ struct ViewerOptions {
     std::string device;                 // as raypack-cli --device
     bool validation = false;            // VK_LAYER_KHRONOS_validation; exit code 3 on any message
     VkPresentModeKHR presentMode = VK_PRESENT_MODE_FIFO_KHR;
-    bool liveCounters = true;           // a counting frame each second for N_TR / N_IT
+    bool liveCounters = true;           // N_TR / N_IT in the panel
     bool hidePanel = false;
     std::vector<ScriptStep> script;
+    std::optional<TracerChoice> tracer;  // default: by device (see runViewer)
+    FrameLoopSettings frameLoop;
+    std::string recordPath;   // write the camera of every frame here on exit
+    std::string playPath;     // fly this recorded path
+    bool playFrames = false;  // one recorded key per frame instead of the recorded timing
+    std::string summaryPath;  // a JSON summary of the run on exit
 };
 
 // Exit codes of `raypack`.

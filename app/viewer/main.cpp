@@ -37,7 +37,7 @@ int main(int argc, char** argv) {
                  "shape, kernel and BVH live, compare with the CPU reference. With --frames N it runs N frames\n"
                  "and exits (scripted runs, tests). Needs a display (use xvfb-run without one)."};
     ui::ViewerOptions options;
-    std::string packet, kernel, view, builder, eye, at, up, present = "fifo";
+    std::string packet, kernel, view, builder, eye, at, up, present = "fifo", tracer;
     std::vector<std::string> script;
     float fov = 0.0f;
     bool noShadows = false, noCounters = false;
@@ -62,12 +62,33 @@ int main(int argc, char** argv) {
     app.add_option("--device", options.device, "Vulkan device: index or part of its name");
     app.add_flag("--validation", options.validation, "Vulkan validation layer on; exit code 3 on any message");
     app.add_option("--present", present, "fifo, mailbox or immediate (falls back to fifo)")->capture_default_str();
-    app.add_flag("--no-counters", noCounters, "no counting frame each second (N_TR / N_IT)");
+    app.add_flag("--no-counters", noCounters, "no live N_TR / N_IT in the panel");
+    app.add_option("--tracer", tracer,
+                   "who draws: vulkan-packet, vulkan-single or cpu-reference (default: cpu-reference on a CPU "
+                   "Vulkan device such as lavapipe, vulkan-packet on a GPU)");
+    app.add_option("--frame-budget", options.frameLoop.frameBudgetMs,
+                   "frame-time budget in ms: while moving, the resolution is reduced to keep it")
+        ->check(CLI::Range(1.0f, 10000.0f))
+        ->capture_default_str();
+    app.add_option("--samples", options.frameLoop.samples,
+                   "samples per pixel accumulated when still (1: no refinement)")
+        ->check(CLI::Range(1u, 4096u))
+        ->capture_default_str();
+    bool fullResolution = false;
+    app.add_flag("--no-adaptive", fullResolution, "trace every frame at full resolution, also while moving");
+    app.add_option("--record-path", options.recordPath, "write the camera of every frame with its time to this JSON file on exit");
+    app.add_option("--play-path", options.playPath, "fly the camera path of this JSON file (from --record-path)");
+    app.add_flag("--play-frames", options.playFrames, "with --play-path: one recorded camera per frame, not the recorded timing");
+    app.add_option("--summary", options.summaryPath,
+                   "on exit, write a JSON summary: frames, frames/s while moving and still, resolution scales, "
+                   "input-to-photon latency, idle CPU share, time to full resolution and to convergence");
     app.add_flag("--hide-panel", options.hidePanel, "draw no panel");
     app.add_option("--script", script,
                    "scripted step FRAME:ACTION[:VALUE], repeatable; ACTION: resize WxH, packet WxH, leaf-size N, "
-                   "builder NAME, shadows on|off, kernel packet|single, view shaded|nodes|tests, open SCENE, "
-                   "wait, screenshot FILE, window-screenshot FILE");
+                   "builder NAME, shadows on|off, kernel packet|single, tracer NAME, view shaded|nodes|tests, "
+                   "open SCENE, wait, screenshot FILE, window-screenshot FILE, move RIGHT,UP,FORWARD (seconds of "
+                   "flight), look DX,DY (pixels), bookmark N, save-bookmark N, frame-all, scale S, samples N, "
+                   "budget MS");
     CLI11_PARSE(app, argc, argv);
 
     try {
@@ -75,6 +96,13 @@ int main(int argc, char** argv) {
         if (!builder.empty()) options.bvh.builder = parseBvhBuilder(builder);
         options.settings.shadows = !noShadows;
         options.liveCounters = !noCounters;
+        options.frameLoop.adaptiveResolution = !fullResolution;
+        if (!tracer.empty()) {
+            options.tracer = ui::parseTracerChoice(tracer);
+            if (!options.tracer)
+                throw Error("--tracer: \"" + tracer + "\" is not vulkan-packet, vulkan-single or cpu-reference");
+        }
+        if (options.playFrames && options.playPath.empty()) throw Error("--play-frames needs --play-path");
         if (!kernel.empty()) {
             const std::optional<KernelKind> k = parseKernelKind(kernel);
             if (!k) throw Error("--kernel: \"" + kernel + "\" is not packet or single");

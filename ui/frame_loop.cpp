@@ -1,0 +1,88 @@
+#include "ui/frame_loop.h"
+
+#include "renderer/progressive.h"
+
+#include <algorithm>
+
+namespace raypack::ui {
+
+const char* toString(TracerChoice tracer) {
+    switch (tracer) {
+    case TracerChoice::VulkanPacket: return "Vulkan packet kernel";
+    case TracerChoice::VulkanSingle: return "Vulkan single-ray kernel";
+    case TracerChoice::CpuReference: return "CPU reference tracer";
+    }
+    return "?";
+}
+
+const char* cliName(TracerChoice tracer) {
+    switch (tracer) {
+    case TracerChoice::VulkanPacket: return "vulkan-packet";
+    case TracerChoice::VulkanSingle: return "vulkan-single";
+    case TracerChoice::CpuReference: return "cpu-reference";
+    }
+    return "?";
+}
+
+std::optional<TracerChoice> parseTracerChoice(const std::string& name) {
+    for (const TracerChoice t : kAllTracerChoices)
+        if (name == cliName(t)) return t;
+    return std::nullopt;
+}
+
+bool isCpuTracer(TracerChoice tracer) { return tracer == TracerChoice::CpuReference; }
+
+const char* toString(FrameKind kind) {
+    switch (kind) {
+    case FrameKind::Idle: return "idle";
+    case FrameKind::Moving: return "moving";
+    case FrameKind::Full: return "full resolution";
+    case FrameKind::Refine: return "refining";
+    }
+    return "?";
+}
+
+FramePlan FrameLoop::plan(const FrameLoopSettings& settings, uint32_t width, uint32_t height, bool changed,
+                          std::optional<uint32_t> forcedScale, bool refine) {
+    FramePlan plan;
+    if (changed || forcedScale) {
+        fullDone_ = false;
+        samplesDone_ = 0;
+        plan.kind = FrameKind::Moving;
+        if (forcedScale) plan.scale = std::max(1u, *forcedScale);
+        else if (settings.adaptiveResolution)
+            plan.scale = chooseResolutionScale(cost_, width, height, settings.frameBudgetMs * 1e-3);
+        return plan;
+    }
+    if (!fullDone_) {
+        plan.kind = FrameKind::Full;
+        return plan;
+    }
+    const uint32_t samples = refine ? std::clamp(settings.samples, 1u, kMaxSamplesPerPixel) : 1u;
+    if (samples > 1 && samplesDone_ < samples) {
+        plan.kind = FrameKind::Refine;
+        plan.samples = samples;
+        plan.sampleIndex = samplesDone_;
+        plan.jitter = samplePatternOffset(samplesDone_, samples);
+        return plan;
+    }
+    return plan;  // Idle
+}
+
+void FrameLoop::traced(const FramePlan& plan, uint64_t pixels, double traceSeconds, double frameSeconds) {
+    cost_.addFrame(pixels, traceSeconds, frameSeconds);
+    switch (plan.kind) {
+    case FrameKind::Moving:
+        fullDone_ = plan.scale == 1;  // a full-resolution frame while moving needs no second one
+        samplesDone_ = 0;
+        break;
+    case FrameKind::Full:
+        fullDone_ = true;
+        samplesDone_ = 0;
+        break;
+    case FrameKind::Refine: ++samplesDone_; break;
+    case FrameKind::Idle: break;
+    }
+}
+
+}  // namespace raypack::ui
