@@ -6,7 +6,7 @@ packages=(
   libglm-dev libtinygltf-dev nlohmann-json3-dev libtinyobjloader-dev libstb-dev libcli11-dev
   libtbb-dev libgtest-dev
   libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-validationlayers
-  libglfw3-dev libimgui-dev xvfb xauth
+  libglfw3-dev libimgui-dev xvfb xauth xdotool
   libembree-dev python3 python3-matplotlib ccache
 )
 missing=()

@@ -9,9 +9,15 @@
 #include "renderer/settings_json.h"
 #include "scenes/load.h"
 
+#include "renderer/progressive.h"
+
 #ifdef RAYPACK_VIEWER
 #include "ui/bookmarks.h"
+#include "ui/camera_path.h"
 #include "ui/fly_camera.h"
+#include "ui/frame_budget.h"
+#include "ui/frame_loop.h"
+#include "ui/input.h"
 #include "ui/screenshot.h"
 #endif
 
@@ -155,14 +161,14 @@ TEST(FlyCamera, MovesAtASpeedScaledToTheSceneAndLooksAround) {
     EXPECT_FLOAT_EQ(fly.speed(), 50.0f * ui::FlyCamera::kBaseSpeedPerDiagonal);
     ui::FlyInput forward;
     forward.forward = true;
-    ASSERT_TRUE(fly.update(forward, 0.5f));
+    ASSERT_TRUE(fly.update(forward, 0.05f));
     const glm::vec3 moved = fly.camera().eye - start.eye;
-    EXPECT_NEAR(glm::length(moved), 0.5f * fly.speed(), 1e-3f);
+    EXPECT_NEAR(glm::length(moved), 0.05f * fly.speed(), 1e-4f);
     EXPECT_NEAR(glm::dot(glm::normalize(moved), glm::normalize(start.at - start.eye)), 1.0f, 1e-5f);
     forward.fast = true;
     const glm::vec3 before = fly.camera().eye;
-    fly.update(forward, 0.5f);
-    EXPECT_NEAR(glm::length(fly.camera().eye - before), 0.5f * fly.speed() * ui::FlyCamera::kFastFactor, 1e-3f);
+    fly.update(forward, 0.05f);
+    EXPECT_NEAR(glm::length(fly.camera().eye - before), 0.05f * fly.speed() * ui::FlyCamera::kFastFactor, 1e-4f);
 
     ui::FlyInput wheel;
     wheel.wheel = 2.0f;
@@ -183,6 +189,178 @@ TEST(FlyCamera, MovesAtASpeedScaledToTheSceneAndLooksAround) {
     fly.frameAll();
     EXPECT_EQ(fly.camera().eye, start.eye);
     EXPECT_EQ(fly.camera().at, start.at);
+}
+
+TEST(FlyInput, AKeyTappedBetweenTwoFramesMovesTheCamera) {
+    Aabb bounds;
+    bounds.grow(glm::vec3(0.0f));
+    bounds.grow(glm::vec3(30.0f, 40.0f, 0.0f));
+    ui::FlyCamera fly;
+    const Camera start = frameScene(bounds);
+    fly.reset(start, bounds);
+    // Pressed and released within one poll (both callbacks at the same time), before the frame.
+    ui::HeldKeys keys;
+    keys.take(10.0);
+    keys.press(ui::FlyKey::Forward, 10.02);
+    keys.release(ui::FlyKey::Forward, 10.02);
+    const std::array<double, ui::kFlyKeyCount> held = keys.take(10.05);
+    EXPECT_DOUBLE_EQ(held[uint32_t(ui::FlyKey::Forward)], ui::HeldKeys::kTapSeconds);
+    ui::FlyInput input;
+    input.heldSeconds.z = float(held[uint32_t(ui::FlyKey::Forward)]);
+    ASSERT_TRUE(fly.update(input, 0.05f));
+    EXPECT_NEAR(glm::length(fly.camera().eye - start.eye), float(ui::HeldKeys::kTapSeconds) * fly.speed(), 1e-4f);
+    // The tap is consumed: the next frame does not move.
+    input.heldSeconds = glm::vec3(keys.take(10.1)[uint32_t(ui::FlyKey::Forward)]);
+    EXPECT_FALSE(fly.update(ui::FlyInput{}, 0.05f));
+}
+
+TEST(FlyInput, HeldKeysCountWallTimeAcrossFramesAndReleaseAll) {
+    ui::HeldKeys keys;
+    keys.take(0.0);
+    keys.press(ui::FlyKey::Left, 0.25);
+    EXPECT_NEAR(keys.take(1.0)[uint32_t(ui::FlyKey::Left)], 0.75, 1e-12);  // pressed mid-interval
+    EXPECT_NEAR(keys.take(1.5)[uint32_t(ui::FlyKey::Left)], 0.5, 1e-12);   // held all interval
+    keys.release(ui::FlyKey::Left, 1.6);
+    EXPECT_NEAR(keys.take(2.0)[uint32_t(ui::FlyKey::Left)], 0.1, 1e-12);
+    EXPECT_EQ(keys.take(3.0)[uint32_t(ui::FlyKey::Left)], 0.0);
+    keys.press(ui::FlyKey::Up, 3.0);
+    EXPECT_TRUE(keys.anyDown());
+    keys.releaseAll(3.5);  // focus lost: no key sticks
+    EXPECT_FALSE(keys.anyDown());
+    EXPECT_NEAR(keys.take(4.0)[uint32_t(ui::FlyKey::Up)], 0.5, 1e-12);
+}
+
+TEST(FlyInput, AOneSecondFrameMovesNoMoreThanTheMaximumStep) {
+    Aabb bounds;
+    bounds.grow(glm::vec3(0.0f));
+    bounds.grow(glm::vec3(30.0f, 40.0f, 0.0f));
+    ui::FlyCamera fly;
+    const Camera start = frameScene(bounds);
+    fly.reset(start, bounds);
+    ui::FlyInput input;
+    input.forward = true;
+    input.heldSeconds = glm::vec3(0.0f, 0.0f, 1.0f);  // and the key held for the whole second
+    input.fast = true;
+    ASSERT_TRUE(fly.update(input, 1.0f));
+    EXPECT_LE(glm::length(fly.camera().eye - start.eye),
+              ui::FlyCamera::kMaxStepSeconds * ui::FlyCamera::kFastFactor * fly.speed() * 1.0001f);
+}
+
+TEST(FrameLoop, MovingThenFullResolutionThenSamplesThenIdle) {
+    ui::FrameLoop loop;
+    ui::FrameLoopSettings settings;
+    settings.samples = 4;
+    // Before any measurement a moving frame is at full resolution.
+    ui::FramePlan plan = loop.plan(settings, 640, 480, true);
+    EXPECT_EQ(plan.kind, ui::FrameKind::Moving);
+    EXPECT_EQ(plan.scale, 1u);
+    // 10 ms for 307,200 pixels and 5 ms of the rest: at a 33 ms budget the full image fits...
+    loop.traced(plan, 640 * 480, 0.010, 0.015);
+    EXPECT_TRUE(loop.fullDone());
+    EXPECT_EQ(loop.plan(settings, 640, 480, true).scale, 1u);
+    // ... at 100 ms for the same pixels only a quarter of them do (scale 2: 76,800 pixels, 25 ms).
+    loop.traced(plan, 640 * 480, 0.100, 0.105);
+    loop.traced(plan, 640 * 480, 0.100, 0.105);
+    loop.traced(plan, 640 * 480, 0.100, 0.105);
+    loop.traced(plan, 640 * 480, 0.100, 0.105);
+    plan = loop.plan(settings, 640, 480, true);
+    EXPECT_EQ(plan.kind, ui::FrameKind::Moving);
+    EXPECT_EQ(plan.scale, 2u);
+    EXPECT_EQ(plan.jitter, glm::vec2(0.0f));
+    loop.traced(plan, 320 * 240, 0.025, 0.030);
+    EXPECT_FALSE(loop.fullDone()) << "a reduced frame needs a full one after it";
+    plan = loop.plan(settings, 640, 480, false);
+    EXPECT_EQ(plan.kind, ui::FrameKind::Full);
+    EXPECT_EQ(plan.scale, 1u);
+    loop.traced(plan, 640 * 480, 0.1, 0.1);
+    for (uint32_t k = 0; k < 4; ++k) {
+        plan = loop.plan(settings, 640, 480, false);
+        ASSERT_EQ(plan.kind, ui::FrameKind::Refine);
+        EXPECT_EQ(plan.sampleIndex, k);
+        EXPECT_EQ(plan.jitter, samplePatternOffset(k, 4));
+        loop.traced(plan, 640 * 480, 0.1, 0.1);
+    }
+    EXPECT_EQ(loop.plan(settings, 640, 480, false).kind, ui::FrameKind::Idle);
+    EXPECT_EQ(loop.plan(settings, 640, 480, false).kind, ui::FrameKind::Idle);
+    // Heat maps are not refined; any change starts over.
+    EXPECT_EQ(loop.plan(settings, 640, 480, true).kind, ui::FrameKind::Moving);
+    ui::FrameLoop heat;
+    heat.traced(heat.plan(settings, 64, 64, true), 64 * 64, 0.001, 0.002);
+    EXPECT_EQ(heat.plan(settings, 64, 64, false, std::nullopt, false).kind, ui::FrameKind::Idle);
+}
+
+TEST(FrameBudget, TheLargestScaleWhenNothingFits) {
+    ui::FrameCostModel model;
+    model.addFrame(1000, 1.0, 1.5);  // 1 ms a pixel, 0.5 s a frame besides
+    EXPECT_EQ(ui::chooseResolutionScale(model, 1280, 800, 0.033), 8u);
+    EXPECT_NEAR(model.predictSeconds(2000), 2.5, 1e-12);
+}
+
+TEST(Progressive, SamplePatternIsStratifiedAndPrefixStable) {
+    EXPECT_EQ(samplePatternOffset(0, 1), glm::vec2(0.0f));
+    std::vector<glm::vec2> sixteen;
+    for (uint32_t k = 0; k < 16; ++k) {
+        const glm::vec2 o = samplePatternOffset(k, 16);
+        EXPECT_GE(o.x, -0.5f);
+        EXPECT_LT(o.x, 0.5f);
+        EXPECT_GE(o.y, -0.5f);
+        EXPECT_LT(o.y, 0.5f);
+        if (k < 4) EXPECT_EQ(o, samplePatternOffset(k, 4)) << "a longer pattern starts with the shorter";
+        sixteen.push_back(o);
+    }
+    // Stratified: each quarter of the pixel in x holds 4 of the 16 samples (base 2 radical inverse).
+    for (int quarter = 0; quarter < 4; ++quarter)
+        EXPECT_EQ(std::count_if(sixteen.begin(), sixteen.end(),
+                                [&](glm::vec2 o) { return int((o.x + 0.5f) * 4.0f) == quarter; }),
+                  4);
+    EXPECT_THROW(samplePatternOffset(0, 0), Error);
+    EXPECT_THROW(samplePatternOffset(4, 4), Error);
+}
+
+TEST(Progressive, AccumulationIsTheRoundedMeanAndScalingReplicates) {
+    SampleAccumulator accumulator;
+    accumulator.reset(2, 1);
+    accumulator.add({0x00000000u, 0xFF0000FFu});
+    accumulator.add({0x01010101u, 0xFF0000FEu});
+    // (0 + 1) / 2 = 0.5 rounds up; (255 + 254) / 2 = 254.5 rounds up.
+    EXPECT_EQ(accumulator.resolve(), (std::vector<uint32_t>{0x01010101u, 0xFF0000FFu}));
+    EXPECT_THROW(accumulator.add({1u}), Error);
+
+    EXPECT_EQ(scaledExtent(641, 4), 161u);
+    EXPECT_EQ(scaledExtent(3, 8), 1u);
+    const Image small{2, 2, {1u, 2u, 3u, 4u}};
+    const Image nearest = scaleImage(small, 4, 4, ScaleFilter::Nearest);
+    EXPECT_EQ(nearest.rgba, (std::vector<uint32_t>{1, 1, 2, 2, 1, 1, 2, 2, 3, 3, 4, 4, 3, 3, 4, 4}));
+    // Bilinear: texel (1, 0) of the 4x4 image sits a quarter of the way from texel 0 to texel 1.
+    const Image grey{2, 1, {0xFF000000u, 0xFF0000FFu}};
+    const Image bilinear = scaleImage(grey, 4, 1, ScaleFilter::Bilinear);
+    EXPECT_EQ(bilinear.rgba[0] & 0xFFu, 0u);
+    EXPECT_EQ(bilinear.rgba[1] & 0xFFu, 64u);   // 255 * 0.25 = 63.75
+    EXPECT_EQ(bilinear.rgba[2] & 0xFFu, 191u);  // 255 * 0.75 = 191.25
+    EXPECT_EQ(bilinear.rgba[3] & 0xFFu, 255u);
+}
+
+TEST(CameraPath, RoundTripsAndInterpolates) {
+    ui::CameraPath path;
+    path.scene = "gen:default";
+    Camera a, b;
+    a.eye = glm::vec3(0.1f, 0.2f, 0.3f);
+    b.eye = glm::vec3(1.1f, 0.2f, 0.3f);
+    b.fovYDegrees = 70.0f;
+    path.keys = {{0.0, a}, {2.0, b}};
+    const std::string file = (fs::temp_directory_path() / "raypack_test_path.json").string();
+    ui::writeCameraPath(file, path);
+    const ui::CameraPath back = ui::readCameraPath(file);
+    ASSERT_EQ(back.keys.size(), 2u);
+    EXPECT_EQ(back.keys[1].camera.eye, b.eye);
+    EXPECT_EQ(back.keys[1].seconds, 2.0);
+    const Camera middle = ui::cameraAt(back, 1.0);
+    EXPECT_NEAR(middle.eye.x, 0.6f, 1e-6f);
+    EXPECT_NEAR(middle.fovYDegrees, 65.0f, 1e-5f);
+    EXPECT_EQ(ui::cameraAt(back, 5.0).eye, b.eye);
+    std::ofstream(file) << "{\"format\": \"raypack-camera-path-1\", \"keys\": [{\"t\": 1}, {\"t\": 0}]}";
+    EXPECT_THROW(ui::readCameraPath(file), Error);
+    fs::remove(file);
 }
 
 TEST(Bookmarks, RoundTripExactlyPerSceneAndPrintAsCliArguments) {
@@ -277,7 +455,7 @@ TEST_F(ViewerUnderXvfb, ScriptedScreenshotEqualsTheCliRenderOfTheSameView) {
     const std::string shot = (dir_ / "viewer.png").string();
     // Packet shape, leaf size and shadows changed by the script while it runs, then a screenshot.
     const CommandRun viewer = runCommand(viewerCommand(
-        "--width 256 --height 192 --frames 8 --validation --no-counters --screenshot " + shot +
+        "--width 256 --height 192 --frames 8 --validation --no-counters --samples 1 --tracer vulkan-packet --screenshot " + shot +
         " --script 2:packet:5x6 --script 3:leaf-size:4 --script 4:shadows:off"));
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     EXPECT_NE(viewer.output.find("0 validation messages"), std::string::npos) << viewer.output;
@@ -341,6 +519,114 @@ TEST_F(ViewerUnderXvfb, ABadFileIsReportedAndTheSceneStays) {
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     EXPECT_NE(viewer.output.find("broken.obj"), std::string::npos) << viewer.output;
     EXPECT_EQ(renderSetupFromJson(readJsonFile(ui::sidecarPath(shot))).scene, "gen:default");
+}
+
+// Renders with raypack-cli from a sidecar and compares with the viewer's screenshot, pixel for pixel.
+void expectCliReproduces(const fs::path& dir, const std::string& shot, const std::string& extra) {
+    const std::string again = (dir / "cli_again.png").string();
+    const CommandRun cli = runCommand(std::string("XDG_RUNTIME_DIR=/tmp ") + RAYPACK_CLI + " render --from " +
+                                      ui::sidecarPath(shot) + " " + extra + " --out " + again);
+    ASSERT_EQ(cli.exitCode, 0) << cli.output;
+    const ImageDiff diff = diffImages(readPng(shot), readPng(again), 0, shot, again);
+    EXPECT_EQ(diff.differingPixels, 0u) << extra << ": max channel difference " << diff.maxChannelDifference;
+}
+
+TEST_F(ViewerUnderXvfb, AConvergedScreenshotEqualsTheCliRenderWithAsManySamples) {
+    for (const std::string tracer : {"cpu-reference", "vulkan-single"}) {
+        const std::string shot = (dir_ / ("converged-" + tracer + ".png")).string();
+        const CommandRun viewer = runCommand(viewerCommand("--width 160 --height 120 --frames 12 --samples 4 --validation "
+                                                           "--tracer " + tracer + " --script 1:wait --screenshot " + shot));
+        ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+        const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
+        EXPECT_EQ(sidecar["samples_per_pixel"], 4) << viewer.output;
+        EXPECT_EQ(sidecar["sample_pattern"], kSamplePatternName);
+        expectCliReproduces(dir_, shot, tracer == "cpu-reference" ? "--device cpu" : "--device gpu --kernel single");
+        // The refined image is not the plain one: the samples moved the rays.
+        const std::string plain = (dir_ / "plain.png").string();
+        const CommandRun cli = runCommand(std::string("XDG_RUNTIME_DIR=/tmp ") + RAYPACK_CLI + " render --from " +
+                                          ui::sidecarPath(shot) + " --spp 1 --out " + plain);
+        ASSERT_EQ(cli.exitCode, 0) << cli.output;
+        EXPECT_GT(diffImages(readPng(shot), readPng(plain)).differingPixels, 0u);
+    }
+}
+
+TEST_F(ViewerUnderXvfb, AReducedResolutionFrameEqualsTheCliRenderAtThatResolutionScaledUp) {
+    for (const std::string view : {"shaded", "nodes"}) {
+        const std::string shot = (dir_ / ("reduced-" + view + ".png")).string();
+        const CommandRun viewer = runCommand(viewerCommand("--width 200 --height 150 --frames 4 --view " + view +
+                                                           " --script 1:wait --script 2:scale:4 --script 2:screenshot:" + shot));
+        ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+        const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
+        EXPECT_EQ(sidecar["resolution_scale"], 4) << viewer.output;
+        EXPECT_EQ(readPng(shot).width, 200u);
+        expectCliReproduces(dir_, shot, "--device cpu");
+    }
+}
+
+TEST_F(ViewerUnderXvfb, AStillViewerStopsTracing) {
+    // 4 samples: the first frame (full resolution), then 4 refinement samples, then nothing more,
+    // however many frames follow.
+    const std::string summary = (dir_ / "summary.json").string();
+    for (const uint32_t frames : {30u, 60u}) {
+        const CommandRun viewer = runCommand(viewerCommand("--width 96 --height 64 --samples 4 --frames " +
+                                                           std::to_string(frames) + " --script 1:wait --summary " + summary));
+        ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+        const nlohmann::json s = readJsonFile(summary);
+        EXPECT_EQ(s["frames"], frames);
+        EXPECT_EQ(s["frames_traced"], 5) << viewer.output;
+        EXPECT_GT(s["idle_frames"].get<uint64_t>(), frames / 2);
+    }
+}
+
+TEST_F(ViewerUnderXvfb, ScriptedMovesAndARecordedPathReplayFrameForFrame) {
+    const std::string first = (dir_ / "first.json").string(), second = (dir_ / "second.json").string();
+    CommandRun viewer = runCommand(viewerCommand("--width 96 --height 64 --frames 12 --script 1:wait --script 3:move:0,0,0.05 "
+                                                 "--script 5:look:40,-10 --script 7:move:0.05,0.02,0 --record-path " + first));
+    ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+    viewer = runCommand(viewerCommand("--width 96 --height 64 --frames 12 --script 1:wait --play-path " + first +
+                                      " --play-frames --record-path " + second));
+    ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+    const ui::CameraPath a = ui::readCameraPath(first), b = ui::readCameraPath(second);
+    ASSERT_GE(a.keys.size(), 8u);
+    ASSERT_EQ(a.keys.size(), b.keys.size());
+    size_t moves = 0;
+    for (size_t i = 0; i < a.keys.size(); ++i) {
+        EXPECT_EQ(a.keys[i].camera.eye, b.keys[i].camera.eye) << "frame " << i;
+        EXPECT_EQ(a.keys[i].camera.at, b.keys[i].camera.at) << "frame " << i;
+        moves += i > 0 && a.keys[i].camera.eye != a.keys[i - 1].camera.eye;
+    }
+    EXPECT_EQ(moves, 2u) << "two scripted moves";
+}
+
+TEST_F(ViewerUnderXvfb, ABadStartSceneFailsAScriptedRun) {
+    const CommandRun viewer = runCommand(viewerCommand("--width 64 --height 48 --frames 3 --scene /nonexistent/scene.ply"));
+    EXPECT_EQ(viewer.exitCode, 2) << viewer.output;
+    EXPECT_NE(viewer.output.find("/nonexistent/scene.ply"), std::string::npos) << viewer.output;
+    EXPECT_EQ(viewer.output.find("/nonexistent/scene.ply: /nonexistent/scene.ply"), std::string::npos)
+        << "the path is said once:\n" << viewer.output;
+}
+
+TEST_F(ViewerUnderXvfb, F12AndTheScreenshotKeyWriteAPngAndItsSidecar) {
+    // A real key press through the X server (xdotool), as a user would: F12 writes
+    // raypack-DATE-TIME.png and its sidecar into the current folder.
+    if (std::system("command -v xdotool >/dev/null 2>&1") != 0) GTEST_SKIP() << "xdotool not installed";
+    const fs::path config = fs::temp_directory_path() / "raypack_test_viewer_xdg";
+    const std::string script = "cd " + dir_.string() + " && XDG_RUNTIME_DIR=/tmp XDG_CONFIG_HOME=" + config.string() +
+                               " xvfb-run -a -s '-screen 0 640x480x24' sh -c '" + RAYPACK_VIEWER +
+                               " --width 320 --height 240 --frames 400 --script 1:wait & pid=$!; sleep 3; "
+                               "w=$(xdotool search --sync --name raypack | head -1); xdotool key --window $w F12; "
+                               "wait $pid'";
+    const CommandRun run = runCommand(script);
+    ASSERT_EQ(run.exitCode, 0) << run.output;
+    size_t pngs = 0, sidecars = 0;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir_)) {
+        const std::string name = e.path().filename().string();
+        if (name.rfind("raypack-", 0) != 0) continue;
+        pngs += e.path().extension() == ".png";
+        sidecars += e.path().extension() == ".json";
+    }
+    EXPECT_EQ(pngs, 1u) << run.output;
+    EXPECT_EQ(sidecars, 1u) << run.output;
 }
 
 TEST(Viewer, WithoutADisplayItFailsWithAClearMessage) {

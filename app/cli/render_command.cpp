@@ -8,6 +8,7 @@
 #include "renderer/error.h"
 #include "renderer/hits_io.h"
 #include "renderer/image.h"
+#include "renderer/progressive.h"
 #include "renderer/settings_json.h"
 
 #include <cstdio>
@@ -33,12 +34,14 @@ struct RenderFlags {
     std::string view = "shaded";
     std::string out, hits, json, from;
     uint32_t repeat = 1;
+    uint32_t spp = 1;
+    uint32_t scale = 1;
     bool validation = false;
 };
 
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize,
-        *builder, *bins, *kernel, *packet, *view;
+        *builder, *bins, *kernel, *packet, *view, *spp, *scale;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -84,6 +87,8 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.up)) s.camera.up = parseVec3("--up", f.up);
     if (given(o.fov)) s.camera.fovYDegrees = f.fov;
     cameraGiven = cameraGiven || given(o.eye) || given(o.at);
+    if (given(o.spp)) setup.samples = f.spp;
+    if (given(o.scale)) setup.resolutionScale = f.scale;
     return setup;
 }
 
@@ -171,6 +176,19 @@ CommandRunner addRenderCommand(CLI::App& app) {
     command->add_option("--repeat", f.repeat, "Timed runs after the warm-up; the median is reported")
         ->check(CLI::Range(1u, 1000u))
         ->capture_default_str();
+    o.spp = command
+                ->add_option("--spp", f.spp,
+                             "Samples per pixel: 1 traces pixel centres; N > 1 averages the N samples of the "
+                             "viewer's refinement pattern (Halton 2,3), so a converged viewer screenshot is "
+                             "reproduced pixel for pixel. Statistics, hits and T_K are of the first sample")
+                ->check(CLI::Range(1u, kMaxSamplesPerPixel))
+                ->capture_default_str();
+    o.scale = command
+                  ->add_option("--scale", f.scale,
+                               "Trace at 1/S of --width and --height in each axis and scale the image up "
+                               "(bilinear; nearest for heat maps), as the viewer does while moving")
+                  ->check(CLI::Range(1u, 64u))
+                  ->capture_default_str();
     command->add_flag("--validation", f.validation,
                       "GPU: enable VK_LAYER_KHRONOS_validation; any validation message makes the "
                       "command fail (exit code 2)");
@@ -193,6 +211,9 @@ CommandRunner addRenderCommand(CLI::App& app) {
         makeGpuCamera(settings.camera, settings.width, settings.height);  // throws if degenerate
 
         const bool wantImage = !f.out.empty();
+        if (setup.resolutionScale > 1 && !f.hits.empty())
+            throw Error("--hits: a hits file has one record per pixel of the image, which --scale " +
+                        std::to_string(setup.resolutionScale) + " does not trace");
         MeasuredFrames measured;
         std::optional<GpuSession> session;
         std::optional<CpuSceneView> cpuView;
@@ -205,7 +226,37 @@ CommandRunner addRenderCommand(CLI::App& app) {
             cpuView.emplace(makeCpuSceneView(loaded.scene, bvh));
             source.cpu = &*cpuView;
         }
+        // Progressive display (renderer/progressive.h): a reduced resolution, scaled up after.
+        const uint32_t outWidth = settings.width, outHeight = settings.height;
+        settings.width = scaledExtent(outWidth, setup.resolutionScale);
+        settings.height = scaledExtent(outHeight, setup.resolutionScale);
+        if (setup.samples > 1) settings.pixelJitter = samplePatternOffset(0, setup.samples);
         measured = measureFrames(source, settings, f.repeat, wantImage);
+        if (wantImage && setup.samples > 1) {
+            SampleAccumulator accumulator;
+            accumulator.reset(settings.width, settings.height);
+            accumulator.add(measured.frame.rgba);
+            for (uint32_t k = 1; k < setup.samples; ++k) {
+                RenderSettings sample = settings;
+                sample.pixelJitter = samplePatternOffset(k, setup.samples);
+                accumulator.add(source.gpu ? source.gpu->render(sample).rgba : renderCpu(*source.cpu, sample).rgba);
+            }
+            measured.frame.rgba = accumulator.resolve();
+            std::printf("samples    %u per pixel (%s)\n", setup.samples, kSamplePatternName);
+        }
+        if (wantImage && setup.resolutionScale > 1) {
+            const Image scaled = scaleImage(Image{settings.width, settings.height, measured.frame.rgba}, outWidth,
+                                            outHeight,
+                                            settings.view == ViewMode::Shaded ? ScaleFilter::Bilinear : ScaleFilter::Nearest);
+            measured.frame.width = outWidth;
+            measured.frame.height = outHeight;
+            measured.frame.rgba = scaled.rgba;
+            std::printf("scale      traced %ux%u, scaled up to %ux%u\n", settings.width, settings.height, outWidth,
+                        outHeight);
+        }
+        settings.width = outWidth;  // the JSON describes the image written
+        settings.height = outHeight;
+        settings.pixelJitter = glm::vec2(0.0f);
 
         if (source.gpu)
             std::printf("kernel     %s, packet %s\n", jsonName(settings.kernel),
