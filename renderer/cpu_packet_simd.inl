@@ -407,7 +407,8 @@ RP_SIMD_INLINE uint32_t anyHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
 
 struct StackItem {
     uint32_t node;
-    uint32_t firstGroup;
+    uint32_t firstGroup;  // the active range of groups when it was pushed: [first, last]
+    uint32_t lastGroup;
 };
 
 // Per thread, reused by every packet the thread traces (no allocation per packet).
@@ -428,9 +429,13 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
     const BvhNode* nodes = frame.nodes;
     uint32_t activeLanes = 0;
     uint32_t first = groupCount;
+    uint32_t last = 0;
     for (uint32_t g = 0; g < groupCount; ++g) {
         activeLanes += uint32_t(__builtin_popcount(groups[g].activeBits));
-        if (groups[g].activeBits && first == groupCount) first = g;
+        if (groups[g].activeBits) {
+            if (first == groupCount) first = g;
+            last = g;
+        }
     }
     if (activeLanes == 0) return;
     uint32_t nodeIndex = 0;
@@ -438,17 +443,26 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
     while (true) {
         const BvhNode& node = nodes[nodeIndex];
         uint32_t firstMask = 0;
+        uint32_t lastMask = 0;
         if (!interval.enabled || intervalMayHit(interval, node)) {
-            // The first group that hits; the groups before it miss this node and all below it
-            // (a child's box lies inside its parent's, and rounding is monotone).
-            for (; first < groupCount; ++first) {
+            // The first and the last group that hit (Overbeck 2008's active range): the groups
+            // outside [first, last] miss this node and all below it (a child's box lies inside
+            // its parent's, rounding is monotone, and a ray's tmax only shrinks).
+            for (; first <= last; ++first) {
                 firstMask = boxMask(groups[first], node);
                 if (firstMask) break;
+            }
+            if (firstMask) {
+                for (; last > first; --last) {
+                    lastMask = boxMask(groups[last], node);
+                    if (lastMask) break;
+                }
+                if (last == first) lastMask = firstMask;
             }
         }
         if (firstMask) {
             if (kCount)
-                for (uint32_t g = first; g < groupCount; ++g) countLanes(groups[g].nodes, groups[g].activeBits, 1);
+                for (uint32_t g = first; g <= last; ++g) countLanes(groups[g].nodes, groups[g].activeBits, 1);
             if (!node.isLeaf()) {
                 // Nearer child first: the packet's direction along the axis that separates the
                 // children's centres most.
@@ -460,13 +474,13 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
                 const int axis = size.x >= size.y ? (size.x >= size.z ? 0 : 2) : (size.y >= size.z ? 1 : 2);
                 const bool rightFirst = offset[axis] * dirSign[axis] < 0.0f;
                 RAYPACK_CHECK_MSG(top < frame.stackEntries, "traversal stack deeper than the tree");
-                stack[top++] = {rightFirst ? left : left + 1, first};
+                stack[top++] = {rightFirst ? left : left + 1, first, last};
                 nodeIndex = rightFirst ? left + 1 : left;
                 continue;
             }
-            for (uint32_t g = first; g < groupCount; ++g) {
+            for (uint32_t g = first; g <= last; ++g) {
                 RayGroup& group = groups[g];
-                const uint32_t mask = g == first ? firstMask : boxMask(group, node);
+                const uint32_t mask = g == first ? firstMask : g == last ? lastMask : boxMask(group, node);
                 if (!mask) continue;
                 if (kShadow) {
                     activeLanes -= uint32_t(__builtin_popcount(
@@ -481,6 +495,7 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
         --top;
         nodeIndex = stack[top].node;
         first = stack[top].firstGroup;
+        last = stack[top].lastGroup;
     }
 }
 
@@ -527,10 +542,7 @@ void setLane(RayGroup& group, int lane, const gpu::TraceRay& ray, float tmax, ui
 }
 
 void clearGroup(RayGroup& group) {
-    // Done lanes keep finite harmless values: a unit ray along +z from the origin, tmax kLaneDone.
-    const gpu::TraceRay idle = gpu::makeTraceRay(glm::vec3(0.0f), glm::vec3(0.0f, 0.0f, 1.0f));
     for (int lane = 0; lane < L; ++lane) {
-        setLane(group, lane, idle, kLaneDone, kNoHit);
         group.baryU[lane] = 0.0f;
         group.baryV[lane] = 0.0f;
         group.nodes[lane] = 0;
@@ -540,6 +552,17 @@ void clearGroup(RayGroup& group) {
     group.activeBits = 0;
     group.occludedBits = 0;
     group.anyParallel = false;
+}
+
+// A lane that traces nothing keeps finite, harmless values (a unit ray along +z from the origin,
+// with both parallel axes' data) and tmax kLaneDone, so that no test it runs in passes.
+void setIdleLane(RayGroup& group, int lane) {
+    static const gpu::TraceRay idle =
+        gpu::makeTraceRay(glm::vec3(0.0f), glm::vec3(0.0f, 0.0f, 1.0f));
+    const bool parallel = group.anyParallel;
+    setLane(group, lane, idle, kLaneDone, kNoHit);
+    group.activeBits &= ~(1u << lane);
+    group.anyParallel = parallel;
 }
 
 // After the lanes are set: the group's common axes, if any.
@@ -567,25 +590,31 @@ void packetBounds(const RayGroup* groups, uint32_t groupCount, PacketInterval& i
     bool parallel = false;
     float tmaxMax = 0.0f;
     glm::vec3 dirSum(0.0f);
+    for (int a = 0; a < 3; ++a) {
+        interval.invMin[a] = std::numeric_limits<float>::infinity();
+        interval.invMax[a] = -std::numeric_limits<float>::infinity();
+    }
     for (uint32_t g = 0; g < groupCount; ++g) {
         const RayGroup& group = groups[g];
-        for (int lane = 0; lane < L; ++lane) {
-            if (!(group.activeBits & (1u << lane))) continue;
-            const gpu::TraceRay& ray = group.rays[lane];
-            dirSum += glm::normalize(ray.dir);
-            if (ray.anyParallel) parallel = true;
+        if (group.anyParallel) parallel = true;
+        for (uint32_t bits = group.activeBits; bits; bits &= bits - 1) {
+            const int lane = __builtin_ctz(bits);
+            const glm::vec3 org(group.orgX[lane], group.orgY[lane], group.orgZ[lane]);
+            const glm::vec3 inv(group.invX[lane], group.invY[lane], group.invZ[lane]);
+            // Primary directions are unit; shadow directions differ in length, which a sign
+            // does not mind.
+            dirSum += group.rays[lane].dir;
             if (!any) {
                 any = true;
-                for (int a = 0; a < 3; ++a) {
-                    interval.org[a] = ray.org[a];
-                    interval.invMin[a] = interval.invMax[a] = ray.invDir[a];
-                }
-            } else {
-                for (int a = 0; a < 3; ++a) {
-                    if (ray.org[a] != interval.org[a]) sameOrigin = false;
-                    interval.invMin[a] = std::min(interval.invMin[a], ray.invDir[a]);
-                    interval.invMax[a] = std::max(interval.invMax[a], ray.invDir[a]);
-                }
+                interval.org[0] = org.x;
+                interval.org[1] = org.y;
+                interval.org[2] = org.z;
+            }
+            sameOrigin = sameOrigin && org.x == interval.org[0] && org.y == interval.org[1] &&
+                         org.z == interval.org[2];
+            for (int a = 0; a < 3; ++a) {
+                interval.invMin[a] = std::min(interval.invMin[a], inv[a]);
+                interval.invMax[a] = std::max(interval.invMax[a], inv[a]);
             }
             tmaxMax = std::max(tmaxMax, group.tmax[lane]);
         }
@@ -610,7 +639,10 @@ void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
             for (int lane = 0; lane < L; ++lane) {
                 const uint32_t x = x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW;
                 const uint32_t y = y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW;
-                if (x >= layout.x1 || y >= layout.y1) continue;
+                if (x >= layout.x1 || y >= layout.y1) {
+                    setIdleLane(group, lane);
+                    continue;
+                }
                 const glm::vec3 dir = gpu::primaryRayDirection(frame.camera, x, y);
                 setLane(group, lane, gpu::makeTraceRay(frame.eye, dir), kRayTmaxInfinite, kNoHit);
                 group.pixel[lane] = y * frame.width + x;
@@ -657,17 +689,26 @@ void traceShadowPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
             for (int lane = 0; lane < L; ++lane) {
                 const uint32_t x = x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW;
                 const uint32_t y = y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW;
-                if (x >= layout.x1 || y >= layout.y1) continue;
+                if (x >= layout.x1 || y >= layout.y1) {
+                    setIdleLane(group, lane);
+                    continue;
+                }
                 const uint32_t pixel = y * frame.width + x;
                 const ClosestHit& hit = frame.hits[pixel];
-                if (!hit.hit()) continue;  // no shadow ray: stays gpu::kShadowNone
+                if (!hit.hit()) {  // no shadow ray: stays gpu::kShadowNone
+                    setIdleLane(group, lane);
+                    continue;
+                }
                 // As renderCpu: the shadow ray of the hit point, lit without tracing when the
                 // point is the light.
                 const glm::vec3 dir = gpu::primaryRayDirection(frame.camera, x, y);
                 const glm::vec3 point = gpu::hitPosition(frame.eye, dir, hit.t);
                 const gpu::ShadowRay shadow = gpu::makeShadowRay(frame.light, point, hit.prim);
                 group.pixel[lane] = pixel;
-                if (gpu::isDegenerateShadowRay(shadow)) continue;
+                if (gpu::isDegenerateShadowRay(shadow)) {
+                    setIdleLane(group, lane);
+                    continue;
+                }
                 setLane(group, lane, gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
                         shadow.skipPrim);
             }
