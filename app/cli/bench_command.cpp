@@ -28,8 +28,8 @@ using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 struct BenchFlags {
-    std::string scenes, suite = "report", device = "all", kernel = "all", packets, gpu, out,
-                                          sceneDir;
+    std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets,
+                                          gpu, out, sceneDir;
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
     bool noEmbree = false;
@@ -38,11 +38,12 @@ struct BenchFlags {
 
 // What one cell traces.
 struct Cell {
-    enum Kind { Cpu, Embree, GpuPacket, GpuSingle, DriverRt } kind;
+    enum Kind { Cpu, CpuPacket, Embree, GpuPacket, GpuSingle, DriverRt } kind;
     PacketShape packet;
     std::string label() const {
         switch (kind) {
             case Cpu: return "cpu-reference";
+            case CpuPacket: return "cpu-packet " + toString(packet);
             case Embree: return "embree";
             case GpuPacket: return "gpu-packet " + toString(packet);
             case GpuSingle: return "gpu-single";
@@ -87,14 +88,16 @@ void addRaypackRecords(json& records, const json& scene, const Cell& cell,
     for (const char* kind : {"primary", "shadow"}) {
         json r = scene;
         r["tracer"] = cell.kind == Cell::Cpu         ? "cpu-reference"
+                      : cell.kind == Cell::CpuPacket ? "cpu-packet"
                       : cell.kind == Cell::GpuPacket ? "gpu-packet"
                                                      : "gpu-single";
         r["device"] = s.device;
         r["driver"] = driver;
         r["kernel"] = cell.kind == Cell::Cpu ? "reference"
-                      : cell.kind == Cell::GpuPacket ? "packet"
-                                                     : "single";
-        r["packet"] = cell.kind == Cell::GpuPacket ? json(toString(cell.packet)) : json(nullptr);
+                      : cell.kind == Cell::CpuPacket || cell.kind == Cell::GpuPacket ? "packet"
+                                                                                   : "single";
+        const bool packet = cell.kind == Cell::GpuPacket || cell.kind == Cell::CpuPacket;
+        r["packet"] = packet ? json(toString(cell.packet)) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;
         r["height_px"] = s.height;
@@ -113,10 +116,13 @@ void addEmbreeRecords(json& records, const json& sceneFieldsJson, const EmbreeRe
         const std::pair<const char*, const EmbreeRate*> modes[] = {
             {"rtcIntersect1", &q.intersect1},
             {"rtcIntersect8", &q.intersect8},
-            {"rtcOccluded1", &q.occluded1}};
+            {"rtcIntersect16", &q.intersect16},
+            {"rtcOccluded1", &q.occluded1},
+            {"rtcOccluded8", &q.occluded8}};
         for (const auto& [kernel, rate] : modes) {
-            const bool shadow = std::string(kernel) == "rtcOccluded1";
+            const bool shadow = std::string(kernel).rfind("rtcOccluded", 0) == 0;
             if (shadow && !settings.shadows) continue;
+            if (rate->rays == 0 && !shadow) continue;  // rtcIntersect16 not in this Embree build
             json r;
             for (const char* key : {"scene", "scene_spec", "camera", "triangles",
                                     "degenerate_triangles"})
@@ -127,6 +133,7 @@ void addEmbreeRecords(json& records, const json& sceneFieldsJson, const EmbreeRe
             r["embree_quality"] = q.quality;
             r["kernel"] = kernel;
             r["packet"] = nullptr;
+            if (std::string(kernel) == "rtcIntersect16") r["embree_native_packet"] = q.intersect16Native;
             r["ray_kind"] = shadow ? "shadow" : "primary";
             r["width_px"] = settings.width;
             r["height_px"] = settings.height;
@@ -181,6 +188,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const uint32_t repeats = given("--repeat") ? f.repeat : suite.repeats;
     const std::vector<PacketShape> packets =
         parsePacketShapes("--packets", given("--packets") ? f.packets : suite.packets);
+    const std::vector<PacketShape> cpuPackets = parsePacketShapes(
+        "--cpu-packets", given("--cpu-packets") ? f.cpuPackets : suite.cpuPackets);
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
@@ -194,6 +203,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
 
     std::vector<Cell> cells;
     if (cpu) cells.push_back({Cell::Cpu, {}});
+    if (cpu && packetKernel)
+        for (const PacketShape& p : cpuPackets) cells.push_back({Cell::CpuPacket, p});
     if (embree) cells.push_back({Cell::Embree, {}});
     if (gpu && packetKernel)
         for (const PacketShape& p : packets) cells.push_back({Cell::GpuPacket, p});
@@ -240,7 +251,17 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         bool uploaded = false;
         for (const Cell& cell : cells) {
             progress.begin(benchScene.name, cell.label());
-            if (cell.kind == Cell::Cpu) {
+            if (cell.kind == Cell::CpuPacket) {
+                const CpuSceneView view = makeCpuSceneView(loaded.scene, bvh);
+                RenderSettings packetSettings = settings;
+                packetSettings.packet = cell.packet;
+                FrameSource source;
+                source.cpu = &view;
+                source.cpuPackets = true;
+                const MeasuredFrames measured =
+                    measureFrames(source, packetSettings, repeats, false);
+                addRaypackRecords(records, scene, cell, measured, "");
+            } else if (cell.kind == Cell::Cpu) {
                 const CpuSceneView view = makeCpuSceneView(loaded.scene, bvh);
                 FrameSource source;
                 source.cpu = &view;
@@ -303,6 +324,11 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                for (const PacketShape& p : packets) list.push_back(toString(p));
                return list;
            }()},
+          {"cpu_packets", [&] {
+               json list = json::array();
+               for (const PacketShape& p : cpuPackets) list.push_back(toString(p));
+               return list;
+           }()},
           {"bvh", toJson(bvhOptions)}}},
         {"skipped", skipped},
         {"records", records},
@@ -324,7 +350,7 @@ CommandRunner addBenchCommand(CLI::App& app) {
     CLI::App* command = app.add_subcommand(
         "bench",
         "Run a benchmark matrix and write one JSON record per cell and ray kind (primary, shadow): "
-        "scene, triangles, tracer (cpu-reference, gpu-packet, gpu-single, embree, driver-rt), device and "
+        "scene, triangles, tracer (cpu-reference, cpu-packet, gpu-packet, gpu-single, embree, driver-rt), device and "
         "driver, kernel, packet shape, Table 1 (n_l_leaves, d_avg_leaf_depth, d_max_leaf_depth, "
         "o_avg_prims_per_leaf, t_b_s, sah_cost, bvh_bytes_per_triangle, ...) and Table 2 "
         "(t_r_us_per_ray, n_it_tests_per_ray, n_tr_nodes_per_ray, n_q_rays, t_f_s, t_cu_s, "
@@ -332,7 +358,8 @@ CommandRunner addBenchCommand(CLI::App& app) {
         "machine (CPU model, threads, GPU, driver) and the date. Every cell runs once as a "
         "warm-up that counts N_TR / N_IT, then untimed (once on the CPU, plus 0.3 s of frames back to back on a GPU, so that its clocks are "
         "up), then --repeat times; medians are reported. "
-        "Embree (when built in) traces the same rays at build qualities medium and high and its "
+        "Embree (when built in) traces the same rays (rtcIntersect1/8/16, rtcOccluded1/8) at build "
+        "qualities medium and high and its "
         "hit distances are compared with the CPU reference's; the driver's own ray tracing "
         "(VK_KHR_ray_tracing_pipeline) runs where the GPU offers it, and a \"skipped\" line in "
         "the results says why where it does not. A progress line per cell goes to "
@@ -349,15 +376,21 @@ CommandRunner addBenchCommand(CLI::App& app) {
                         "Folder of the suite's scene files (default: $RAYPACK_SCENE_DIR, else "
                         "../shared/scenes beside the source tree, else ../shared/scenes from the "
                         "current directory)");
-    command->add_option("--device", f.device, "Tracers: cpu (reference + Embree), gpu, or all")
+    command->add_option("--device", f.device,
+                        "Tracers: cpu (reference, CPU packets + Embree), gpu, or all")
         ->check(CLI::IsMember({"cpu", "gpu", "all"}))
         ->capture_default_str();
-    command->add_option("--kernel", f.kernel, "GPU kernels: packet, single or all")
+    command->add_option("--kernel", f.kernel,
+                        "Kernels: packet (GPU packets, CPU packets), single (GPU single rays) or "
+                        "all; the CPU reference and Embree always run with --device cpu/all")
         ->check(CLI::IsMember({"packet", "single", "all"}))
         ->capture_default_str();
     command->add_option("--packets", f.packets,
                         "Packet shapes of the packet kernel, e.g. 8x4,4x8,5x6,8x8,16x16 (default: "
                         "the suite's; quick: 8x4,5x6)");
+    command->add_option("--cpu-packets", f.cpuPackets,
+                        "Packet shapes of the CPU packet tracer, e.g. 4x4,8x8,16x16,32x32 "
+                        "(default: the suite's; report and scaling: 8x8,16x16; quick: 16x16)");
     command->add_option("--width", f.width, "Image width in pixels (default: the suite's)")
         ->check(CLI::Range(1u, 16384u));
     command->add_option("--height", f.height, "Image height in pixels (default: the suite's)")

@@ -97,6 +97,7 @@ BenchSuite benchSuite(const std::string& name, const std::string& sceneDir) {
         suite.height = 96;
         suite.repeats = 2;
         suite.packets = "8x4,5x6";
+        suite.cpuPackets = "16x16";
     } else {
         throw Error("--suite: \"" + name + "\" is not report, scaling or quick");
     }

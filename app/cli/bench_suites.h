@@ -21,6 +21,8 @@ struct BenchSuite {
     uint32_t width = 800, height = 800;
     uint32_t repeats = 5;
     std::string packets = "8x4,4x8,5x6,8x8,16x16";
+    // Packet shapes of the CPU packet tracer's cells (cpu-packet).
+    std::string cpuPackets = "8x8,16x16";
 };
 
 // "report", "scaling" or "quick"; scene files resolved against `sceneDir`. Throws raypack::Error

@@ -210,6 +210,49 @@ EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const 
         });
     });
 
+    // Embree traces 16-ray packets natively with AVX-512 only; elsewhere it splits them (the
+    // record says which, as embree_native_packet). An Embree built without 16-wide packets
+    // reports an error at the first call, and the mode is left out.
+    result.intersect16Native =
+        rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
+    rtcGetDeviceError(device);  // clears any earlier error
+    {
+        result.intersect16 = timePasses(pixels, repeats, [&] {
+            return timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
+                RTCIntersectContext context;
+                rtcInitIntersectContext(&context);
+                alignas(64) RTCRayHit16 packet;
+                alignas(64) int valid[16];
+                // Packets of 4x4 pixels over the tile.
+                for (uint32_t py = y0; py < y1; py += 4)
+                    for (uint32_t px = x0; px < x1; px += 4) {
+                        for (int lane = 0; lane < 16; ++lane) {
+                            const uint32_t x = px + lane % 4, y = py + lane / 4;
+                            valid[lane] = (x < x1 && y < y1) ? -1 : 0;
+                            const glm::vec3 d =
+                                valid[lane] ? rays.direction(x, y) : glm::vec3(0, 0, 1);
+                            packet.ray.org_x[lane] = rays.eye.x;
+                            packet.ray.org_y[lane] = rays.eye.y;
+                            packet.ray.org_z[lane] = rays.eye.z;
+                            packet.ray.dir_x[lane] = d.x;
+                            packet.ray.dir_y[lane] = d.y;
+                            packet.ray.dir_z[lane] = d.z;
+                            packet.ray.tnear[lane] = 0.0f;
+                            packet.ray.tfar[lane] = std::numeric_limits<float>::infinity();
+                            packet.ray.time[lane] = 0.0f;
+                            packet.ray.mask[lane] = 0xFFFFFFFFu;
+                            packet.ray.id[lane] = 0;
+                            packet.ray.flags[lane] = 0;
+                            packet.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
+                            packet.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
+                        }
+                        rtcIntersect16(valid, embree.scene, &context, &packet);
+                    }
+            });
+        });
+        if (rtcGetDeviceError(device) != RTC_ERROR_NONE) result.intersect16 = {};
+    }
+
     uint64_t shadowRays = 0;
     for (float t : hitT) shadowRays += std::isfinite(t) ? 1 : 0;
     std::vector<uint8_t> shadowed(pixels, 0);
@@ -242,6 +285,52 @@ EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const 
                         rtcOccluded1(embree.scene, &context, &ray);
                         // rtcOccluded1 sets tfar to -inf when it finds an occluder.
                         shadowed[pixel] = ray.tfar < 0.0f ? 1 : 0;
+                    }
+            });
+        });
+    }
+    if (shadows) {
+        result.occluded8 = timePasses(shadowRays, repeats, [&] {
+            return timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
+                RTCIntersectContext context;
+                rtcInitIntersectContext(&context);
+                alignas(32) RTCRay8 packet;
+                alignas(32) int valid[8];
+                // Packets of 4x2 pixels, as rtcIntersect8; lanes whose pixel casts no shadow
+                // ray are invalid.
+                for (uint32_t py = y0; py < y1; py += 2)
+                    for (uint32_t px = x0; px < x1; px += 4) {
+                        int any = 0;
+                        for (int lane = 0; lane < 8; ++lane) {
+                            const uint32_t x = px + lane % 4, y = py + lane / 4;
+                            gpu::ShadowRay shadow{light, glm::vec3(0, 0, 1), 0.0f, 0};
+                            valid[lane] = 0;
+                            if (x < x1 && y < y1) {
+                                const size_t pixel = size_t(y) * rays.width + x;
+                                if (std::isfinite(hitT[pixel])) {
+                                    shadow = gpu::makeShadowRay(
+                                        light,
+                                        gpu::hitPosition(rays.eye, rays.direction(x, y), hitT[pixel]),
+                                        0);
+                                    if (!gpu::isDegenerateShadowRay(shadow)) valid[lane] = -1;
+                                    else shadow.dir = glm::vec3(0, 0, 1);
+                                }
+                            }
+                            any |= valid[lane];
+                            packet.org_x[lane] = shadow.org.x;
+                            packet.org_y[lane] = shadow.org.y;
+                            packet.org_z[lane] = shadow.org.z;
+                            packet.dir_x[lane] = shadow.dir.x;
+                            packet.dir_y[lane] = shadow.dir.y;
+                            packet.dir_z[lane] = shadow.dir.z;
+                            packet.tnear[lane] = 0.0f;
+                            packet.tfar[lane] = shadow.tmax;
+                            packet.time[lane] = 0.0f;
+                            packet.mask[lane] = 0xFFFFFFFFu;
+                            packet.id[lane] = 0;
+                            packet.flags[lane] = 0;
+                        }
+                        if (any) rtcOccluded8(valid, embree.scene, &context, &packet);
                     }
             });
         });

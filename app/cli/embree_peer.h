@@ -31,7 +31,12 @@ struct EmbreeQualityResults {
     double buildSeconds = 0.0;
     EmbreeRate intersect1;  // primary rays, rtcIntersect1
     EmbreeRate intersect8;  // primary rays, rtcIntersect8 packets of 4x2 pixels
+    // Primary rays, rtcIntersect16 packets of 4x4 pixels; rays = 0 where this Embree build has no
+    // 16-ray packets (RTC_DEVICE_PROPERTY_RAY16_SUPPORTED).
+    EmbreeRate intersect16;
+    bool intersect16Native = false;  // RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED
     EmbreeRate occluded1;   // shadow rays, rtcOccluded1
+    EmbreeRate occluded8;   // shadow rays, rtcOccluded8 packets of 4x2 pixels
 };
 
 struct EmbreeResults {

@@ -29,8 +29,8 @@ struct RenderFlags {
     BvhFlags bvh;
     std::string device = "cpu";
     std::string gpu;
-    std::string kernel = "packet";
-    std::string packet = "8x4";
+    std::string kernel;  // --kernel; the default depends on the device
+    std::string packet;
     std::string view = "shaded";
     std::string out, hits, json, from;
     uint32_t repeat = 1;
@@ -48,9 +48,13 @@ bool given(const CLI::Option* option) { return option->count() > 0; }
 
 // The setup a render uses: --from first (when given), then every flag given on the command line
 // on top of it, then the default framing when neither gave a camera.
-RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cameraGiven) {
+// `cpuKernelFromFile`: the --from file is a CPU render's (device_kind "cpu"), so its kernel and
+// packet are what that render traced.
+RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cameraGiven,
+                         bool& cpuKernelFromFile) {
     RenderSetup setup;
     cameraGiven = false;
+    cpuKernelFromFile = false;
     if (!f.from.empty()) {
         const nlohmann::json json = readJsonFile(f.from);
         try {
@@ -59,6 +63,8 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
             throw Error(f.from + ": " + e.what());
         }
         cameraGiven = json.is_object() && json.contains("camera");
+        cpuKernelFromFile = json.is_object() && json.value("device_kind", "") == "cpu" &&
+                            json.contains("kernel");
     }
     if (given(o.scene)) setup.scene = f.scene;
     if (setup.scene.empty())
@@ -143,7 +149,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
     o.leafSize = command->get_option("--leaf-size");
     o.builder = command->get_option("--builder");
     o.bins = command->get_option("--bins");
-    command->add_option("--device", f.device, "Tracer: cpu (the reference) or gpu (Vulkan)")
+    command->add_option("--device", f.device, "Tracer: cpu (the reference, or the CPU packet tracer with --kernel packet) or gpu (Vulkan)")
         ->check(CLI::IsMember({"cpu", "gpu"}))
         ->capture_default_str();
     command->add_option("--gpu", f.gpu,
@@ -151,12 +157,14 @@ CommandRunner addRenderCommand(CLI::App& app) {
                         "(default: discrete > integrated > CPU/lavapipe)");
     o.kernel = command
                    ->add_option("--kernel", f.kernel,
-                                "GPU kernel: packet (shared-stack packets, Gunther et al. 2007) or "
-                                "single (one ray per invocation)")
-                   ->check(CLI::IsMember({"packet", "single"}))
-                   ->capture_default_str();
-    o.packet = command->add_option("--packet", f.packet, "GPU packet shape WxH in pixels (rays)")
-                   ->capture_default_str();
+                                "Kernel: packet (GPU: shared-stack packets, Gunther et al. 2007; "
+                                "CPU: SIMD packets, Wald et al. 2007, docs/cpu-packet.md) or single "
+                                "(GPU: one ray per invocation; CPU: the reference). Default: packet "
+                                "on the GPU, single on the CPU")
+                   ->check(CLI::IsMember({"packet", "single"}));
+    o.packet = command->add_option("--packet", f.packet,
+                                   "Packet shape WxH in pixels (rays) of --kernel packet (default "
+                                   "8x4 on the GPU, 16x16 on the CPU)");
     o.view = command
                  ->add_option("--view", f.view,
                               "Image: shaded (Phong), nodes (heat map of N_TR) or tests (heat map "
@@ -196,8 +204,23 @@ CommandRunner addRenderCommand(CLI::App& app) {
     return [flags, options] {
         const RenderFlags& f = *flags;
         bool cameraGiven = false;
-        RenderSetup setup = resolveSetup(f, *options, cameraGiven);
+        bool cpuKernelFromFile = false;
+        RenderSetup setup = resolveSetup(f, *options, cameraGiven, cpuKernelFromFile);
         RenderSettings& settings = setup.settings;
+        // Flags that do not apply to the chosen device and kernel are errors, not ignored.
+        const bool cpu = f.device != "gpu";
+        if (cpu) {
+            if (!f.gpu.empty()) throw Error("--gpu applies to --device gpu only");
+            if (f.validation) throw Error("--validation applies to --device gpu only");
+            // The CPU's default kernel is the reference (single rays); its default packet shape
+            // is the CPU packet tracer's own.
+            if (!given(options->kernel) && !cpuKernelFromFile) settings.kernel = KernelKind::Single;
+            if (settings.kernel == KernelKind::Packet && !given(options->packet) &&
+                !cpuKernelFromFile)
+                settings.packet = kDefaultCpuPacket;
+        }
+        if (settings.kernel == KernelKind::Single && given(options->packet))
+            throw Error("--packet applies to --kernel packet only");
 
         const LoadedScene loaded = loadSceneTimed(setup.scene);
         const Bvh bvh = buildBvh(loaded.scene, setup.bvh);
@@ -225,6 +248,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         } else {
             cpuView.emplace(makeCpuSceneView(loaded.scene, bvh));
             source.cpu = &*cpuView;
+            source.cpuPackets = settings.kernel == KernelKind::Packet;
         }
         // Progressive display (renderer/progressive.h): a reduced resolution, scaled up after.
         const uint32_t outWidth = settings.width, outHeight = settings.height;
@@ -258,7 +282,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         settings.height = outHeight;
         settings.pixelJitter = glm::vec2(0.0f);
 
-        if (source.gpu)
+        if (source.gpu || source.cpuPackets)
             std::printf("kernel     %s, packet %s\n", jsonName(settings.kernel),
                         toString(settings.packet).c_str());
         printCamera(settings.camera, !cameraGiven);

@@ -50,6 +50,12 @@ GpuSession::~GpuSession() {
     vk::destroyVulkanContext(context);
 }
 
+std::string describeCpuPacketDevice(PacketShape packet) {
+    return "CPU packets " + std::to_string(packet.width) + "x" + std::to_string(packet.height) +
+           " (" + toString(cpuSimdSelected()) + "), " + cpuModel() + " (" +
+           std::to_string(cpuThreads()) + " threads)";
+}
+
 namespace {
 
 // GPU time traced back to back right before the timed frames (at most so many frames).
@@ -59,7 +65,9 @@ constexpr uint32_t kGpuWarmUpMaxFrames = 2000;
 Frame renderWith(const FrameSource& source, const RenderSettings& settings,
                  const FrameRequest& request) {
     RAYPACK_CHECK((source.cpu != nullptr) != (source.gpu != nullptr));
-    if (source.cpu) return renderCpu(*source.cpu, settings, request);
+    if (source.cpu)
+        return source.cpuPackets ? renderCpuPackets(*source.cpu, settings, request)
+                                 : renderCpu(*source.cpu, settings, request);
     return source.gpu->render(settings, request);
 }
 
@@ -106,7 +114,9 @@ MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& se
     measured.stats = summarizeRuns(counters, timings, source.uploadSeconds);
     measured.stats.countersMeasured = true;
     measured.stats.gpu = source.gpu != nullptr;
-    measured.stats.device = source.gpu ? vk::describe(source.gpu->device()) : describeCpuDevice();
+    measured.stats.device = source.gpu          ? vk::describe(source.gpu->device())
+                            : source.cpuPackets ? describeCpuPacketDevice(settings.packet)
+                                                : describeCpuDevice();
     measured.stats.width = settings.width;
     measured.stats.height = settings.height;
     return measured;

@@ -4,6 +4,7 @@
 // collects the hits, one untimed run of the timed configuration, then N timed runs that do not count (so that the GPU's statistics variant of
 // the kernel never inflates T_K).
 #include "app/cli/statistics.h"
+#include "renderer/cpu_packet_tracer.h"
 #include "renderer/cpu_tracer.h"
 #include "renderer/gpu_tracer.h"
 #include "renderer/vk/context.h"
@@ -17,6 +18,8 @@ enum class DeviceKind { Cpu, Gpu };
 
 // "CPU reference, AMD EPYC (2 threads)".
 std::string describeCpuDevice();
+// "CPU packets 16x16 (avx2), AMD EPYC (2 threads)".
+std::string describeCpuPacketDevice(PacketShape packet);
 // CPU model from /proc/cpuinfo ("unknown CPU" when it cannot be read).
 std::string cpuModel();
 uint32_t cpuThreads();
@@ -35,10 +38,11 @@ struct GpuSession {
     GpuSession& operator=(const GpuSession&) = delete;
 };
 
-// What traces the frames: the CPU reference over a prepared view, or a GPU tracer with the scene
-// uploaded (uploadSeconds = T_CU).
+// What traces the frames: the CPU reference (or, with cpuPackets, the CPU packet tracer) over a
+// prepared view, or a GPU tracer with the scene uploaded (uploadSeconds = T_CU).
 struct FrameSource {
     const CpuSceneView* cpu = nullptr;
+    bool cpuPackets = false;  // renderCpuPackets with settings.packet instead of renderCpu
     GpuTracer* gpu = nullptr;
     double uploadSeconds = 0.0;
 };

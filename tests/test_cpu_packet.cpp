@@ -1,0 +1,322 @@
+// The CPU packet tracer (renderer/cpu_packet_tracer.h) against the CPU reference: every pixel's
+// closest hit (triangle, t to the bit), shadow flag and shaded colour must be the reference's, for
+// each SIMD width this CPU has (scalar, SSE4.1, AVX2), many packet shapes and odd image sizes.
+#include "renderer/bvh.h"
+#include "renderer/camera.h"
+#include "renderer/cpu_packet_tracer.h"
+#include "renderer/cpu_tracer.h"
+#include "renderer/error.h"
+#include "scenes/generators.h"
+#include "scenes/load.h"
+#include "shaders/camera.h"
+#include "shaders/shading.h"
+
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <random>
+#include <sstream>
+#include <tuple>
+
+namespace {
+
+using namespace raypack;
+
+Bvh build(const Scene& scene, uint32_t leafSize = 2) {
+    std::vector<Aabb> bounds(scene.triangleCount());
+    for (uint32_t i = 0; i < bounds.size(); ++i) bounds[i] = scene.triangleBounds(i);
+    BvhBuildOptions options;
+    options.leafSize = leafSize;
+    return buildBvh(bounds, options);
+}
+
+std::vector<CpuSimd> widths() {
+    std::vector<CpuSimd> list{CpuSimd::Scalar};
+    if (__builtin_cpu_supports("sse4.1")) list.push_back(CpuSimd::Sse41);
+    if (__builtin_cpu_supports("avx2")) list.push_back(CpuSimd::Avx2);
+    return list;
+}
+
+Scene randomSoup(uint32_t triangles, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> centre(-10.0f, 10.0f), offset(-1.0f, 1.0f);
+    Scene scene;
+    scene.source = "random soup";
+    for (uint32_t i = 0; i < triangles; ++i) {
+        const glm::vec3 c(centre(rng), centre(rng), centre(rng));
+        for (int k = 0; k < 3; ++k)
+            scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
+        scene.triangles.push_back(glm::uvec3(3 * i, 3 * i + 1, 3 * i + 2));
+    }
+    return scene;
+}
+
+// Closed cube [-1, 1]^3 of n x n quads per face, vertices shared (exactly equal floats).
+Scene tessellatedCube(int n) {
+    Scene scene;
+    scene.source = "tessellated cube";
+    std::map<std::tuple<float, float, float>, uint32_t> index;
+    auto vertex = [&](glm::vec3 p) {
+        const auto key = std::make_tuple(p.x, p.y, p.z);
+        auto it = index.find(key);
+        if (it != index.end()) return it->second;
+        const uint32_t i = uint32_t(scene.positions.size());
+        scene.positions.push_back(p);
+        index.emplace(key, i);
+        return i;
+    };
+    auto grid = [&](int i) { return -1.0f + 2.0f * float(i) / float(n); };
+    for (int axis = 0; axis < 3; ++axis) {
+        for (int side = 0; side < 2; ++side) {
+            const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+            for (int i = 0; i < n; ++i) {
+                for (int j = 0; j < n; ++j) {
+                    uint32_t c[4];
+                    for (int k = 0; k < 4; ++k) {
+                        glm::vec3 p(0.0f);
+                        p[axis] = side ? 1.0f : -1.0f;
+                        p[u] = grid(i + (k & 1));
+                        p[v] = grid(j + (k >> 1));
+                        c[k] = vertex(p);
+                    }
+                    scene.triangles.push_back(glm::uvec3(c[0], c[1], c[3]));
+                    scene.triangles.push_back(glm::uvec3(c[0], c[3], c[2]));
+                }
+            }
+        }
+    }
+    return scene;
+}
+
+Scene translated(Scene scene, glm::vec3 offset) {
+    for (glm::vec3& p : scene.positions) p += offset;
+    return scene;
+}
+
+std::string describe(const RenderSettings& s, CpuSimd simd) {
+    std::ostringstream out;
+    out << s.width << "x" << s.height << " packet " << s.packet.width << "x" << s.packet.height
+        << " " << toString(simd) << (s.shadows ? "" : " no shadows");
+    return out.str();
+}
+
+// Every pixel as the reference has it: hit triangle, t bit for bit, shadow state, colour. Returns
+// the number of pixels whose primary ray hit.
+size_t expectSameFrame(const CpuSceneView& view, const RenderSettings& settings, CpuSimd simd) {
+    const FrameRequest request{.image = true, .hits = true, .counters = true};
+    const Frame reference = renderCpu(view, settings, request);
+    const Frame packets = renderCpuPackets(view, settings, request, simd);
+    const size_t pixels = size_t(settings.width) * settings.height;
+    EXPECT_EQ(packets.hits.size(), pixels);
+    EXPECT_EQ(packets.counters.size(), pixels);
+    EXPECT_EQ(packets.light, reference.light);
+    size_t hits = 0;
+    for (size_t i = 0; i < pixels; ++i) {
+        const HitRecord& a = reference.hits[i];
+        const HitRecord& b = packets.hits[i];
+        const std::string where = describe(settings, simd) + " pixel " +
+                                  std::to_string(i % settings.width) + "," +
+                                  std::to_string(i / settings.width);
+        EXPECT_EQ(b.prim, a.prim) << where;
+        EXPECT_EQ(std::bit_cast<uint32_t>(b.t), std::bit_cast<uint32_t>(a.t)) << where;
+        EXPECT_EQ(b.shadow, a.shadow) << where;
+        EXPECT_EQ(b.dirX, a.dirX) << where;
+        if (a.prim != gpu::kNoHit) {
+            ++hits;
+            // A hit was found in a leaf the ray visited: it counted a node and a test.
+            EXPECT_GE(packets.counters[i].primaryNodes, 1u) << where;
+            EXPECT_GE(packets.counters[i].primaryTests, 1u) << where;
+        } else {
+            EXPECT_EQ(packets.counters[i].shadowNodes, 0u) << where;
+        }
+        if (::testing::Test::HasFailure()) return hits;  // one pixel's report is enough
+    }
+    EXPECT_EQ(packets.rgba, reference.rgba) << describe(settings, simd);
+    return hits;
+}
+
+TEST(CpuPacket, SimdSelection) {
+    const CpuSimd supported = cpuSimdSupported();
+    ::unsetenv("RAYPACK_CPU_SIMD");
+    EXPECT_EQ(cpuSimdSelected(), supported);
+    ::setenv("RAYPACK_CPU_SIMD", "scalar", 1);
+    EXPECT_EQ(cpuSimdSelected(), CpuSimd::Scalar);
+    if (supported != CpuSimd::Scalar) {
+        ::setenv("RAYPACK_CPU_SIMD", "sse", 1);
+        EXPECT_EQ(cpuSimdSelected(), CpuSimd::Sse41);
+    }
+    ::setenv("RAYPACK_CPU_SIMD", "avx2", 1);
+    if (supported == CpuSimd::Avx2)
+        EXPECT_EQ(cpuSimdSelected(), CpuSimd::Avx2);
+    else
+        EXPECT_THROW(cpuSimdSelected(), Error);
+    ::setenv("RAYPACK_CPU_SIMD", "avx512", 1);
+    try {
+        cpuSimdSelected();
+        ADD_FAILURE() << "RAYPACK_CPU_SIMD=avx512 accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("avx512"), std::string::npos) << e.what();
+    }
+    ::unsetenv("RAYPACK_CPU_SIMD");
+    std::printf("this CPU runs %s\n", toString(supported));
+}
+
+TEST(CpuPacket, SameHitsOnRandomScenesShapesAndOddSizes) {
+    const Scene soup = randomSoup(4000, 7);
+    const Bvh bvh = build(soup);
+    const CpuSceneView view = makeCpuSceneView(soup, bvh);
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<float> coord(-12.0f, 12.0f);
+    const std::vector<PacketShape> shapes = {{1, 1}, {3, 5}, {4, 4}, {8, 4}, {16, 16}, {7, 1}, {32, 32}, {1, 9}};
+    const std::vector<std::pair<uint32_t, uint32_t>> sizes = {{37, 29}, {1, 1}, {17, 3}, {5, 40}, {64, 48}};
+    int run = 0;
+    for (const CpuSimd simd : widths()) {
+        for (const PacketShape& shape : shapes) {
+            for (const auto& [width, height] : sizes) {
+                RenderSettings settings;
+                settings.width = width;
+                settings.height = height;
+                settings.packet = shape;
+                settings.shadows = run % 5 != 4;
+                // Inside the soup (rays leave in every direction) or framing it from outside.
+                if (run % 2 == 0) {
+                    settings.camera.eye = glm::vec3(coord(rng), coord(rng), coord(rng));
+                    settings.camera.at = glm::vec3(coord(rng), coord(rng), coord(rng));
+                    settings.camera.fovYDegrees = 100.0f;
+                } else {
+                    settings.camera = frameScene(soup.bounds());
+                }
+                expectSameFrame(view, settings, simd);
+                if (HasFailure()) return;
+                ++run;
+            }
+        }
+    }
+}
+
+TEST(CpuPacket, SameHitsOnSharedScenes) {
+    const std::filesystem::path root = RAYPACK_SHARED_SCENES;
+    for (const char* file : {"sibenik/sibenik_geom_75284.ply", "stanford/bun_zipper.ply"}) {
+        const Scene scene = loadScene(root / file);
+        const Bvh bvh = build(scene);
+        const CpuSceneView view = makeCpuSceneView(scene, bvh);
+        for (const CpuSimd simd : widths()) {
+            for (const PacketShape shape : {PacketShape{16, 16}, PacketShape{8, 8}, PacketShape{13, 6}}) {
+                RenderSettings settings;
+                settings.width = 121;
+                settings.height = 87;
+                settings.packet = shape;
+                settings.camera = frameScene(scene.bounds());
+                if (std::string(file).find("sibenik") != std::string::npos) {
+                    settings.camera.eye = glm::vec3(-18.0f, -11.0f, 0.0f);
+                    settings.camera.at = glm::vec3(0.0f, -8.0f, 0.0f);
+                    settings.camera.fovYDegrees = 70.0f;
+                }
+                EXPECT_GT(expectSameFrame(view, settings, simd), size_t(121 * 87 / 10)) << file;
+                if (HasFailure()) return;
+            }
+        }
+    }
+}
+
+// A camera inside closed meshes with its central row and column of rays in the planes of mesh
+// edges and its central ray through a vertex (and parallel to two axes): no ray may escape, and
+// each must find the reference's triangle.
+TEST(CpuPacket, NoLeaksThroughSharedEdgesAndVertices) {
+    for (const int n : {4, 6}) {
+        const Scene cube = tessellatedCube(n);
+        const Bvh bvh = build(cube);
+        const CpuSceneView view = makeCpuSceneView(cube, bvh);
+        for (const CpuSimd simd : widths()) {
+            for (const auto& [at, up] : {std::pair{glm::vec3(0.0f, 0.0f, 1.0f), glm::vec3(0.0f, 1.0f, 0.0f)},
+                                         {glm::vec3(1.0f, 0.0f, 0.0f), glm::vec3(0.0f, 0.0f, 1.0f)},
+                                         {glm::vec3(0.3f, 0.4f, -0.5f), glm::vec3(0.0f, 1.0f, 0.0f)}}) {
+                RenderSettings settings;
+                settings.width = 65;  // odd: the central column and row have u = 0 and v = 0
+                settings.height = 33;
+                settings.packet = {8, 8};
+                settings.camera.eye = glm::vec3(0.0f);
+                settings.camera.at = at;
+                settings.camera.up = up;
+                settings.camera.fovYDegrees = 120.0f;
+                EXPECT_EQ(expectSameFrame(view, settings, simd), size_t(65 * 33))
+                    << "rays escaped the closed cube, n = " << n << " " << toString(simd);
+                if (HasFailure()) return;
+            }
+        }
+    }
+}
+
+// The nested scene's tree is a spine as deep as it has triangles: the stack comes from the tree.
+TEST(CpuPacket, DeepTree) {
+    const Scene deep = makeDeepScene(kDeepSceneMaxTriangles);
+    const Bvh bvh = build(deep, 1);
+    const CpuSceneView view = makeCpuSceneView(deep, bvh);
+    EXPECT_GE(view.stackEntries, 20u);
+    for (const CpuSimd simd : widths()) {
+        RenderSettings settings;
+        settings.width = 97;
+        settings.height = 61;
+        settings.packet = {16, 16};
+        settings.camera = frameScene(deep.bounds());
+        EXPECT_GT(expectSameFrame(view, settings, simd), 0u);
+    }
+}
+
+// Coordinates far from the origin: the scene and the camera moved by 1e5..3e5.
+TEST(CpuPacket, FarFromTheOrigin) {
+    const glm::vec3 offset(1.0e5f, -2.0e5f, 3.0e5f);
+    const Scene flake = translated(makeSphereFlake(4000), offset);
+    const Bvh bvh = build(flake);
+    const CpuSceneView view = makeCpuSceneView(flake, bvh);
+    for (const CpuSimd simd : widths()) {
+        RenderSettings settings;
+        settings.width = 80;
+        settings.height = 75;
+        settings.packet = {8, 8};
+        settings.camera = frameScene(flake.bounds());
+        EXPECT_GT(expectSameFrame(view, settings, simd), 0u);
+    }
+}
+
+// The heat views draw the packet tracer's own counters; the shading and heat views shade the same
+// hits, so only the counters may differ from the reference's.
+TEST(CpuPacket, HeatViewsAndTimings) {
+    const Scene flake = makeSphereFlake(3000);
+    const Bvh bvh = build(flake);
+    const CpuSceneView view = makeCpuSceneView(flake, bvh);
+    RenderSettings settings;
+    settings.width = 50;
+    settings.height = 40;
+    settings.camera = frameScene(flake.bounds());
+    for (const CpuSimd simd : widths()) {
+        const Frame shaded = renderCpuPackets(view, settings, {.image = true, .counters = true}, simd);
+        EXPECT_GT(shaded.timings.primarySeconds, 0.0);
+        EXPECT_GT(shaded.timings.shadowSeconds, 0.0);
+        EXPECT_GE(shaded.timings.totalSeconds,
+                  shaded.timings.primarySeconds + shaded.timings.shadowSeconds);
+        settings.view = ViewMode::HeatTraversal;
+        const Frame nodes = renderCpuPackets(view, settings, {}, simd);
+        settings.view = ViewMode::HeatIntersections;
+        const Frame tests = renderCpuPackets(view, settings, {}, simd);
+        settings.view = ViewMode::Shaded;
+        ASSERT_EQ(nodes.rgba.size(), shaded.rgba.size());
+        EXPECT_NE(nodes.rgba, shaded.rgba);
+        EXPECT_NE(nodes.rgba, tests.rgba);
+        // Each pixel's heat colour is the one of its counters.
+        for (size_t i = 0; i < shaded.counters.size(); ++i) {
+            const RayCounters& c = shaded.counters[i];
+            const glm::vec3 colour =
+                gpu::heatColorForCount(c.primaryNodes + c.shadowNodes, gpu::kHeatFullScaleNodes);
+            ASSERT_EQ(nodes.rgba[i], gpu::packRgba8(glm::vec4(colour, 1.0f))) << i;
+        }
+    }
+    settings.packet = {0, 4};
+    EXPECT_THROW(renderCpuPackets(view, settings), Error);
+}
+
+}  // namespace
