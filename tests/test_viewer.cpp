@@ -532,7 +532,7 @@ void expectCliReproduces(const fs::path& dir, const std::string& shot, const std
 }
 
 TEST_F(ViewerUnderXvfb, AConvergedScreenshotEqualsTheCliRenderWithAsManySamples) {
-    for (const std::string tracer : {"cpu-reference", "vulkan-single"}) {
+    for (const std::string tracer : {"cpu-packet", "cpu-reference", "vulkan-single"}) {
         const std::string shot = (dir_ / ("converged-" + tracer + ".png")).string();
         const CommandRun viewer = runCommand(viewerCommand("--width 160 --height 120 --frames 12 --samples 4 --validation "
                                                            "--tracer " + tracer + " --script 1:wait --screenshot " + shot));
@@ -540,7 +540,7 @@ TEST_F(ViewerUnderXvfb, AConvergedScreenshotEqualsTheCliRenderWithAsManySamples)
         const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
         EXPECT_EQ(sidecar["samples_per_pixel"], 4) << viewer.output;
         EXPECT_EQ(sidecar["sample_pattern"], kSamplePatternName);
-        expectCliReproduces(dir_, shot, tracer == "cpu-reference" ? "--device cpu" : "--device gpu --kernel single");
+        expectCliReproduces(dir_, shot, tracer == "vulkan-single" ? "--device gpu" : "--device cpu");
         // The refined image is not the plain one: the samples moved the rays.
         const std::string plain = (dir_ / "plain.png").string();
         const CommandRun cli = runCommand(std::string("XDG_RUNTIME_DIR=/tmp ") + RAYPACK_CLI + " render --from " +

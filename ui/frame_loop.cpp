@@ -11,6 +11,7 @@ const char* toString(TracerChoice tracer) {
     case TracerChoice::VulkanPacket: return "Vulkan packet kernel";
     case TracerChoice::VulkanSingle: return "Vulkan single-ray kernel";
     case TracerChoice::CpuReference: return "CPU reference tracer";
+    case TracerChoice::CpuPacket: return "CPU packet tracer";
     }
     return "?";
 }
@@ -20,6 +21,7 @@ const char* cliName(TracerChoice tracer) {
     case TracerChoice::VulkanPacket: return "vulkan-packet";
     case TracerChoice::VulkanSingle: return "vulkan-single";
     case TracerChoice::CpuReference: return "cpu-reference";
+    case TracerChoice::CpuPacket: return "cpu-packet";
     }
     return "?";
 }
@@ -30,7 +32,9 @@ std::optional<TracerChoice> parseTracerChoice(const std::string& name) {
     return std::nullopt;
 }
 
-bool isCpuTracer(TracerChoice tracer) { return tracer == TracerChoice::CpuReference; }
+bool isCpuTracer(TracerChoice tracer) {
+    return tracer == TracerChoice::CpuReference || tracer == TracerChoice::CpuPacket;
+}
 
 const char* toString(FrameKind kind) {
     switch (kind) {

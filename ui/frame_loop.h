@@ -24,11 +24,12 @@ enum class TracerChoice {
     VulkanPacket,  // the report's packet kernel (renderer/gpu_tracer.h)
     VulkanSingle,  // the single-ray kernel on the same layout
     CpuReference,  // the CPU reference tracer (renderer/cpu_tracer.h) on the host's cores
+    CpuPacket,     // the CPU packet tracer (renderer/cpu_packet_tracer.h), SIMD over rays
 };
 constexpr TracerChoice kAllTracerChoices[] = {TracerChoice::VulkanPacket, TracerChoice::VulkanSingle,
-                                              TracerChoice::CpuReference};
+                                              TracerChoice::CpuReference, TracerChoice::CpuPacket};
 const char* toString(TracerChoice tracer);  // "Vulkan packet kernel"
-const char* cliName(TracerChoice tracer);   // "vulkan-packet", "vulkan-single", "cpu-reference"
+const char* cliName(TracerChoice tracer);   // "vulkan-packet", "vulkan-single", "cpu-reference", "cpu-packet"
 std::optional<TracerChoice> parseTracerChoice(const std::string& name);
 bool isCpuTracer(TracerChoice tracer);
 

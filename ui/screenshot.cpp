@@ -12,9 +12,10 @@ std::string sidecarPath(const std::string& pngPath) {
 }
 
 void writeScreenshot(const std::string& pngPath, const Image& image, const RenderSetup& setup,
-                     const nlohmann::json& statistics) {
+                     const nlohmann::json& statistics, const std::string& deviceKind) {
     writePng(pngPath, image);
     nlohmann::json sidecar = toJson(setup);
+    if (!deviceKind.empty()) sidecar["device_kind"] = deviceKind;
     sidecar["image"] = fs::path(pngPath).filename().string();
     sidecar["stats"] = statistics;
     writeJsonFile(sidecarPath(pngPath), sidecar);

@@ -47,7 +47,7 @@ int main(int argc, char** argv) {
     app.add_option("--frames", options.frames, "run this many frames and exit (0: until closed)")->capture_default_str();
     app.add_option("--screenshot", options.screenshot, "after the last frame: the traced image as PNG + JSON sidecar");
     app.add_option("--window-screenshot", options.windowScreenshot, "after the last frame: the whole window as PNG");
-    app.add_option("--packet", packet, "packet shape WxH (default 8x4)");
+    app.add_option("--packet", packet, "packet shape WxH of the packet tracer drawing first (default 8x4 for the Vulkan kernel, 16x16 for the CPU packet tracer)");
     app.add_option("--leaf-size", options.bvh.leafSize, "BVH leaf size")->capture_default_str();
     app.add_option("--builder", builder, "BVH builder (sah-exact, sah-binned)");
     app.add_flag("--no-shadows", noShadows, "no shadow rays");
@@ -64,8 +64,8 @@ int main(int argc, char** argv) {
     app.add_option("--present", present, "fifo, mailbox or immediate (falls back to fifo)")->capture_default_str();
     app.add_flag("--no-counters", noCounters, "no live N_TR / N_IT in the panel");
     app.add_option("--tracer", tracer,
-                   "who draws: vulkan-packet, vulkan-single or cpu-reference (default: cpu-reference on a CPU "
-                   "Vulkan device such as lavapipe, vulkan-packet on a GPU)");
+                   "who draws: vulkan-packet, vulkan-single, cpu-reference or cpu-packet (default: cpu-packet on "
+                   "a CPU Vulkan device such as lavapipe, vulkan-packet on a GPU)");
     app.add_option("--frame-budget", options.frameLoop.frameBudgetMs,
                    "frame-time budget in ms: while moving, the resolution is reduced to keep it")
         ->check(CLI::Range(1.0f, 10000.0f))
@@ -93,6 +93,7 @@ int main(int argc, char** argv) {
 
     try {
         if (!packet.empty()) options.settings.packet = parsePacket(packet);
+        options.packetGiven = !packet.empty();
         if (!builder.empty()) options.bvh.builder = parseBvhBuilder(builder);
         options.settings.shadows = !noShadows;
         options.liveCounters = !noCounters;
@@ -100,7 +101,7 @@ int main(int argc, char** argv) {
         if (!tracer.empty()) {
             options.tracer = ui::parseTracerChoice(tracer);
             if (!options.tracer)
-                throw Error("--tracer: \"" + tracer + "\" is not vulkan-packet, vulkan-single or cpu-reference");
+                throw Error("--tracer: \"" + tracer + "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
         }
         if (options.playFrames && options.playPath.empty()) throw Error("--play-frames needs --play-path");
         if (!kernel.empty()) {
