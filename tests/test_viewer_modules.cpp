@@ -603,7 +603,36 @@ TEST_F(HeadlessImGui, ThePanelStartsAtItsRememberedWidthAndStaysOnScreenAfterARe
     frame(400, 300);
     EXPECT_LE(window->Pos.x + window->Size.x, 400.0f);
     EXPECT_EQ(window->Size.y, 300.0f);
-    EXPECT_LE(state.layout.width, 400.0f);
+    EXPECT_EQ(state.layout.width, 500.0f) << "the clamp to a small window is not remembered";
+    // The window grows again: so does the panel, back to the remembered width.
+    frame(1600, 1000);
+    frame(1600, 1000);
+    EXPECT_EQ(window->Size.x, 500.0f);
+    EXPECT_EQ(state.coveredWidthPixels, 1000.0f);
+}
+
+TEST_F(HeadlessImGui, DraggingTheRightEdgeResizesThePanelAndReportsTheWidthWhenReleased) {
+    ImGuiIO& io = ImGui::GetIO();
+    io.ConfigWindowsResizeFromEdges = true;
+    io.BackendFlags |= ImGuiBackendFlags_HasMouseCursors;  // as the GLFW backend says
+    frame(1280, 800);
+    frame(1280, 800);
+    const float edge = ui::PanelLayout::kDefaultWidth - 1.0f;
+    io.MousePos = ImVec2(edge, 400.0f);
+    frame(1280, 800);
+    io.MouseDown[0] = true;
+    bool reportedWhileDragging = false;
+    for (float x = edge; x <= edge + 200.0f; x += 50.0f) {
+        io.MousePos = ImVec2(x, 400.0f);
+        reportedWhileDragging |= frame(1280, 800).layoutChanged;
+    }
+    EXPECT_FALSE(reportedWhileDragging) << "a drag is reported once, at its end";
+    EXPECT_NEAR(state.layout.width, ui::PanelLayout::kDefaultWidth + 200.0f, 1.0f);
+    io.MouseDown[0] = false;
+    EXPECT_TRUE(frame(1280, 800).layoutChanged);
+    EXPECT_FALSE(frame(1280, 800).layoutChanged);
+    EXPECT_NEAR(state.coveredWidthPixels, 2.0f * (ui::PanelLayout::kDefaultWidth + 200.0f), 2.0f);
+    EXPECT_EQ(panelWindow()->Pos.x, 0.0f);
 }
 
 TEST_F(HeadlessImGui, CollapsedAndOverlayingPanelsLeaveTheWholeImageAndReportTheChange) {

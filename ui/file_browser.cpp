@@ -209,15 +209,17 @@ std::optional<std::string> FileBrowser::draw() {
             const DirectoryEntry& entry = listing_.entries[i];
             const std::string label = entry.directory ? "[dir]  " + entry.name + "/" : "       " + entry.name;
             ImGui::PushID(int(i));
+            // A folder is entered on one click: a double-click needs two clicks within 0.3 s of
+            // ImGui's clock, which a viewer drawing a frame every few seconds (lavapipe) never
+            // sees. A file is selected by one click, opened by a double-click or Open.
             if (ImGui::Selectable(label.c_str(), selected_ == i, ImGuiSelectableFlags_AllowDoubleClick)) {
                 selected_ = i;
-                if (ImGui::IsMouseDoubleClicked(ImGuiMouseButton_Left)) {
-                    const bool enteringFolder = entry.directory;
-                    chosen = activate(i);
+                if (entry.directory) {
+                    activate(i);
                     ImGui::PopID();
-                    if (enteringFolder) break;  // the listing changed under the loop
-                    continue;
+                    break;  // the listing changed under the loop
                 }
+                if (ImGui::IsMouseDoubleClicked(ImGuiMouseButton_Left)) chosen = activate(i);
             }
             if (!entry.directory) {
                 ImGui::SameLine(ImGui::GetContentRegionAvail().x - 80.0f);
@@ -235,7 +237,7 @@ std::optional<std::string> FileBrowser::draw() {
     ImGui::SameLine();
     if (ImGui::Button("Cancel")) visible_ = false;
     ImGui::SameLine();
-    ImGui::TextDisabled("double-click a folder to enter it, a file to open it");
+    ImGui::TextDisabled("click a folder to enter it; double-click a file or select it and Open");
     ImGui::End();
     return chosen;
 }

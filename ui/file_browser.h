@@ -65,7 +65,8 @@ public:
     const std::string& error() const { return error_; }
 
     // Draws the browser's window when it is open; returns the chosen file in the frame it is
-    // chosen (double-click, Open, or Enter in the path field), nullopt otherwise.
+    // chosen (a double-click on it, Open on the selected one, or Enter in the path field), nullopt
+    // otherwise. One click enters a folder.
     std::optional<std::string> draw();
 
 private:

@@ -311,7 +311,9 @@ void drawPanelSection(PanelState& state, const PanelInfo&, PanelActions& actions
         ImGui::EndCombo();
     }
     if (ImGui::Checkbox("overlay the image (transparent)", &layout.overlay)) actions.layoutChanged = true;
-    ImGui::TextDisabled("drag the right edge to resize; the arrow in the title collapses");
+    ImGui::PushStyleColor(ImGuiCol_Text, ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled));
+    ImGui::TextWrapped("Drag the right edge to resize; the arrow in the title bar collapses.");
+    ImGui::PopStyleColor();
 }
 
 // The newest error in a box of its own at the bottom of the free part of the window: it never
@@ -373,6 +375,12 @@ PanelActions drawPanel(PanelState& state, const PanelInfo& info) {
     ImGui::SetNextWindowPos(ImVec2(0, 0), ImGuiCond_Always);
     ImGui::SetNextWindowSizeConstraints(ImVec2(std::min(PanelLayout::kMinWidth, maxWidth), io.DisplaySize.y),
                                         ImVec2(maxWidth, io.DisplaySize.y));
+    // The window's width changed: the remembered width again (clamped to the new window), so a
+    // panel narrowed by a small window widens back when the window does.
+    if (io.DisplaySize.x != state.lastDisplayWidth) {
+        state.lastDisplayWidth = io.DisplaySize.x;
+        state.windowPlaced = false;
+    }
     if (!state.windowPlaced) {
         ImGui::SetNextWindowSize(ImVec2(std::clamp(layout.width, PanelLayout::kMinWidth, maxWidth), io.DisplaySize.y),
                                  ImGuiCond_Always);
@@ -388,8 +396,9 @@ PanelActions drawPanel(PanelState& state, const PanelInfo& info) {
         actions.layoutChanged = true;
     }
     if (!collapsed) {
+        // Only the user's resize changes the remembered width, not the clamp to a small window.
         const float width = ImGui::GetWindowWidth();
-        if (width != layout.width) {
+        if (width != std::min(layout.width, maxWidth)) {
             layout.width = width;
             state.widthChangePending = true;
         }

@@ -72,6 +72,7 @@ struct PanelState {
     bool windowPlaced = false;      // the first frame sets the remembered width and collapsed state
     float appliedUiScale = 0.0f;    // the scale the ImGui style and font carry now
     bool widthChangePending = false;  // a resize drag not yet reported as layoutChanged
+    float lastDisplayWidth = 0.0f;    // the window's width in the previous frame
 };
 
 // What the panel shows.
