@@ -666,6 +666,43 @@ TEST_F(HeadlessImGui, AnErrorDoesNotMoveThePanelsContent) {
     EXPECT_LE(box->Pos.y + box->Size.y, 800.0f);
 }
 
+TEST_F(HeadlessImGui, EnterInThePathFieldOpensTheTypedPath) {
+    ImGuiIO& io = ImGui::GetIO();
+    io.KeyMap[ImGuiKey_Enter] = 257;  // any free slot of KeysDown, as a backend maps its keys
+    frame(1280, 800);
+    frame(1280, 800);
+    // Find the path field by moving the mouse down the panel until ImGui says it hovers it.
+    const ImGuiID pathId = panelWindow()->GetID("##path");
+    std::optional<ImVec2> fieldAt;
+    for (float y = 0.0f; y < 800.0f && !fieldAt; y += 4.0f) {
+        io.MousePos = ImVec2(60.0f, y);
+        frame(1280, 800);
+        if (GImGui->HoveredId == pathId) fieldAt = io.MousePos;
+    }
+    ASSERT_TRUE(fieldAt) << "the path field was not found";
+    io.MouseDown[0] = true;
+    frame(1280, 800);
+    io.MouseDown[0] = false;
+    frame(1280, 800);
+    ASSERT_EQ(GImGui->ActiveId, pathId) << "the click put the cursor in the field";
+    // Select all and type over it, as a user does; nothing opens before Enter.
+    io.KeyMap[ImGuiKey_A] = 65;
+    io.KeyCtrl = true;
+    io.KeysDown[65] = true;
+    frame(1280, 800);
+    io.KeysDown[65] = false;
+    io.KeyCtrl = false;
+    for (char c : std::string("/x/typed.glb")) {
+        io.AddInputCharacter(c);
+        EXPECT_FALSE(frame(1280, 800).open);
+    }
+    io.KeysDown[257] = true;
+    const ui::PanelActions actions = frame(1280, 800);
+    io.KeysDown[257] = false;
+    EXPECT_TRUE(actions.open) << "Enter opens";
+    EXPECT_EQ(state.openPath, "/x/typed.glb");
+}
+
 TEST_F(HeadlessImGui, TheUiScaleScalesFontsAndSizesWithoutCompounding) {
     frame(1280, 800);
     const float padding = ImGui::GetStyle().WindowPadding.x;
