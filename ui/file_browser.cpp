@@ -17,7 +17,8 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string lowerCase(std::string text) {
-    std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    std::transform(text.begin(), text.end(), text.begin(),
+                   [](unsigned char c) { return char(std::tolower(c)); });
     return text;
 }
 
@@ -34,16 +35,21 @@ std::string normalizedDirectory(const fs::path& path) {
 // "~" and "~/x" name the home folder.
 fs::path expandHome(const std::string& typed) {
     const char* home = std::getenv("HOME");
-    if (home && *home && (typed == "~" || typed.rfind("~/", 0) == 0)) return fs::path(home) / typed.substr(std::min<size_t>(2, typed.size()));
+    if (home && *home && (typed == "~" || typed.rfind("~/", 0) == 0))
+        return fs::path(home) / typed.substr(std::min<size_t>(2, typed.size()));
     return typed;
 }
 
 std::string humanBytes(uintmax_t bytes) {
     char text[32];
-    if (bytes < 1024) std::snprintf(text, sizeof text, "%ju B", bytes);
-    else if (bytes < 1024u * 1024u) std::snprintf(text, sizeof text, "%.1f KiB", double(bytes) / 1024.0);
-    else if (bytes < 1024ull * 1024u * 1024u) std::snprintf(text, sizeof text, "%.1f MiB", double(bytes) / (1024.0 * 1024.0));
-    else std::snprintf(text, sizeof text, "%.2f GiB", double(bytes) / (1024.0 * 1024.0 * 1024.0));
+    if (bytes < 1024)
+        std::snprintf(text, sizeof text, "%ju B", bytes);
+    else if (bytes < 1024u * 1024u)
+        std::snprintf(text, sizeof text, "%.1f KiB", double(bytes) / 1024.0);
+    else if (bytes < 1024ull * 1024u * 1024u)
+        std::snprintf(text, sizeof text, "%.1f MiB", double(bytes) / (1024.0 * 1024.0));
+    else
+        std::snprintf(text, sizeof text, "%.2f GiB", double(bytes) / (1024.0 * 1024.0 * 1024.0));
     return text;
 }
 
@@ -64,16 +70,20 @@ bool matchesFilter(const std::string& name, const std::vector<std::string>& exte
     if (extensions.empty()) return true;
     const std::string lower = lowerCase(name);
     return std::any_of(extensions.begin(), extensions.end(), [&](const std::string& extension) {
-        return lower.size() > extension.size() && lower.compare(lower.size() - extension.size(), extension.size(), extension) == 0;
+        return lower.size() > extension.size() &&
+               lower.compare(lower.size() - extension.size(), extension.size(), extension) == 0;
     });
 }
 
 DirectoryListing listDirectory(const std::string& directory, size_t filter, bool showHidden) {
     DirectoryListing listing;
-    listing.directory = normalizedDirectory(directory.empty() ? fs::path(".") : fs::path(directory));
-    const std::vector<std::string>& extensions = fileFilters()[std::min(filter, fileFilters().size() - 1)].extensions;
+    listing.directory =
+        normalizedDirectory(directory.empty() ? fs::path(".") : fs::path(directory));
+    const std::vector<std::string>& extensions =
+        fileFilters()[std::min(filter, fileFilters().size() - 1)].extensions;
     std::error_code error;
-    fs::directory_iterator it(listing.directory, fs::directory_options::skip_permission_denied, error);
+    fs::directory_iterator it(listing.directory, fs::directory_options::skip_permission_denied,
+                              error);
     if (error) {
         listing.error = listing.directory + ": cannot be listed: " + error.message();
         return listing;
@@ -95,11 +105,12 @@ DirectoryListing listDirectory(const std::string& directory, size_t filter, bool
             listing.entries.push_back({name, false, entryError ? 0 : bytes});
         }
     }
-    std::sort(listing.entries.begin(), listing.entries.end(), [](const DirectoryEntry& a, const DirectoryEntry& b) {
-        if (a.directory != b.directory) return a.directory;
-        const std::string la = lowerCase(a.name), lb = lowerCase(b.name);
-        return la != lb ? la < lb : a.name < b.name;
-    });
+    std::sort(listing.entries.begin(), listing.entries.end(),
+              [](const DirectoryEntry& a, const DirectoryEntry& b) {
+                  if (a.directory != b.directory) return a.directory;
+                  const std::string la = lowerCase(a.name), lb = lowerCase(b.name);
+                  return la != lb ? la < lb : a.name < b.name;
+              });
     return listing;
 }
 
@@ -139,7 +150,8 @@ bool FileBrowser::navigate(const std::string& directory) {
 
 void FileBrowser::up() {
     const fs::path current(listing_.directory);
-    if (current.has_parent_path() && current.parent_path() != current) navigate(current.parent_path().string());
+    if (current.has_parent_path() && current.parent_path() != current)
+        navigate(current.parent_path().string());
 }
 
 void FileBrowser::setFilter(size_t filter) {
@@ -180,14 +192,16 @@ std::optional<std::string> FileBrowser::draw() {
     ImGui::SetNextWindowSize(ImVec2(600, 440), ImGuiCond_FirstUseEver);
     if (justOpened_) ImGui::SetNextWindowFocus();
     justOpened_ = false;
-    if (!ImGui::Begin("Open a scene###raypack-file-browser", &visible_, ImGuiWindowFlags_NoCollapse)) {
+    if (!ImGui::Begin("Open a scene###raypack-file-browser", &visible_,
+                      ImGuiWindowFlags_NoCollapse)) {
         ImGui::End();
         return std::nullopt;
     }
     if (ImGui::Button("Up")) up();
     ImGui::SameLine();
     ImGui::SetNextItemWidth(-1);
-    if (ImGui::InputText("##browser-path", &typed_, ImGuiInputTextFlags_EnterReturnsTrue)) chosen = submit(typed_);
+    if (ImGui::InputText("##browser-path", &typed_, ImGuiInputTextFlags_EnterReturnsTrue))
+        chosen = submit(typed_);
 
     ImGui::SetNextItemWidth(ImGui::GetContentRegionAvail().x * 0.6f);
     if (ImGui::BeginCombo("filter", fileFilters()[filter_].label)) {
@@ -207,12 +221,14 @@ std::optional<std::string> FileBrowser::draw() {
         if (listing_.entries.empty()) ImGui::TextDisabled("no folders or matching files here");
         for (size_t i = 0; i < listing_.entries.size() && !chosen; ++i) {
             const DirectoryEntry& entry = listing_.entries[i];
-            const std::string label = entry.directory ? "[dir]  " + entry.name + "/" : "       " + entry.name;
+            const std::string label =
+                entry.directory ? "[dir]  " + entry.name + "/" : "       " + entry.name;
             ImGui::PushID(int(i));
             // A folder is entered on one click: a double-click needs two clicks within 0.3 s of
             // ImGui's clock, which a viewer drawing a frame every few seconds (lavapipe) never
             // sees. A file is selected by one click, opened by a double-click or Open.
-            if (ImGui::Selectable(label.c_str(), selected_ == i, ImGuiSelectableFlags_AllowDoubleClick)) {
+            if (ImGui::Selectable(label.c_str(), selected_ == i,
+                                  ImGuiSelectableFlags_AllowDoubleClick)) {
                 selected_ = i;
                 if (entry.directory) {
                     activate(i);

@@ -17,13 +17,12 @@
 //   the distance to the pivot shrinks by kZoomFactor per wheel step.
 // A pivot set from a picked point (double-click) changes nothing on screen; the next orbit turns
 // about it. Switching between fly and orbit (Tab) passes the Camera value across: no jump.
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <optional>
+
 #include "renderer/aabb.h"
 #include "renderer/camera.h"
-
-#include <glm/glm.hpp>
-
-#include <cstdint>
-#include <optional>
 
 namespace raypack::ui {
 
@@ -42,8 +41,8 @@ struct OrbitInput {
 class OrbitCamera {
 public:
     static constexpr float kRadiansPerPixel = 0.005f;  // orbit sensitivity
-    static constexpr float kZoomFactor = 0.85f;         // distance to the target per wheel step
-    static constexpr float kMaxPitchRadians = 1.55f;    // as FlyCamera's
+    static constexpr float kZoomFactor = 0.85f;        // distance to the target per wheel step
+    static constexpr float kMaxPitchRadians = 1.55f;   // as FlyCamera's
     // The distance from the eye to the pivot stays within these multiples of the scene's
     // bounding-box diagonal, so the wheel can neither reach the pivot nor lose the scene.
     static constexpr float kMinDistancePerDiagonal = 1e-4f;
