@@ -3,12 +3,12 @@
 // makeGpuCamera, so the same ray the tracers shoot for that pixel) traced through the CPU
 // reference (traceClosest). One ray, microseconds: the viewer calls it on a double-click (the
 // orbit pivot) and on a wheel step (zoom toward the cursor).
-#include <cstdint>
-#include <optional>
-
 #include "renderer/bvh.h"
 #include "renderer/camera.h"
 #include "renderer/scene.h"
+
+#include <cstdint>
+#include <optional>
 
 namespace raypack {
 

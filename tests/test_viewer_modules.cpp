@@ -3,16 +3,6 @@
 // (ui/recent_files.h, ui/viewer_config.h), the file browser's listing and navigation
 // (ui/file_browser.h), and the panel's layout rules (ui/panel.h), drawn by ImGui without a
 // renderer backend.
-#include <gtest/gtest.h>
-#include <imgui.h>
-#include <imgui_internal.h>
-
-#include <cmath>
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <string>
-
 #include "renderer/bvh.h"
 #include "renderer/camera.h"
 #include "renderer/cpu_tracer.h"
@@ -25,6 +15,16 @@
 #include "ui/panel.h"
 #include "ui/recent_files.h"
 #include "ui/viewer_config.h"
+
+#include <gtest/gtest.h>
+#include <imgui.h>
+#include <imgui_internal.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
 
 namespace raypack {
 namespace {

@@ -1,10 +1,11 @@
 #include "ui/orbit_camera.h"
 
-#include <algorithm>
-#include <cmath>
+#include "ui/fly_camera.h"
+
 #include <glm/gtc/quaternion.hpp>
 
-#include "ui/fly_camera.h"
+#include <algorithm>
+#include <cmath>
 
 namespace raypack::ui {
 

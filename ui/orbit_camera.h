@@ -17,12 +17,13 @@
 //   the distance to the pivot shrinks by kZoomFactor per wheel step.
 // A pivot set from a picked point (double-click) changes nothing on screen; the next orbit turns
 // about it. Switching between fly and orbit (Tab) passes the Camera value across: no jump.
-#include <cstdint>
-#include <glm/glm.hpp>
-#include <optional>
-
 #include "renderer/aabb.h"
 #include "renderer/camera.h"
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <optional>
 
 namespace raypack::ui {
 

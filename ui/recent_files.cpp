@@ -1,9 +1,9 @@
 #include "ui/recent_files.h"
 
+#include "renderer/error.h"
+
 #include <algorithm>
 #include <filesystem>
-
-#include "renderer/error.h"
 
 namespace raypack::ui {
 

@@ -3,8 +3,9 @@
 // once. They are kept in the viewer's config file (ui/viewer_config.h) beside the bookmarks;
 // files that no longer exist are pruned when the list is shown. Generator specs (gen:...) are not
 // files and are not recorded.
-#include <cstddef>
 #include <nlohmann/json.hpp>
+
+#include <cstddef>
 #include <string>
 #include <vector>
 

@@ -1,12 +1,13 @@
 #include "ui/viewer_config.h"
 
+#include "renderer/error.h"
+#include "ui/bookmarks.h"
+
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
-#include <nlohmann/json.hpp>
-
-#include "renderer/error.h"
-#include "ui/bookmarks.h"
 
 namespace raypack::ui {
 

@@ -7,9 +7,9 @@
 // A missing file gives the defaults silently; a broken one (not JSON, a field of the wrong type or
 // out of range) gives the defaults for what is broken and one line saying what, never an
 // exception, so a bad config file cannot stop the viewer from starting.
-#include <string>
-
 #include "ui/recent_files.h"
+
+#include <string>
 
 namespace raypack::ui {
 
