@@ -1,8 +1,8 @@
 #pragma once
 // The scene point under one pixel: the pixel's primary ray (shaders/camera.h, through
 // makeGpuCamera, so the same ray the tracers shoot for that pixel) traced through the CPU
-// reference (traceClosest). One ray, microseconds: the viewer calls it on a double-click (the
-// orbit pivot) and on a wheel step (zoom toward the cursor).
+// reference (traceClosest). One ray, no frame rendered: the viewer calls it on a double-click
+// (the orbit pivot) and on a wheel step (zoom toward the cursor).
 #include "renderer/bvh.h"
 #include "renderer/camera.h"
 #include "renderer/scene.h"

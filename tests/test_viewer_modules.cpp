@@ -631,6 +631,7 @@ TEST_F(HeadlessImGui, ThePanelStartsAtItsRememberedWidthAndStaysOnScreenAfterARe
     EXPECT_LE(window->Pos.x + window->Size.x, 400.0f);
     EXPECT_EQ(window->Size.y, 300.0f);
     EXPECT_EQ(state.layout.width, 500.0f) << "the clamp to a small window is not remembered";
+    EXPECT_EQ(state.coveredWidthPixels, 2.0f * window->Size.x) << "what is covered, not what is remembered";
     // The window grows again: so does the panel, back to the remembered width.
     frame(1600, 1000);
     frame(1600, 1000);

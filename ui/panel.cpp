@@ -395,9 +395,9 @@ PanelActions drawPanel(PanelState& state, const PanelInfo& info) {
         layout.collapsed = collapsed;
         actions.layoutChanged = true;
     }
+    const float width = ImGui::GetWindowWidth();
     if (!collapsed) {
         // Only the user's resize changes the remembered width, not the clamp to a small window.
-        const float width = ImGui::GetWindowWidth();
         if (width != std::min(layout.width, maxWidth)) {
             layout.width = width;
             state.widthChangePending = true;
@@ -408,7 +408,7 @@ PanelActions drawPanel(PanelState& state, const PanelInfo& info) {
         state.widthChangePending = false;
         actions.layoutChanged = true;
     }
-    state.coveredWidthPixels = (collapsed || layout.overlay) ? 0.0f : layout.width * io.DisplayFramebufferScale.x;
+    state.coveredWidthPixels = (collapsed || layout.overlay) ? 0.0f : width * io.DisplayFramebufferScale.x;
 
     if (open) {
         ImGui::TextWrapped("%s", info.device.c_str());
