@@ -1,12 +1,27 @@
 #pragma once
-// The ImGui panel. It edits values (RenderSettings, BvhBuildOptions: nothing reads toggles from
-// globals) and says what the user asked for as PanelActions; it shows what PanelInfo holds. It
-// never calls the tracer, the builder or the file system itself.
+// The ImGui panel. It edits values (RenderSettings, BvhBuildOptions, PanelLayout: nothing reads
+// toggles from globals) and says what the user asked for as PanelActions; it shows what PanelInfo
+// holds. It never calls the tracer or the builder, and touches the file system only through its
+// file browser's directory listing (ui/file_browser.h).
+//
+// Layout: the panel is a full-height side bar at the left edge of the window, resizable by its
+// right edge (kept between PanelLayout::kMinWidth and the window's width less a margin, so a
+// window resize never leaves it off screen) and collapsible to its title bar, which keeps showing
+// frames per second. With PanelLayout::overlay it lies over the image, transparent; otherwise it
+// reports the part of the window it covers (PanelState::coveredWidthPixels) so that the image can
+// be framed in the rest. Errors appear in a box of their own at the bottom of the free part of the
+// window, so they never move the panel's buttons. PanelLayout::uiScale scales fonts and sizes
+// (ImGui's FontGlobalScale and ScaleAllSizes) for HiDPI screens.
+//
+// drawPanel draws one section per function (statistics, scene, tracer, light, camera, screenshot,
+// presentation, panel); a new section is one more such function and one call in drawPanel.
 #include "renderer/async_build.h"
 #include "renderer/bvh.h"
 #include "renderer/frame.h"
 #include "renderer/settings.h"
 #include "ui/frame_loop.h"
+#include "ui/file_browser.h"
+#include "ui/viewer_config.h"
 
 #include <vulkan/vulkan.h>
 
@@ -51,12 +66,25 @@ struct PanelState {
     // Interactivity (issue 8): which tracer draws, the frame budget, refinement when still.
     TracerChoice tracer = TracerChoice::VulkanPacket;
     FrameLoopSettings frameLoop;
+    PanelLayout layout;        // width, collapsed, UI scale, overlay: kept in viewer.json
+    FileBrowser fileBrowser;   // Browse...: its choice becomes openPath and the open action
+
+    // Written by drawPanel each frame: the width in framebuffer pixels of the window's left part
+    // that the panel covers (0 when collapsed or overlaying), for framing the image in the rest.
+    float coveredWidthPixels = 0.0f;
+
+    // drawPanel's own bookkeeping.
+    bool windowPlaced = false;      // the first frame sets the remembered width and collapsed state
+    float appliedUiScale = 0.0f;    // the scale the ImGui style and font carry now
+    bool widthChangePending = false;  // a resize drag not yet reported as layoutChanged
+    float lastDisplayWidth = 0.0f;    // the window's width in the previous frame
 };
 
 // What the panel shows.
 struct PanelInfo {
     std::string device;
-    std::string scene;
+    std::string scene;        // the traced scene's spec; shown only once a tree has been traced
+    std::string failedScene;  // the newest scene that failed to load (empty after a success)
     uint64_t triangles = 0;
     bool hasBvh = false;
     BvhStats bvhStats;
@@ -77,6 +105,8 @@ struct PanelInfo {
     FrameLoopStatus frameLoop;
     std::string tracerReason;
     std::vector<TracerChoice> tracers;  // the tracers this device offers
+    bool orbitCamera = false;       // the orbit camera moves the view (else the fly camera)
+    std::vector<std::string> recentFiles;  // RecentFiles::entries() after pruneMissing()
 };
 
 struct PanelActions {
@@ -87,6 +117,10 @@ struct PanelActions {
     bool frameAll = false;
     bool dismissError = false;
     bool copyCameraArguments = false;
+    bool toggleCameraMode = false;  // fly <-> orbit (the panel's radio buttons; Tab in the viewer)
+    // PanelState::layout changed (a resize drag ended, collapsed or expanded, UI scale or overlay
+    // changed): the caller saves it to viewer.json.
+    bool layoutChanged = false;
     int saveBookmark = 0;     // 1..9, 0 for none
     int recallBookmark = 0;
     std::optional<VkPresentModeKHR> presentMode;
@@ -97,5 +131,12 @@ struct PanelActions {
 void drawInteractivitySection(PanelState& state, const PanelInfo& info, PanelActions& actions);
 
 PanelActions drawPanel(PanelState& state, const PanelInfo& info);
+
+// The panel's scene line: "Scene: NAME (N triangles)" once a tree is traced, with what is loading
+// or what failed; "Scene: none ..." before any scene loaded, "failed", never "(loading)", after a
+// failed load.
+std::string sceneLine(const PanelInfo& info);
+// The panel's title, also visible when it is collapsed: "raypack  12.5 fps" (ImGui ID kept apart).
+std::string panelTitle(const LiveStatistics& stats);
 
 }  // namespace raypack::ui
