@@ -13,6 +13,7 @@
 #include "ui/fly_camera.h"
 #include "ui/orbit_camera.h"
 #include "ui/panel.h"
+#include "ui/pointer.h"
 #include "ui/recent_files.h"
 #include "ui/viewer_config.h"
 
@@ -291,6 +292,42 @@ TEST(Pick, EqualsTheReferenceFramesHitAtEveryPixelAndMissesTheBackground) {
     for (uint32_t y = 0; y < 72; y += 9)
         for (uint32_t x = 0; x < 96; x += 8)
             EXPECT_FALSE(pickPixel(scene, bvh, away, 96, 72, x, y));
+}
+
+// ---- The pointer over the image
+
+TEST(Pointer, TheCursorMapsToTheTracedPixelThroughHiDpiFramingAndReducedResolution) {
+    // A 1000x700 window with a 2000x1400 framebuffer; the image shown right of a 760-pixel panel,
+    // traced at a quarter of the shown size in each axis.
+    ui::ShownImage image;
+    image.origin = glm::vec2(760.0f, 0.0f);
+    image.size = glm::vec2(1240.0f, 1400.0f);
+    image.traced = glm::uvec2(310u, 350u);
+    const glm::ivec2 window(1000, 700), framebuffer(2000, 1400);
+    EXPECT_FALSE(ui::imagePixelUnderCursor({100.0, 300.0}, window, framebuffer, image))
+        << "over the panel";
+    EXPECT_FALSE(ui::imagePixelUnderCursor({500.0, 700.0}, window, framebuffer, image))
+        << "below the window";
+    EXPECT_EQ(ui::imagePixelUnderCursor({380.0, 0.0}, window, framebuffer, image),
+              glm::uvec2(0u, 0u));
+    // Window x 690 -> framebuffer 1380 -> 620 into the image -> pixel 620 / 4 = 155.
+    EXPECT_EQ(ui::imagePixelUnderCursor({690.0, 350.0}, window, framebuffer, image),
+              glm::uvec2(155u, 175u));
+    EXPECT_EQ(ui::imagePixelUnderCursor({999.9, 699.9}, window, framebuffer, image),
+              glm::uvec2(309u, 349u));
+    image.traced = glm::uvec2(0u, 0u);
+    EXPECT_FALSE(ui::imagePixelUnderCursor({690.0, 350.0}, window, framebuffer, image))
+        << "nothing traced yet";
+}
+
+TEST(Pointer, ADoubleClickIsTwoNearPressesWithinItsTimeWhateverTheFrameRate) {
+    ui::DoubleClickDetector clicks;
+    EXPECT_FALSE(clicks.press(10.0, {100.0, 100.0}));
+    EXPECT_TRUE(clicks.press(10.2, {103.0, 102.0}));
+    EXPECT_FALSE(clicks.press(10.35, {103.0, 102.0})) << "a third press starts over";
+    EXPECT_FALSE(clicks.press(11.0, {103.0, 102.0})) << "too late";
+    EXPECT_FALSE(clicks.press(11.1, {140.0, 102.0})) << "too far";
+    EXPECT_TRUE(clicks.press(11.3, {141.0, 103.0}));
 }
 
 // ---- Recent files
@@ -631,7 +668,8 @@ TEST_F(HeadlessImGui, ThePanelStartsAtItsRememberedWidthAndStaysOnScreenAfterARe
     EXPECT_LE(window->Pos.x + window->Size.x, 400.0f);
     EXPECT_EQ(window->Size.y, 300.0f);
     EXPECT_EQ(state.layout.width, 500.0f) << "the clamp to a small window is not remembered";
-    EXPECT_EQ(state.coveredWidthPixels, 2.0f * window->Size.x) << "what is covered, not what is remembered";
+    EXPECT_EQ(state.coveredWidthPixels, 2.0f * window->Size.x)
+        << "what is covered, not what is remembered";
     // The window grows again: so does the panel, back to the remembered width.
     frame(1600, 1000);
     frame(1600, 1000);
