@@ -2,6 +2,9 @@
 
 #include "renderer/error.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -67,40 +70,78 @@ uint32_t scaledExtent(uint32_t size, uint32_t scale) {
     return std::max(1u, (size + scale - 1) / scale);
 }
 
+namespace {
+
+// One axis of a bilinear scale: for each target texel the two source texels around its centre and
+// the weight of the second, in 1/256 (texel centres at (i + 0.5) * source / target, clamped).
+struct Taps {
+    std::vector<uint32_t> first, second, weight;
+};
+
+Taps bilinearTaps(uint32_t source, uint32_t target) {
+    Taps taps;
+    taps.first.resize(target);
+    taps.second.resize(target);
+    taps.weight.resize(target);
+    const float step = float(source) / float(target);
+    for (uint32_t i = 0; i < target; ++i) {
+        const float position = (float(i) + 0.5f) * step - 0.5f;
+        const float floor = std::floor(position);
+        const int lower = int(floor);
+        taps.first[i] = uint32_t(std::clamp(lower, 0, int(source) - 1));
+        taps.second[i] = uint32_t(std::clamp(lower + 1, 0, int(source) - 1));
+        taps.weight[i] = uint32_t(std::clamp(int(std::lround((position - floor) * 256.0f)), 0, 256));
+    }
+    return taps;
+}
+
+// (a * (256 - w) + b * w) / 256, rounded, for the four 8-bit channels at once: R and B in the
+// 16-bit lanes of one word, G and A in the other (SWAR; the sums stay below 65,536).
+uint32_t lerpTexel(uint32_t a, uint32_t b, uint32_t w) {
+    constexpr uint32_t kLanes = 0x00FF00FFu, kHalf = 0x00800080u;
+    const uint32_t rb = (((a & kLanes) * (256 - w) + (b & kLanes) * w + kHalf) >> 8) & kLanes;
+    const uint32_t ga = ((((a >> 8) & kLanes) * (256 - w) + ((b >> 8) & kLanes) * w + kHalf) >> 8) & kLanes;
+    return rb | (ga << 8);
+}
+
+}  // namespace
+
 Image scaleImage(const Image& source, uint32_t width, uint32_t height, ScaleFilter filter) {
     RAYPACK_CHECK(source.width > 0 && source.height > 0 &&
                   source.rgba.size() == size_t(source.width) * source.height);
     if (source.width == width && source.height == height) return source;
     Image out{width, height, std::vector<uint32_t>(size_t(width) * height)};
-    const float sx = float(source.width) / float(width);
-    const float sy = float(source.height) / float(height);
-    const auto at = [&](int x, int y) {
-        x = std::clamp(x, 0, int(source.width) - 1);
-        y = std::clamp(y, 0, int(source.height) - 1);
-        return source.rgba[size_t(y) * source.width + x];
-    };
-    for (uint32_t y = 0; y < height; ++y) {
-        const float cy = (float(y) + 0.5f) * sy;  // the target texel's centre in source texels
-        for (uint32_t x = 0; x < width; ++x) {
-            const float cx = (float(x) + 0.5f) * sx;
-            uint32_t& texel = out.rgba[size_t(y) * width + x];
-            if (filter == ScaleFilter::Nearest) {
-                texel = at(int(cx), int(cy));
-                continue;
+    if (filter == ScaleFilter::Nearest) {
+        // The source texel containing the target texel's centre.
+        std::vector<uint32_t> columns(width);
+        for (uint32_t x = 0; x < width; ++x)
+            columns[x] = std::min(source.width - 1, uint32_t((float(x) + 0.5f) * float(source.width) / float(width)));
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, height, 16), [&](const tbb::blocked_range<uint32_t>& rows) {
+            for (uint32_t y = rows.begin(); y != rows.end(); ++y) {
+                const uint32_t sy =
+                    std::min(source.height - 1, uint32_t((float(y) + 0.5f) * float(source.height) / float(height)));
+                const uint32_t* in = &source.rgba[size_t(sy) * source.width];
+                uint32_t* row = &out.rgba[size_t(y) * width];
+                for (uint32_t x = 0; x < width; ++x) row[x] = in[columns[x]];
             }
-            const float fx = cx - 0.5f, fy = cy - 0.5f;
-            const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
-            const float wx = fx - float(x0), wy = fy - float(y0);
-            const uint32_t t00 = at(x0, y0), t10 = at(x0 + 1, y0), t01 = at(x0, y0 + 1), t11 = at(x0 + 1, y0 + 1);
-            texel = 0;
-            for (int c = 0; c < 4; ++c) {
-                const float top = float(channel(t00, c)) * (1.0f - wx) + float(channel(t10, c)) * wx;
-                const float bottom = float(channel(t01, c)) * (1.0f - wx) + float(channel(t11, c)) * wx;
-                const float value = top * (1.0f - wy) + bottom * wy;
-                texel |= uint32_t(std::clamp(std::floor(value + 0.5f), 0.0f, 255.0f)) << (8 * c);
+        });
+        return out;
+    }
+    // Bilinear, separable: each source row pair blended horizontally, then the two vertically.
+    const Taps tx = bilinearTaps(source.width, width), ty = bilinearTaps(source.height, height);
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, height, 16), [&](const tbb::blocked_range<uint32_t>& rows) {
+        for (uint32_t y = rows.begin(); y != rows.end(); ++y) {
+            const uint32_t* top = &source.rgba[size_t(ty.first[y]) * source.width];
+            const uint32_t* bottom = &source.rgba[size_t(ty.second[y]) * source.width];
+            const uint32_t wy = ty.weight[y];
+            uint32_t* row = &out.rgba[size_t(y) * width];
+            for (uint32_t x = 0; x < width; ++x) {
+                const uint32_t a = lerpTexel(top[tx.first[x]], top[tx.second[x]], tx.weight[x]);
+                const uint32_t b = lerpTexel(bottom[tx.first[x]], bottom[tx.second[x]], tx.weight[x]);
+                row[x] = lerpTexel(a, b, wy);
             }
         }
-    }
+    });
     return out;
 }
 

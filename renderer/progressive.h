@@ -51,9 +51,10 @@ uint32_t scaledExtent(uint32_t size, uint32_t scale);
 
 enum class ScaleFilter { Nearest, Bilinear };
 
-// Scales `source` to width x height. Texel centres at (i + 0.5) * source / target; bilinear
-// weights clamp at the borders; nearest picks the texel containing the target texel's centre.
-// Identical sizes return the source unchanged.
+// Scales `source` to width x height. Texel centres at (i + 0.5) * source / target; nearest picks
+// the source texel containing the target texel's centre; bilinear blends the four around it with
+// weights in 1/256, horizontally then vertically, each step rounded, clamped at the borders.
+// Identical sizes return the source unchanged. Multithreaded over rows (TBB).
 Image scaleImage(const Image& source, uint32_t width, uint32_t height, ScaleFilter filter);
 
 }  // namespace raypack

@@ -6,6 +6,7 @@
 #include "renderer/error.h"
 #include "renderer/gpu_tracer.h"
 #include "renderer/image.h"
+#include "renderer/pick.h"
 #include "renderer/progressive.h"
 #include "renderer/settings_json.h"
 #include "renderer/vk/context.h"
@@ -15,8 +16,11 @@
 #include "ui/fly_camera.h"
 #include "ui/frame_loop.h"
 #include "ui/input.h"
+#include "ui/orbit_camera.h"
 #include "ui/panel.h"
+#include "ui/pointer.h"
 #include "ui/screenshot.h"
+#include "ui/viewer_config.h"
 #include "ui/viewer_window.h"
 
 #define GLFW_INCLUDE_VULKAN
@@ -175,6 +179,10 @@ struct Session {
     PanelState panel;
     PanelInfo info;
     FlyCamera fly;
+    OrbitCamera orbit;
+    bool orbitMode = false;
+    ViewerConfig config;
+    std::string configFile = viewerConfigFile();
     std::optional<BookmarkStore> bookmarks;
     std::vector<std::string> droppedFiles;
 
@@ -184,6 +192,11 @@ struct Session {
     bool looking = false;
     glm::dvec2 lastCursor{0.0};
     glm::vec2 lookPixels{0.0f};
+    bool orbiting = false, panning = false;  // left / middle drags that started over the image
+    glm::vec2 orbitPixels{0.0f}, panPixels{0.0f};
+    DoubleClickDetector clicks;
+    std::optional<glm::dvec2> pivotPick;  // a double-click's cursor position, picked next frame
+    float imageOffsetX = 0.0f;  // framebuffer pixels left of the image (the panel beside it)
     double firstInputSeconds = -1.0;  // time of the first input event since the last frame
     int uiFramesPending = 2;          // frames to draw for the panel after an event
     bool showHelp = false;
@@ -284,7 +297,7 @@ void onKey(GLFWwindow* window, int key, int scancode, int action, int mods) {
     }
     if (ImGui::GetIO().WantCaptureKeyboard) return;  // typing into the panel
     if (action == GLFW_PRESS) {
-        if (fly) s.keys.press(*fly, now);
+        if (fly && !(mods & GLFW_MOD_CONTROL)) s.keys.press(*fly, now);  // Ctrl+Q quits
         else s.pressed.push_back({key, mods});
     }
 }
@@ -300,13 +313,22 @@ void onMouseButton(GLFWwindow* window, int button, int action, int mods) {
     Session& s = sessionOf(window);
     if (s.previousMouseButton) s.previousMouseButton(window, button, action, mods);
     s.noteInput();
-    if (button != GLFW_MOUSE_BUTTON_RIGHT) return;
-    // A drag looks only when it started over the image, not over the panel.
+    // A drag acts only when it started over the image, not over the panel.
+    const bool overImage = !ImGui::GetIO().WantCaptureMouse;
+    bool* drag = button == GLFW_MOUSE_BUTTON_RIGHT    ? &s.looking
+                 : button == GLFW_MOUSE_BUTTON_LEFT   ? &s.orbiting
+                 : button == GLFW_MOUSE_BUTTON_MIDDLE ? &s.panning
+                                                      : nullptr;
+    if (!drag) return;
     if (action == GLFW_PRESS) {
-        s.looking = !ImGui::GetIO().WantCaptureMouse;
+        *drag = overImage;
         glfwGetCursorPos(window, &s.lastCursor.x, &s.lastCursor.y);
+        // A double-click on the image sets the orbit pivot (event times: ImGui's double-click
+        // counts frames, which on a CPU device can be seconds apart).
+        if (button == GLFW_MOUSE_BUTTON_LEFT && overImage && s.clicks.press(glfwGetTime(), s.lastCursor))
+            s.pivotPick = s.lastCursor;
     } else if (action == GLFW_RELEASE) {
-        s.looking = false;
+        *drag = false;
     }
 }
 
@@ -314,7 +336,10 @@ void onCursor(GLFWwindow* window, double x, double y) {
     Session& s = sessionOf(window);
     if (s.previousCursor) s.previousCursor(window, x, y);
     s.noteInput();
-    if (s.looking) s.lookPixels += glm::vec2(glm::dvec2(x, y) - s.lastCursor);
+    const glm::vec2 delta(glm::dvec2(x, y) - s.lastCursor);
+    if (s.looking) s.lookPixels += delta;
+    if (s.orbiting) s.orbitPixels += delta;
+    if (s.panning) s.panPixels += delta;
     s.lastCursor = glm::dvec2(x, y);
 }
 
@@ -330,7 +355,7 @@ void onFocus(GLFWwindow* window, int focused) {
     s.noteInput();
     if (!focused) {  // no release events will come for keys held now
         s.keys.releaseAll(s.secondsSinceStart());
-        s.looking = false;
+        s.looking = s.orbiting = s.panning = false;
     }
 }
 
@@ -355,6 +380,14 @@ void installCallbacks(Session& s) {
     glfwSetDropCallback(w, onDrop);
     glfwSetWindowRefreshCallback(w, onRefresh);
     glfwSetFramebufferSizeCallback(w, onFramebufferSize);
+}
+
+void saveConfig(Session& s) {
+    try {
+        saveViewerConfig(s.configFile, s.config);
+    } catch (const Error& e) {
+        s.report(e.what());
+    }
 }
 
 void requestLoad(Session& s, const std::string& spec) {
@@ -386,10 +419,8 @@ void takeWorkerResults(Session& s) {
         const bool named = path.empty() || failure->message.find(path) != std::string::npos;
         s.report(path.empty() ? "rebuild: " + failure->message
                               : (named ? failure->message : path + ": " + failure->message));
-        if (!path.empty() && !s.scene) {
-            s.firstLoadFailed = true;
-            s.info.scene = path + " (failed to load)";
-        }
+        if (!path.empty()) s.info.failedScene = path;
+        if (!path.empty() && !s.scene) s.firstLoadFailed = true;
     }
     std::optional<SceneBuild> build = s.builder->takeFinished();
     if (!build) return;
@@ -410,6 +441,10 @@ void takeWorkerResults(Session& s) {
     s.panel.showing = Showing::Traced;
     if (!newScene) return;
     s.firstLoadFailed = false;
+    s.info.failedScene.clear();
+    if (s.config.recent.add(build->scenePath)) saveConfig(s);
+    s.config.recent.pruneMissing();
+    s.info.recentFiles = s.config.recent.entries();
     s.sceneSpec = canonicalSpec(build->scenePath);
     s.info.scene = s.sceneSpec;
     s.info.triangles = s.scene->triangleCount();
@@ -420,6 +455,7 @@ void takeWorkerResults(Session& s) {
     s.firstScene = false;
     s.panel.settings.camera = camera;
     s.fly.reset(camera, bounds);
+    s.orbit.reset(camera, bounds);
     try {
         s.bookmarks.emplace(bookmarksFile(), s.sceneSpec);
     } catch (const Error& e) {
@@ -545,6 +581,7 @@ void recallBookmark(Session& s, int slot) {
     if (!s.bookmarks || !s.bookmarks->slot(slot)) return;
     s.panel.settings.camera = *s.bookmarks->slot(slot);
     s.fly.setCamera(s.panel.settings.camera);
+    s.orbit.setCamera(s.panel.settings.camera);
 }
 
 void saveBookmark(Session& s, int slot) {
@@ -619,6 +656,24 @@ void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
     }
 }
 
+// The scene point under the cursor: the primary ray of that pixel of the image (at full
+// resolution) through the CPU reference; nullopt over the background, the panel or no scene.
+std::optional<PickHit> pickUnderCursor(Session& s, glm::dvec2 cursor) {
+    if (!s.scene || !s.bvh) return std::nullopt;
+    int windowW = 0, windowH = 0, fbW = 0, fbH = 0;
+    glfwGetWindowSize(s.window.window, &windowW, &windowH);
+    glfwGetFramebufferSize(s.window.window, &fbW, &fbH);
+    const RenderSettings& settings = s.panel.settings;
+    ShownImage image;
+    image.origin = glm::vec2(s.imageOffsetX, 0.0f);
+    image.size = glm::vec2(float(settings.width), float(settings.height));
+    image.traced = glm::uvec2(settings.width, settings.height);
+    const std::optional<glm::uvec2> pixel =
+        imagePixelUnderCursor(cursor, glm::ivec2(windowW, windowH), glm::ivec2(fbW, fbH), image);
+    if (!pixel) return std::nullopt;
+    return pickPixel(*s.scene, *s.bvh, settings.camera, settings.width, settings.height, pixel->x, pixel->y);
+}
+
 // The camera for this frame from the keys held, the mouse, the wheel, or the path being played.
 void moveCamera(Session& s, FlyInput& input, double frameSeconds) {
     if (!s.scene) return;
@@ -648,8 +703,28 @@ void moveCamera(Session& s, FlyInput& input, double frameSeconds) {
         if (s.playbackOver) std::printf("raypack: frame %u: camera path played to its end\n", s.frameIndex);
         return;
     }
-    s.fly.setCamera(s.panel.settings.camera);
-    if (s.fly.update(input, float(frameSeconds))) s.panel.settings.camera = s.fly.camera();
+    if (s.orbitMode) {
+        OrbitInput orbit;
+        orbit.orbitPixels = s.orbitPixels;
+        orbit.panPixels = s.panPixels;
+        orbit.wheel = input.wheel;
+        orbit.viewportHeight = std::max(1u, s.panel.settings.height);
+        if (orbit.wheel != 0.0f)
+            if (std::optional<PickHit> hit = pickUnderCursor(s, s.lastCursor)) orbit.zoomTarget = hit->point;
+        s.orbit.setCamera(s.panel.settings.camera);
+        if (s.orbit.update(orbit)) s.panel.settings.camera = s.orbit.camera();
+    } else {
+        s.fly.setCamera(s.panel.settings.camera);
+        if (s.fly.update(input, float(frameSeconds))) s.panel.settings.camera = s.fly.camera();
+    }
+    s.orbitPixels = s.panPixels = glm::vec2(0.0f);
+    if (s.pivotPick) {
+        if (std::optional<PickHit> hit = pickUnderCursor(s, *s.pivotPick)) {
+            s.orbit.setCamera(s.panel.settings.camera);
+            s.orbit.setPivot(hit->point);
+        }
+        s.pivotPick.reset();
+    }
 }
 
 void handleKeys(Session& s, PanelActions& actions) {
@@ -657,6 +732,8 @@ void handleKeys(Session& s, PanelActions& actions) {
         if (press.key == GLFW_KEY_F) actions.frameAll = true;
         else if (press.key == GLFW_KEY_F1) s.showHelp = !s.showHelp;
         else if (press.key == GLFW_KEY_F12) actions.screenshot = true;
+        else if (press.key == GLFW_KEY_TAB) actions.toggleCameraMode = true;
+        else if (press.key == GLFW_KEY_Q && (press.mods & GLFW_MOD_CONTROL)) glfwSetWindowShouldClose(s.window.window, GLFW_TRUE);
         else if (press.key >= GLFW_KEY_1 && press.key <= GLFW_KEY_9) {
             const int n = press.key - GLFW_KEY_0;
             if (press.mods & GLFW_MOD_CONTROL) actions.saveBookmark = n;
@@ -680,13 +757,19 @@ void drawHelp(Session& s) {
         {"A / D", "fly left / right"},
         {"Q / E", "fly down / up"},
         {"Shift", "fly faster (x4)"},
-        {"mouse wheel", "flying speed (x1.2 a step)"},
+        {"mouse wheel (fly)", "flying speed (x1.2 a step)"},
         {"right drag", "look around"},
         {"F", "frame the whole scene"},
         {"1 .. 9", "recall a camera bookmark"},
         {"Ctrl+1 .. 9", "save a camera bookmark"},
         {"F12", "screenshot of the image shown (PNG + JSON sidecar)"},
+        {"Tab", "switch between the fly and the orbit camera"},
+        {"left drag (orbit)", "orbit the pivot"},
+        {"middle drag (orbit)", "pan"},
+        {"wheel (orbit)", "zoom toward the point under the cursor"},
+        {"double-click (orbit)", "set the pivot on the point under the cursor"},
         {"F1 or ?", "this help"},
+        {"Ctrl+Q", "quit"},
         {"drop a file", "open a scene (OBJ, PLY, glTF, GLB)"},
     };
     if (ImGui::BeginTable("controls", 2, ImGuiTableFlags_RowBg)) {
@@ -711,6 +794,27 @@ void handleActions(Session& s, const PanelActions& a, const RenderSettings& befo
     if (a.frameAll && s.scene) {
         s.fly.frameAll();
         s.panel.settings.camera = s.fly.camera();
+        s.orbit.frameAll();
+    }
+    if (a.toggleCameraMode && s.scene) {
+        s.fly.setCamera(s.panel.settings.camera);
+        s.orbit.setCamera(s.panel.settings.camera);
+        s.orbitMode = !s.orbitMode;
+        if (s.orbitMode) {
+            // The pivot: the scene point at the image's centre, else (background) the orbit's own.
+            const RenderSettings& st = s.panel.settings;
+            std::optional<glm::vec3> pivot;
+            if (std::optional<PickHit> hit = pickPixel(*s.scene, *s.bvh, st.camera, st.width, st.height, st.width / 2, st.height / 2))
+                pivot = hit->point;
+            switchToOrbit(s.fly, s.orbit, s.scene->bounds(), pivot);
+        } else {
+            switchToFly(s.orbit, s.fly);
+        }
+        s.panel.settings.camera = s.orbitMode ? s.orbit.camera() : s.fly.camera();
+    }
+    if (a.layoutChanged) {
+        s.config.panel = s.panel.layout;
+        saveConfig(s);
     }
     if (a.presentMode) setPresentMode(s.window, *a.presentMode);
     if (a.copyCameraArguments) {
@@ -907,14 +1011,15 @@ void presentShown(Session& s, const FrameTarget& target) {
         compare = nullptr;
     }
     const Image* host = compare ? compare : s.shown == ShownSource::Host ? &s.shownHost : nullptr;
-    if (host && host->width == target.extent.width && host->height == target.extent.height) {
+    const ImageRegion region{uint32_t(s.imageOffsetX), settings.width, settings.height, settings.background};
+    if (host && host->width == region.width && host->height == region.height) {
         const VkDeviceSize bytes = VkDeviceSize(host->width) * host->height * 4;
         ensureHostBuffer(s, s.shownImage, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "image shown");
         copyTexels(static_cast<uint32_t*>(s.shownImage.mapped), host->rgba, target.bgra);
-        copyImage(s.window, target, s.shownImage.buffer);
+        copyImage(s.window, target, s.shownImage.buffer, region);
     } else if (s.shown == ShownSource::TracerOutput && !compare &&
-               s.tracer->outputBytes() == VkDeviceSize(target.extent.width) * target.extent.height * 4) {
-        copyImage(s.window, target, s.tracer->outputBuffer());
+               s.tracer->outputBytes() == VkDeviceSize(region.width) * region.height * 4) {
+        copyImage(s.window, target, s.tracer->outputBuffer(), region);
     } else {
         clearImage(s.window, target, settings.background.x, settings.background.y, settings.background.z);
     }
@@ -946,6 +1051,7 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     s.info.build = s.builder->status();
     s.info.cameraArguments = cameraCliArguments(s.panel.settings.camera);
     s.info.flySpeed = s.fly.speed();
+    s.info.orbitCamera = s.orbitMode;
     s.info.presentMode = s.window.swapchain.presentMode;
     s.info.presentModes = s.window.presentModes;
     s.info.bookmarkSet.assign(kBookmarkSlots, false);
@@ -966,8 +1072,12 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     // The panel's Screenshot button and F12: a fresh name in the current folder.
     const bool userScreenshot = actions.screenshot;
 
+    // The image fills the part of the window the panel leaves free; when that part would be
+    // narrower than the panel itself (a small window), the panel lies over the image instead.
     RenderSettings& settings = s.panel.settings;
-    settings.width = uint32_t(fbWidth);
+    const float covered = s.options.hidePanel ? 0.0f : s.panel.coveredWidthPixels;
+    s.imageOffsetX = covered > 0.0f && float(fbWidth) - covered >= covered ? std::floor(covered) : 0.0f;
+    settings.width = uint32_t(fbWidth) - uint32_t(s.imageOffsetX);
     settings.height = uint32_t(fbHeight);
     const std::string key = viewKey(s);
     const bool changed = key != s.tracedViewKey;
@@ -1177,7 +1287,14 @@ int runViewer(const ViewerOptions& options) {
     s.panel.frameLoop = options.frameLoop;
     s.info.device = describe(s.context.info);
     s.info.maxPacketRays = s.context.info.maxWorkgroupInvocations;
-    s.info.scene = options.scene + " (loading)";
+    {
+        ViewerConfigLoad loaded = loadViewerConfig(s.configFile);
+        s.config = std::move(loaded.config);
+        if (!loaded.warning.empty()) s.report(loaded.warning);
+        s.panel.layout = s.config.panel;
+        s.config.recent.pruneMissing();
+        s.info.recentFiles = s.config.recent.entries();
+    }
     chooseStartTracer(s);
     if (options.packetGiven) s.panel.settings.packet = options.settings.packet;  // for the tracer drawing
     s.playing = std::move(path);

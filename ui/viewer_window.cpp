@@ -222,6 +222,32 @@ void copyImage(ViewerWindow& w, const FrameTarget& target, VkBuffer source) {
     vkCmdCopyBufferToImage(target.cmd, source, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
 }
 
+void copyImage(ViewerWindow& w, const FrameTarget& target, VkBuffer source, const ImageRegion& region) {
+    const VkImage image = w.swapchain.images[target.imageIndex];
+    RAYPACK_CHECK(region.x + region.width <= target.extent.width && region.height <= target.extent.height);
+    const VkImageMemoryBarrier toTransfer = imageBarrier(image, VK_IMAGE_LAYOUT_UNDEFINED,
+                                                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
+                                                         VK_ACCESS_TRANSFER_WRITE_BIT);
+    vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                         nullptr, 0, nullptr, 1, &toTransfer);
+    if (region.x != 0 || region.width != target.extent.width || region.height != target.extent.height) {
+        const VkClearColorValue color{{region.background.x, region.background.y, region.background.z, 1.0f}};
+        const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        vkCmdClearColorImage(target.cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &color, 1, &range);
+        // The copy below writes what the clear wrote: order them.
+        const VkImageMemoryBarrier afterClear = imageBarrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                                             VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+        vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
+                             nullptr, 0, nullptr, 1, &afterClear);
+    }
+    VkBufferImageCopy copy{};
+    copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    copy.imageOffset = {int32_t(region.x), 0, 0};
+    copy.imageExtent = {region.width, region.height, 1};
+    vkCmdCopyBufferToImage(target.cmd, source, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+}
+
 void clearImage(ViewerWindow& w, const FrameTarget& target, float r, float g, float b) {
     const VkImage image = w.swapchain.images[target.imageIndex];
     const VkImageMemoryBarrier toTransfer = imageBarrier(image, VK_IMAGE_LAYOUT_UNDEFINED,

@@ -8,6 +8,7 @@
 #include "renderer/vk/context.h"
 #include "ui/swapchain.h"
 
+#include <glm/glm.hpp>
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
@@ -74,6 +75,16 @@ std::optional<FrameTarget> beginFrame(const vk::VulkanContext& context, ViewerWi
 // swapchain's byte order) into the acquired image. The caller has made `source` readable by
 // transfer (a barrier to VK_PIPELINE_STAGE_TRANSFER_BIT / VK_ACCESS_TRANSFER_READ_BIT).
 void copyImage(ViewerWindow& window, const FrameTarget& target, VkBuffer source);
+// The same for an image of width x height texels placed `x` texels from the left edge (the part of
+// the window a panel beside the image leaves free); the rest of the swapchain image is cleared to
+// `background`.
+struct ImageRegion {
+    uint32_t x = 0;
+    uint32_t width = 0;
+    uint32_t height = 0;
+    glm::vec3 background{0.0f};
+};
+void copyImage(ViewerWindow& window, const FrameTarget& target, VkBuffer source, const ImageRegion& region);
 // Clears the acquired image instead (no scene yet).
 void clearImage(ViewerWindow& window, const FrameTarget& target, float r, float g, float b);
 
