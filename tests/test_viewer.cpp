@@ -519,6 +519,12 @@ TEST_F(ViewerUnderXvfb, ABadFileIsReportedAndTheSceneStays) {
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     EXPECT_NE(viewer.output.find("broken.obj"), std::string::npos) << viewer.output;
     EXPECT_EQ(renderSetupFromJson(readJsonFile(ui::sidecarPath(shot))).scene, "gen:default");
+    // The open step is logged once, and the error names the file once.
+    const std::string step = "frame 2: open " + bad.string();
+    const size_t first = viewer.output.find(step);
+    EXPECT_NE(first, std::string::npos) << viewer.output;
+    EXPECT_EQ(viewer.output.find(step, first + 1), std::string::npos) << viewer.output;
+    EXPECT_EQ(viewer.output.find(bad.string() + ": " + bad.string()), std::string::npos) << viewer.output;
 }
 
 // Renders with raypack-cli from a sidecar and compares with the viewer's screenshot, pixel for pixel.

@@ -627,7 +627,7 @@ void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
         const BuildStatus status = s.builder->status();
         std::printf("raypack: frame %u: worker %s when the load was requested\n", s.frameIndex,
                     toString(status.phase));
-        requestLoad(s, step.value);
+        s.builder->requestLoad(step.value, s.panel.bvh);  // the step itself was logged above
     } else if (step.action == "wait") {
         s.builder->waitIdle();
         takeWorkerResults(s);
