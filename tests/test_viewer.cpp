@@ -604,6 +604,30 @@ TEST_F(ViewerUnderXvfb, ScriptedMovesAndARecordedPathReplayFrameForFrame) {
     EXPECT_EQ(moves, 2u) << "two scripted moves";
 }
 
+TEST_F(ViewerUnderXvfb, OffscreenRunsTheSameFrameLoopWithoutADisplay) {
+    // No display at all: --offscreen plays a path, refines and exits when converged; its
+    // screenshot is reproduced by the CLI as the window's would be.
+    const std::string path = (dir_ / "path.json").string(), shot = (dir_ / "offscreen.png").string(),
+                      summary = (dir_ / "offscreen.json").string();
+    ui::CameraPath cameraPath;
+    Camera a = frameScene(openScene("gen:default").bounds()), b = a;
+    b.eye += 0.1f * (b.at - b.eye);
+    cameraPath.keys = {{0.0, a}, {0.3, b}};
+    ui::writeCameraPath(path, cameraPath);
+    const CommandRun viewer = runCommand(std::string("env -u DISPLAY -u WAYLAND_DISPLAY XDG_RUNTIME_DIR=/tmp ") +
+                                         RAYPACK_VIEWER + " --offscreen --validation --width 120 --height 90 --samples 4 "
+                                         "--play-path " + path + " --summary " + summary);
+    ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+    const nlohmann::json s = readJsonFile(summary);
+    EXPECT_GE(s["frames_moving"].get<uint64_t>(), 1u) << viewer.output;
+    EXPECT_GE(s["converged_after_stop_s"].get<double>(), 0.0) << viewer.output;
+    const CommandRun still = runCommand(std::string("env -u DISPLAY XDG_RUNTIME_DIR=/tmp ") + RAYPACK_VIEWER +
+                                        " --offscreen --width 120 --height 90 --samples 4 --frames 8 --screenshot " + shot);
+    ASSERT_EQ(still.exitCode, 0) << still.output;
+    EXPECT_EQ(readJsonFile(ui::sidecarPath(shot))["samples_per_pixel"], 4) << still.output;
+    expectCliReproduces(dir_, shot, "");
+}
+
 TEST_F(ViewerUnderXvfb, ABadStartSceneFailsAScriptedRun) {
     const CommandRun viewer = runCommand(viewerCommand("--width 64 --height 48 --frames 3 --scene /nonexistent/scene.ply"));
     EXPECT_EQ(viewer.exitCode, 2) << viewer.output;

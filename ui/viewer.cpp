@@ -41,6 +41,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <thread>
 
 #include <sys/resource.h>
 
@@ -163,6 +164,11 @@ struct Session {
     const ViewerOptions& options;
     vk::VulkanContext context;
     ViewerWindow window;
+    // --offscreen: no window; frames that stay on the GPU are recorded into this command buffer.
+    bool offscreen = false;
+    VkCommandPool offscreenPool = VK_NULL_HANDLE;
+    VkCommandBuffer offscreenCmd = VK_NULL_HANDLE;
+    VkFence offscreenDone = VK_NULL_HANDLE;
     std::unique_ptr<GpuTracer> tracer;
     std::unique_ptr<AsyncSceneBuilder> builder;
     bool cpuDevice = false;
@@ -252,9 +258,11 @@ struct Session {
         tracer.reset();
         vk::destroyBuffer(context, shownImage);
         vk::destroyBuffer(context, screenshotReadback);
-        destroyViewerWindow(context, window);
+        if (offscreenDone) vkDestroyFence(context.device, offscreenDone, nullptr);
+        if (offscreenPool) vkDestroyCommandPool(context.device, offscreenPool, nullptr);
+        if (!offscreen) destroyViewerWindow(context, window);
         destroyVulkanContext(context);
-        glfwTerminate();
+        if (!offscreen) glfwTerminate();
     }
 
     double secondsSinceStart(Clock::time_point t = Clock::now()) const {
@@ -543,7 +551,7 @@ Image shownImageNow(Session& s) {
     const VkDeviceSize bytes = s.tracer->outputBytes();
     ensureHostBuffer(s, s.screenshotReadback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, "screenshot");
     vk::check(vkDeviceWaitIdle(s.context.device), "vkDeviceWaitIdle (screenshot)");
-    vk::submitAndWait(s.context, s.window.commandPool, [&](VkCommandBuffer cmd) {
+    vk::submitAndWait(s.context, s.offscreen ? s.offscreenPool : s.window.commandPool, [&](VkCommandBuffer cmd) {
         const VkBufferCopy region{0, 0, bytes};
         vkCmdCopyBuffer(cmd, s.tracer->outputBuffer(), s.screenshotReadback.buffer, 1, &region);
     });
@@ -551,7 +559,7 @@ Image shownImageNow(Session& s) {
     RAYPACK_CHECK(bytes == VkDeviceSize(width) * height * 4);
     Image image{width, height, std::vector<uint32_t>(size_t(width) * height)};
     std::memcpy(image.rgba.data(), s.screenshotReadback.mapped, bytes);
-    if (s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM) swapRedBlue(image.rgba);
+    if (!s.offscreen && s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM) swapRedBlue(image.rgba);
     return image;
 }
 
@@ -598,6 +606,7 @@ void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
     std::printf("raypack: frame %u: %s %s\n", s.frameIndex, step.action.c_str(), step.value.c_str());
     if (step.action == "resize") {
         const PacketShape size = parseShape(step.value, "resize");
+        if (s.offscreen) throw Error("resize: an offscreen run has a fixed size (--width, --height)");
         glfwSetWindowSize(s.window.window, int(size.width), int(size.height));
     } else if (step.action == "packet") {
         settings.packet = parseShape(step.value, "packet");
@@ -684,10 +693,12 @@ void moveCamera(Session& s, FlyInput& input, double frameSeconds) {
                                    seconds(FlyKey::Forward) - seconds(FlyKey::Back));
     input.lookPixels += s.lookPixels;
     s.lookPixels = glm::vec2(0.0f);
-    const ImGuiIO& io = ImGui::GetIO();
-    if (!io.WantCaptureMouse) input.wheel += io.MouseWheel;
-    GLFWwindow* w = s.window.window;
-    input.fast = glfwGetKey(w, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(w, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+    if (!s.offscreen) {
+        const ImGuiIO& io = ImGui::GetIO();
+        if (!io.WantCaptureMouse) input.wheel += io.MouseWheel;
+        GLFWwindow* w = s.window.window;
+        input.fast = glfwGetKey(w, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(w, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+    }
 
     if (s.playing && !s.playbackOver) {
         const CameraPath& path = *s.playing;
@@ -939,6 +950,7 @@ void updateCountersNote(Session& s) {
 }
 
 void updateTitle(Session& s) {
+    if (s.offscreen) return;
     const Clock::time_point now = Clock::now();
     if (now - s.lastTitle < std::chrono::milliseconds(500)) return;
     s.lastTitle = now;
@@ -1031,6 +1043,67 @@ struct FrameResult {
     FrameKind kind = FrameKind::Idle;
 };
 
+// After a traced frame: the cost model, the view on screen, the panel's status.
+void noteTraced(Session& s, const FramePlan& plan, const std::string& key, double traceSeconds, double frameSeconds,
+                FrameResult& result) {
+    const RenderSettings& settings = s.panel.settings;
+    s.loop.traced(plan, uint64_t(scaledExtent(settings.width, plan.scale)) * scaledExtent(settings.height, plan.scale),
+                  traceSeconds, frameSeconds);
+    s.tracedViewKey = key;
+    result.traced = true;
+    result.kind = plan.kind;
+    FrameLoopStatus& st = s.info.frameLoop;
+    st.lastKind = plan.kind;
+    st.scale = plan.scale;
+    st.samplesShown = plan.kind == FrameKind::Refine ? s.loop.samplesDone() : 0;
+    ++st.framesTraced;
+}
+
+// --offscreen: a frame that stays on the GPU is recorded into the offscreen command buffer and
+// waited for (what presenting is in a window); a frame traced on the host is done already.
+FrameResult finishOffscreenFrame(Session& s, const FramePlan& plan, const std::string& key, bool traced,
+                                 double traceSeconds, Clock::time_point frameStart, const std::string& screenshotPath) {
+    FrameResult result;
+    if (plan.kind == FrameKind::Idle) {
+        if (!screenshotPath.empty()) saveScreenshot(s, screenshotPath);
+        return result;
+    }
+    if (!traced) {
+        try {
+            vk::check(vkResetFences(s.context.device, 1, &s.offscreenDone), "vkResetFences (offscreen)");
+            vk::check(vkResetCommandBuffer(s.offscreenCmd, 0), "vkResetCommandBuffer (offscreen)");
+            VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+            begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+            vk::check(vkBeginCommandBuffer(s.offscreenCmd, &begin), "vkBeginCommandBuffer (offscreen)");
+            FrameTarget target;
+            target.cmd = s.offscreenCmd;
+            target.extent = {s.panel.settings.width, s.panel.settings.height};
+            traceSeconds = traceFrame(s, plan, &target);
+            vk::check(vkEndCommandBuffer(s.offscreenCmd), "vkEndCommandBuffer (offscreen)");
+            VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+            submit.commandBufferCount = 1;
+            submit.pCommandBuffers = &s.offscreenCmd;
+            vk::check(vkQueueSubmit(s.context.queue, 1, &submit, s.offscreenDone), "vkQueueSubmit (offscreen)");
+            vk::check(vkWaitForFences(s.context.device, 1, &s.offscreenDone, VK_TRUE, UINT64_MAX),
+                      "vkWaitForFences (offscreen)");
+            traced = true;
+        } catch (const Error& e) {
+            s.report(e.what());
+            s.loop.invalidate();
+        }
+    }
+    result.presented = true;
+    const double frameSeconds = std::chrono::duration<double>(Clock::now() - frameStart).count();
+    if (traced) noteTraced(s, plan, key, traceSeconds, frameSeconds, result);
+    ++s.info.frameLoop.framesPresented;
+    if (!screenshotPath.empty()) saveScreenshot(s, screenshotPath);
+    if (traced) measureCounters(s, key);
+    s.smoothedFrameSeconds = s.smoothedFrameSeconds == 0.0 ? frameSeconds : 0.9 * s.smoothedFrameSeconds + 0.1 * frameSeconds;
+    s.info.stats.frameSeconds = s.smoothedFrameSeconds;
+    s.frameTimes.push_back(frameSeconds);
+    return result;
+}
+
 FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::string& windowShotPath,
                       FlyInput scriptedInput) {
     FrameResult result;
@@ -1040,13 +1113,15 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     s.lastFrame = frameStart;
 
     // The window's size decides the traced size; a minimised window traces nothing.
-    int fbWidth = 0, fbHeight = 0;
-    glfwGetFramebufferSize(s.window.window, &fbWidth, &fbHeight);
+    int fbWidth = int(s.options.width), fbHeight = int(s.options.height);
+    if (!s.offscreen) glfwGetFramebufferSize(s.window.window, &fbWidth, &fbHeight);
     if (fbWidth <= 0 || fbHeight <= 0) return result;
 
-    ImGui_ImplVulkan_NewFrame();
-    ImGui_ImplGlfw_NewFrame();
-    ImGui::NewFrame();
+    if (!s.offscreen) {
+        ImGui_ImplVulkan_NewFrame();
+        ImGui_ImplGlfw_NewFrame();
+        ImGui::NewFrame();
+    }
     moveCamera(s, scriptedInput, seconds);
     s.info.build = s.builder->status();
     s.info.cameraArguments = cameraCliArguments(s.panel.settings.camera);
@@ -1064,10 +1139,12 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     s.info.frameLoop.fixedSeconds = s.loop.cost().fixedSeconds();
 
     PanelActions actions;
-    if (!s.options.hidePanel) actions = drawPanel(s.panel, s.info);
-    drawHelp(s);
-    handleKeys(s, actions);
-    ImGui::Render();
+    if (!s.offscreen) {
+        if (!s.options.hidePanel) actions = drawPanel(s.panel, s.info);
+        drawHelp(s);
+        handleKeys(s, actions);
+        ImGui::Render();
+    }
     handleActions(s, actions, before);
     // The panel's Screenshot button and F12: a fresh name in the current folder.
     const bool userScreenshot = actions.screenshot;
@@ -1088,8 +1165,9 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     s.forcedScale.reset();
     const bool nothingNew = plan.kind == FrameKind::Idle;
     const bool wantShot = !screenshotPath.empty() || userScreenshot;
-    const bool present = !nothingNew || s.uiFramesPending > 0 || !windowShotPath.empty() ||
-                         s.shown == ShownSource::Nothing || s.info.build.phase != BuildPhase::Idle;
+    const bool present = !nothingNew || (!s.offscreen && (s.uiFramesPending > 0 || !windowShotPath.empty() ||
+                                                          s.shown == ShownSource::Nothing ||
+                                                          s.info.build.phase != BuildPhase::Idle));
     if (!present) {
         if (wantShot) saveScreenshot(s, screenshotPath.empty() ? nextScreenshotName() : screenshotPath);
         return result;
@@ -1110,6 +1188,7 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
             s.loop.invalidate();
         }
     }
+    if (s.offscreen) return finishOffscreenFrame(s, plan, key, traced, traceSeconds, frameStart, screenshotPath);
     std::optional<FrameTarget> target = beginFrame(s.context, s.window);
     if (!target) return result;  // out of date: drawn again next time
     if (!nothingNew && recordOnGpu) {
@@ -1125,18 +1204,7 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     finishFrame(s.context, s.window, *target, ImGui::GetDrawData(), !windowShotPath.empty());
     result.presented = true;
     const double frameSeconds = std::chrono::duration<double>(Clock::now() - frameStart).count();
-    if (traced) {
-        s.loop.traced(plan, uint64_t(scaledExtent(settings.width, plan.scale)) * scaledExtent(settings.height, plan.scale),
-                      traceSeconds, frameSeconds);
-        s.tracedViewKey = key;
-        result.traced = true;
-        result.kind = plan.kind;
-        FrameLoopStatus& st = s.info.frameLoop;
-        st.lastKind = plan.kind;
-        st.scale = plan.scale;
-        st.samplesShown = plan.kind == FrameKind::Refine ? s.loop.samplesDone() : 0;
-        ++st.framesTraced;
-    }
+    if (traced) noteTraced(s, plan, key, traceSeconds, frameSeconds, result);
     ++s.info.frameLoop.framesPresented;
 
     if (wantShot) saveScreenshot(s, screenshotPath.empty() ? nextScreenshotName() : screenshotPath);
@@ -1259,20 +1327,35 @@ ScriptStep parseScriptStep(const std::string& text) {
 int runViewer(const ViewerOptions& options) {
     std::optional<CameraPath> path;
     if (!options.playPath.empty()) path = readCameraPath(options.playPath);  // before any window opens
-    initWindowSystem();
+    if (!options.offscreen) initWindowSystem();
     Session s(options);
+    s.offscreen = options.offscreen;
     vk::VulkanContextOptions contextOptions;
     contextOptions.device = options.device;
     contextOptions.validation = options.validation;
-    addWindowRequirements(contextOptions);
+    if (!s.offscreen) addWindowRequirements(contextOptions);
     s.context = vk::createVulkanContext(contextOptions);
     s.cpuDevice = s.context.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
-    ViewerWindowOptions windowOptions;
-    windowOptions.width = options.width;
-    windowOptions.height = options.height;
-    windowOptions.presentMode = options.presentMode;
-    s.window = createViewerWindow(s.context, windowOptions);
-    installCallbacks(s);
+    if (s.offscreen) {
+        VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+        poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+        poolInfo.queueFamilyIndex = s.context.queueFamily;
+        vk::check(vkCreateCommandPool(s.context.device, &poolInfo, nullptr, &s.offscreenPool), "vkCreateCommandPool (offscreen)");
+        VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+        alloc.commandPool = s.offscreenPool;
+        alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+        alloc.commandBufferCount = 1;
+        vk::check(vkAllocateCommandBuffers(s.context.device, &alloc, &s.offscreenCmd), "vkAllocateCommandBuffers (offscreen)");
+        VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+        vk::check(vkCreateFence(s.context.device, &fenceInfo, nullptr, &s.offscreenDone), "vkCreateFence (offscreen)");
+    } else {
+        ViewerWindowOptions windowOptions;
+        windowOptions.width = options.width;
+        windowOptions.height = options.height;
+        windowOptions.presentMode = options.presentMode;
+        s.window = createViewerWindow(s.context, windowOptions);
+        installCallbacks(s);
+    }
     s.tracer = std::make_unique<GpuTracer>(s.context);
     // On lavapipe the timestamps of the window's frames do not bracket the dispatches (measured: 17
     // us for a 57 ms pass), so there GpuTracer::render times each pass on the host.
@@ -1301,12 +1384,29 @@ int runViewer(const ViewerOptions& options) {
     std::printf("raypack: device %s; tracer %s\n", s.info.device.c_str(), cliName(s.panel.tracer));
     requestLoad(s, options.scene);
 
+    if (s.offscreen) {
+        // No window to show progress in: the first frame waits for the scene.
+        s.builder->waitIdle();
+        takeWorkerResults(s);
+        if (!s.scene) {
+            std::fprintf(stderr, "raypack: %s\n", s.info.error.c_str());
+            return kViewerExitError;
+        }
+    }
     const bool scripted = options.frames > 0;
     bool idle = false;
-    while (!glfwWindowShouldClose(s.window.window) && (!scripted || s.frameIndex < options.frames)) {
+    const auto running = [&] {
+        if (scripted) return s.frameIndex < options.frames && (s.offscreen || !glfwWindowShouldClose(s.window.window));
+        if (!s.offscreen) return !glfwWindowShouldClose(s.window.window);
+        // Offscreen without --frames: until the path is played and the image converged.
+        return !(idle && s.scene && (!s.playing || s.playbackOver));
+    };
+    while (running()) {
         const Clock::time_point iterationStart = Clock::now();
         const double cpuStart = processCpuSeconds();
-        if (idle) {
+        if (s.offscreen) {
+            if (idle) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+        } else if (idle) {
             // Nothing to trace: sleep until an event (or, while the worker loads or builds, until
             // its progress is worth showing). A scripted run counts the frame and goes on.
             const bool working = s.builder->status().phase != BuildPhase::Idle;

@@ -55,6 +55,7 @@ struct ViewerOptions {
     std::string playPath;     // fly this recorded path
     bool playFrames = false;  // one recorded key per frame instead of the recorded timing
     std::string summaryPath;  // a JSON summary of the run on exit
+    bool offscreen = false;   // no window: the same frame loop into an offscreen image
 };
 
 // Exit codes of `raypack`.

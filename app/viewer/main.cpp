@@ -79,6 +79,10 @@ int main(int argc, char** argv) {
     app.add_option("--record-path", options.recordPath, "write the camera of every frame with its time to this JSON file on exit");
     app.add_option("--play-path", options.playPath, "fly the camera path of this JSON file (from --record-path)");
     app.add_flag("--play-frames", options.playFrames, "with --play-path: one recorded camera per frame, not the recorded timing");
+    app.add_flag("--offscreen", options.offscreen,
+                 "no window and no display: the same frame loop (budget, refinement, camera paths) into an offscreen "
+                 "image, without the panel or input; without --frames it runs until --play-path is played and the "
+                 "image has converged (for measuring on machines without a display)");
     app.add_option("--summary", options.summaryPath,
                    "on exit, write a JSON summary: frames, frames/s while moving and still, resolution scales, "
                    "input-to-photon latency, idle CPU share, time to full resolution and to convergence");
