@@ -49,6 +49,7 @@ struct Simd {
     static RP_SIMD_INLINE F sub(F a, F b) { return _mm256_sub_ps(a, b); }
     static RP_SIMD_INLINE F mul(F a, F b) { return _mm256_mul_ps(a, b); }
     static RP_SIMD_INLINE F div(F a, F b) { return _mm256_div_ps(a, b); }
+    static RP_SIMD_INLINE F sqrt(F a) { return _mm256_sqrt_ps(a); }
     static RP_SIMD_INLINE F glmMin(F x, F y) { return _mm256_min_ps(y, x); }
     static RP_SIMD_INLINE F glmMax(F x, F y) { return _mm256_max_ps(y, x); }
     static RP_SIMD_INLINE F lt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
@@ -116,6 +117,7 @@ struct Simd {
     static RP_SIMD_INLINE F sub(F a, F b) { return _mm_sub_ps(a, b); }
     static RP_SIMD_INLINE F mul(F a, F b) { return _mm_mul_ps(a, b); }
     static RP_SIMD_INLINE F div(F a, F b) { return _mm_div_ps(a, b); }
+    static RP_SIMD_INLINE F sqrt(F a) { return _mm_sqrt_ps(a); }
     static RP_SIMD_INLINE F glmMin(F x, F y) { return _mm_min_ps(y, x); }
     static RP_SIMD_INLINE F glmMax(F x, F y) { return _mm_max_ps(y, x); }
     static RP_SIMD_INLINE F lt(F a, F b) { return _mm_cmplt_ps(a, b); }
@@ -615,22 +617,87 @@ void clearGroup(RayGroup& group) {
     group.parallelBits = 0;
 }
 
-// One lane from its ray (whose origin is the packet's).
-RP_SIMD_INLINE void setLane(RayGroup& group, int lane, const gpu::TraceRay& ray, float tmax,
-                            uint32_t prim) {
-    group.invX[lane] = ray.invDir.x;
-    group.invY[lane] = ray.invDir.y;
-    group.invZ[lane] = ray.invDir.z;
-    group.axisCode[lane] = uint8_t(ray.kx | ray.ky << 2 | ray.kz << 4);
-    group.shearX[lane] = ray.shearX;
-    group.shearY[lane] = ray.shearY;
-    group.shearZ[lane] = ray.shearZ;
-    group.tmax[lane] = tmax;
-    group.prim[lane] = prim;
-    group.activeBits |= 1u << lane;
-    if (ray.anyParallel) {
-        group.parallelBits |= 1u << lane;
-        group.rays[lane] = ray;
+// gpu::primaryRayDirection for the lanes' pixels (x, y), operation for operation:
+// u = (2 (x + 0.5) / W - 1) * eye.w, v = (1 - 2 (y + 0.5) / H) * forward.w,
+// d = (forward + u right) + v up, dir = d * (1 / sqrt((d.x d.x + d.y d.y) + d.z d.z)) (glm's
+// normalize, dot and inversesqrt).
+RP_SIMD_INLINE void primaryDirections(const gpu::GpuCamera& cam, F x, F y, F dir[3]) {
+    using S = Simd;
+    const F half = S::set1(0.5f), one = S::set1(1.0f), two = S::set1(2.0f);
+    const F u = S::mul(S::sub(S::div(S::mul(two, S::add(x, half)), S::set1(cam.right.w)), one),
+                       S::set1(cam.eye.w));
+    const F v = S::mul(S::sub(one, S::div(S::mul(two, S::add(y, half)), S::set1(cam.up.w))),
+                       S::set1(cam.forward.w));
+    F d[3];
+    for (int a = 0; a < 3; ++a)
+        d[a] = S::add(S::add(S::set1(cam.forward[a]), S::mul(u, S::set1(cam.right[a]))),
+                      S::mul(v, S::set1(cam.up[a])));
+    const F length2 = S::add(S::add(S::mul(d[0], d[0]), S::mul(d[1], d[1])), S::mul(d[2], d[2]));
+    const F invLength = S::div(one, S::sqrt(length2));
+    for (int a = 0; a < 3; ++a) dir[a] = S::mul(d[a], invLength);
+}
+
+// gpu::makeTraceRay(org, dir) for the lanes of `lanes`, into the group (tmax and prim are the
+// caller's): 1/dir (0 on axes with |dir| < kParallelEpsilon), the axis kz of the largest |dir|
+// (ties to the lower axis), kx and ky after it (swapped when dir[kz] < 0) and the shear. Lanes
+// parallel to an axis also get their whole TraceRay, for gpu::intersectBox.
+RP_SIMD_INLINE void setRays(RayGroup& group, uint32_t lanes, const glm::vec3& org,
+                            const F dir[3]) {
+    using S = Simd;
+    const F absMask = S::set1Bits(0x7FFFFFFFu);
+    const F one = S::set1(1.0f), zero = S::set1(0.0f);
+    F absDir[3];
+    F parallel = zero;
+    float* inv[3] = {group.invX, group.invY, group.invZ};
+    for (int a = 0; a < 3; ++a) {
+        absDir[a] = S::andF(dir[a], absMask);
+        const F isParallel = S::lt(absDir[a], S::set1(gpu::kParallelEpsilon));
+        parallel = S::orF(parallel, isParallel);
+        S::store(inv[a], S::select(isParallel, zero, S::div(one, dir[a])));
+    }
+    // kz: 0, then 1 where |y| > |x|, then 2 where |z| > |dir[kz]|.
+    const F kzIs1 = S::gt(absDir[1], absDir[0]);
+    const F absKz = S::select(kzIs1, absDir[1], absDir[0]);
+    const F kzIs2 = S::gt(absDir[2], absKz);
+    const F kz1 = S::andNot(kzIs2, kzIs1);  // kz == 1
+    const F dirKz = S::select(kzIs2, dir[2], S::select(kz1, dir[1], dir[0]));
+    // kx = kz + 1, ky = kz + 2 (mod 3), swapped where dir[kz] < 0.
+    const F dirNext = S::select(kzIs2, dir[0], S::select(kz1, dir[2], dir[1]));
+    const F dirNextNext = S::select(kzIs2, dir[1], S::select(kz1, dir[0], dir[2]));
+    const F swap = S::lt(dirKz, zero);
+    const F dirKx = S::select(swap, dirNextNext, dirNext);
+    const F dirKy = S::select(swap, dirNext, dirNextNext);
+    S::store(group.shearX, S::div(dirKx, dirKz));
+    S::store(group.shearY, S::div(dirKy, dirKz));
+    S::store(group.shearZ, S::div(one, dirKz));
+    const uint32_t kzBits1 = S::bits(kz1), kzBits2 = S::bits(kzIs2), swapBits = S::bits(swap);
+    group.activeBits |= lanes;
+    group.parallelBits |= S::bits(parallel) & lanes;
+    for (uint32_t bits = lanes; bits; bits &= bits - 1) {
+        const int lane = __builtin_ctz(bits);
+        const uint32_t bit = 1u << lane;
+        const int kz = (kzBits2 & bit) ? 2 : (kzBits1 & bit) ? 1 : 0;
+        int kx = kz == 2 ? 0 : kz + 1;
+        int ky = kx == 2 ? 0 : kx + 1;
+        if (swapBits & bit) std::swap(kx, ky);
+        group.axisCode[lane] = uint8_t(kx | ky << 2 | kz << 4);
+    }
+    if (group.parallelBits) {
+        alignas(32) float d[3][L];
+        for (int a = 0; a < 3; ++a) S::store(d[a], dir[a]);
+        for (uint32_t bits = group.parallelBits; bits; bits &= bits - 1) {
+            const int lane = __builtin_ctz(bits);
+            group.rays[lane] = gpu::makeTraceRay(org, glm::vec3(d[0][lane], d[1][lane], d[2][lane]));
+        }
+    }
+}
+
+// The lanes' pixel coordinates as floats (exact below 2^24), for the group at (gx, gy).
+RP_SIMD_INLINE void lanePixels(uint32_t x0, uint32_t y0, uint32_t gx, uint32_t gy, float xs[L],
+                               float ys[L]) {
+    for (int lane = 0; lane < L; ++lane) {
+        xs[lane] = float(x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW);
+        ys[lane] = float(y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW);
     }
 }
 
@@ -670,14 +737,19 @@ void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
         for (uint32_t gx = 0; gx < layout.groupsX; ++gx) {
             RayGroup& group = groups[gy * layout.groupsX + gx];
             clearGroup(group);
+            alignas(32) float xs[L], ys[L];
+            lanePixels(x0, y0, gx, gy, xs, ys);
+            uint32_t lanes = 0;
             for (int lane = 0; lane < L; ++lane) {
-                const uint32_t x = x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW;
-                const uint32_t y = y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW;
+                const uint32_t x = uint32_t(xs[lane]), y = uint32_t(ys[lane]);
                 if (x >= layout.x1 || y >= layout.y1) continue;
-                const glm::vec3 dir = gpu::primaryRayDirection(frame.camera, x, y);
-                setLane(group, lane, gpu::makeTraceRay(frame.eye, dir), kRayTmaxInfinite, kNoHit);
+                lanes |= 1u << lane;
+                group.tmax[lane] = kRayTmaxInfinite;
                 group.pixel[lane] = y * frame.width + x;
             }
+            F dir[3];
+            primaryDirections(frame.camera, Simd::load(xs), Simd::load(ys), dir);
+            setRays(group, lanes, frame.eye, dir);
             finishGroup(group, builder);
         }
     }
@@ -719,22 +791,38 @@ void traceShadowPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
         for (uint32_t gx = 0; gx < layout.groupsX; ++gx) {
             RayGroup& group = groups[gy * layout.groupsX + gx];
             clearGroup(group);
+            alignas(32) float xs[L], ys[L], hitT[L];
+            lanePixels(x0, y0, gx, gy, xs, ys);
+            uint32_t lanes = 0;
             for (int lane = 0; lane < L; ++lane) {
-                const uint32_t x = x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW;
-                const uint32_t y = y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW;
+                hitT[lane] = 0.0f;
+                const uint32_t x = uint32_t(xs[lane]), y = uint32_t(ys[lane]);
                 if (x >= layout.x1 || y >= layout.y1) continue;
                 const uint32_t pixel = y * frame.width + x;
                 const ClosestHit& hit = frame.hits[pixel];
                 if (!hit.hit()) continue;  // no shadow ray: stays gpu::kShadowNone
-                // As renderCpu: the shadow ray of the hit point, lit without tracing when the
-                // point is the light.
-                const glm::vec3 dir = gpu::primaryRayDirection(frame.camera, x, y);
-                const glm::vec3 point = gpu::hitPosition(frame.eye, dir, hit.t);
-                const gpu::ShadowRay shadow = gpu::makeShadowRay(frame.light, point, hit.prim);
                 group.pixel[lane] = pixel;
-                if (gpu::isDegenerateShadowRay(shadow)) continue;
-                setLane(group, lane, gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
-                        shadow.skipPrim);
+                group.prim[lane] = hit.prim;  // gpu::makeShadowRay's skipPrim
+                hitT[lane] = hit.t;
+                lanes |= 1u << lane;
+            }
+            if (lanes) {
+                // As renderCpu: from the light to hitPosition(eye, dir, t) = eye + t dir
+                // (gpu::makeShadowRay, tmax 1 - kShadowRayGap); a point at the light is lit
+                // without tracing (gpu::isDegenerateShadowRay).
+                F primaryDir[3], dir[3];
+                primaryDirections(frame.camera, Simd::load(xs), Simd::load(ys), primaryDir);
+                const F t = Simd::load(hitT);
+                F zero = Simd::set1(0.0f), degenerate = Simd::set1Bits(0xFFFFFFFFu);
+                for (int a = 0; a < 3; ++a) {
+                    const F point = Simd::add(Simd::set1(frame.eye[a]), Simd::mul(t, primaryDir[a]));
+                    dir[a] = Simd::sub(point, Simd::set1(frame.light[a]));
+                    degenerate = Simd::andF(degenerate, Simd::eq(dir[a], zero));
+                }
+                lanes &= ~Simd::bits(degenerate);
+                const float tmax = 1.0f - gpu::kShadowRayGap;
+                for (uint32_t bits = lanes; bits; bits &= bits - 1) group.tmax[__builtin_ctz(bits)] = tmax;
+                setRays(group, lanes, frame.light, dir);
             }
             finishGroup(group, builder);
         }
