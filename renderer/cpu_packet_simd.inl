@@ -49,6 +49,7 @@ struct Simd {
     static RP_SIMD_INLINE F sub(F a, F b) { return _mm256_sub_ps(a, b); }
     static RP_SIMD_INLINE F mul(F a, F b) { return _mm256_mul_ps(a, b); }
     static RP_SIMD_INLINE F div(F a, F b) { return _mm256_div_ps(a, b); }
+    static RP_SIMD_INLINE F sqrt(F a) { return _mm256_sqrt_ps(a); }
     static RP_SIMD_INLINE F glmMin(F x, F y) { return _mm256_min_ps(y, x); }
     static RP_SIMD_INLINE F glmMax(F x, F y) { return _mm256_max_ps(y, x); }
     static RP_SIMD_INLINE F lt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
@@ -116,6 +117,7 @@ struct Simd {
     static RP_SIMD_INLINE F sub(F a, F b) { return _mm_sub_ps(a, b); }
     static RP_SIMD_INLINE F mul(F a, F b) { return _mm_mul_ps(a, b); }
     static RP_SIMD_INLINE F div(F a, F b) { return _mm_div_ps(a, b); }
+    static RP_SIMD_INLINE F sqrt(F a) { return _mm_sqrt_ps(a); }
     static RP_SIMD_INLINE F glmMin(F x, F y) { return _mm_min_ps(y, x); }
     static RP_SIMD_INLINE F glmMax(F x, F y) { return _mm_max_ps(y, x); }
     static RP_SIMD_INLINE F lt(F a, F b) { return _mm_cmplt_ps(a, b); }
@@ -164,13 +166,14 @@ constexpr uint32_t kAllLanes = (1u << L) - 1u;
 // entry distance is >= 0 and every triangle hit's t >= 0, so nothing passes `<= -1`.
 constexpr float kLaneDone = -1.0f;
 
-// One SIMD width of rays, structure of arrays. Lanes are 2x2 (SSE) or 4x2 (AVX2) pixels.
+// One SIMD width of rays, structure of arrays. Lanes are 2x2 (SSE) or 4x2 (AVX2) pixels. Every
+// ray of a packet starts at the packet's one origin (the eye, or the light), so the vertex and
+// box coordinates relative to it are computed once per packet and node, not per lane: the same
+// subtraction the scalar code does per ray, so the same bits.
 struct alignas(64) RayGroup {
-    // Slab test: origin and 1/dir (0 on parallel axes).
-    float orgX[L], orgY[L], orgZ[L];
+    // Slab test: 1/dir (0 on parallel axes).
     float invX[L], invY[L], invZ[L];
-    // Triangle test: origin permuted to (kx, ky, kz), the shear, per-axis lane masks of kx, ky, kz.
-    float orgK[3][L];
+    // Triangle test: the shear and per-axis lane masks of kx, ky, kz.
     float shearX[L], shearY[L], shearZ[L];
     uint32_t axisIs0[3][L];  // axisIs0[j][lane]: all ones when axis j (kx, ky, kz) of the lane is 0
     uint32_t axisIs1[3][L];
@@ -182,9 +185,10 @@ struct alignas(64) RayGroup {
     uint32_t pixel[L];
     uint32_t activeBits;    // lanes still tracing
     uint32_t occludedBits;  // shadow: lanes that found an occluder
+    uint32_t parallelBits;  // lanes parallel to an axis (gpu::TraceRay::anyParallel)
+    uint8_t axisCode[L];    // kx | ky << 2 | kz << 4 of each lane
     int32_t axis[3];        // kx, ky, kz when every lane shares them, else -1
-    bool anyParallel;
-    gpu::TraceRay rays[L];
+    gpu::TraceRay rays[L];  // the lanes of parallelBits only
 };
 
 // The interval test of a whole packet (Wald 2007's frustum, in Reshetov 2005's interval form):
@@ -194,18 +198,37 @@ struct alignas(64) RayGroup {
 // culled. Disabled when the rays do not share the origin or one is parallel to an axis.
 struct PacketInterval {
     bool enabled = false;
-    float org[3];
     float invMin[3];
     float invMax[3];
     float tmaxWidened;  // the largest tmax of any ray times gpu::kBoxTmaxWiden
 };
 
-RP_SIMD_INLINE bool intervalMayHit(const PacketInterval& interval, const BvhNode& node) {
+// A node's box relative to the packet's origin: lo - org and hi - org, per axis, as the scalar
+// slab test computes them (vectors for the box test, floats for the interval test).
+struct NodeSlabs {
+    F lo[3];
+    F hi[3];
+    float loS[3];
+    float hiS[3];
+};
+
+RP_SIMD_INLINE NodeSlabs nodeSlabs(const BvhNode& node, const glm::vec3& org) {
+    NodeSlabs slabs;
+    for (int axis = 0; axis < 3; ++axis) {
+        slabs.loS[axis] = node.lo[axis] - org[axis];
+        slabs.hiS[axis] = node.hi[axis] - org[axis];
+        slabs.lo[axis] = Simd::set1(slabs.loS[axis]);
+        slabs.hi[axis] = Simd::set1(slabs.hiS[axis]);
+    }
+    return slabs;
+}
+
+RP_SIMD_INLINE bool intervalMayHit(const PacketInterval& interval, const NodeSlabs& slabs) {
     float nearLo[3];
     float farHi[3];
     for (int axis = 0; axis < 3; ++axis) {
-        const float a = node.lo[axis] - interval.org[axis];
-        const float b = node.hi[axis] - interval.org[axis];
+        const float a = slabs.loS[axis];
+        const float b = slabs.hiS[axis];
         const float p0 = a * interval.invMin[axis];
         const float p1 = a * interval.invMax[axis];
         const float p2 = b * interval.invMin[axis];
@@ -220,24 +243,13 @@ RP_SIMD_INLINE bool intervalMayHit(const PacketInterval& interval, const BvhNode
 
 // Lanes of `group` whose ray may touch `node`'s box for t in [0, tmax]: gpu::intersectBox lane by
 // lane, bit for bit (see cpu_box_pair.h for the operand order).
-RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const BvhNode& node) {
-    if (group.anyParallel) {
-        uint32_t mask = 0;
-        for (int lane = 0; lane < L; ++lane) {
-            if (!(group.activeBits & (1u << lane))) continue;
-            float tEntry;
-            if (gpu::intersectBox(group.rays[lane], node.lo, node.hi, group.tmax[lane], tEntry))
-                mask |= 1u << lane;
-        }
-        return mask;
-    }
+RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const NodeSlabs& slabs,
+                                const BvhNode& node) {
     using S = Simd;
-    const F tLoX = S::mul(S::sub(S::set1(node.lo.x), S::load(group.orgX)), S::load(group.invX));
-    const F tHiX = S::mul(S::sub(S::set1(node.hi.x), S::load(group.orgX)), S::load(group.invX));
-    const F tLoY = S::mul(S::sub(S::set1(node.lo.y), S::load(group.orgY)), S::load(group.invY));
-    const F tHiY = S::mul(S::sub(S::set1(node.hi.y), S::load(group.orgY)), S::load(group.invY));
-    const F tLoZ = S::mul(S::sub(S::set1(node.lo.z), S::load(group.orgZ)), S::load(group.invZ));
-    const F tHiZ = S::mul(S::sub(S::set1(node.hi.z), S::load(group.orgZ)), S::load(group.invZ));
+    const F invX = S::load(group.invX), invY = S::load(group.invY), invZ = S::load(group.invZ);
+    const F tLoX = S::mul(slabs.lo[0], invX), tHiX = S::mul(slabs.hi[0], invX);
+    const F tLoY = S::mul(slabs.lo[1], invY), tHiY = S::mul(slabs.hi[1], invY);
+    const F tLoZ = S::mul(slabs.lo[2], invZ), tHiZ = S::mul(slabs.hi[2], invZ);
     // tNear3 = min(tLo, tHi), tFar3 = max(tLo, tHi).
     const F nearX = S::glmMin(tLoX, tHiX), farX = S::glmMax(tLoX, tHiX);
     const F nearY = S::glmMin(tLoY, tHiY), farY = S::glmMax(tLoY, tHiY);
@@ -247,7 +259,17 @@ RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const BvhNode& node) {
     const F tFar = S::mul(S::glmMin(S::glmMin(farX, farY), farZ), S::set1(gpu::kSlabFarWiden));
     const F tmaxWidened = S::mul(S::load(group.tmax), S::set1(gpu::kBoxTmaxWiden));
     const F hit = S::le(tNear, S::glmMin(tFar, tmaxWidened));
-    return S::bits(hit) & group.activeBits;
+    uint32_t mask = S::bits(hit) & group.activeBits;
+    if (group.parallelBits) {  // rare: those lanes take gpu::intersectBox itself
+        mask &= ~group.parallelBits;
+        for (uint32_t bits = group.parallelBits & group.activeBits; bits; bits &= bits - 1) {
+            const int lane = __builtin_ctz(bits);
+            float tEntry;
+            if (gpu::intersectBox(group.rays[lane], node.lo, node.hi, group.tmax[lane], tEntry))
+                mask |= 1u << lane;
+        }
+    }
+    return mask;
 }
 
 // A vertex's components in each lane's (kx, ky, kz) order.
@@ -289,15 +311,16 @@ struct TriangleHits {
 };
 
 // gpu::intersectTriangle (Woop, Benthin, Wald 2013 with raypack's scaling), lane by lane.
-RP_SIMD_INLINE TriangleHits intersectTriangle(const RayGroup& group, const F orgK[3], const F shear[3],
-                                             const glm::vec3& v0, const glm::vec3& v1,
-                                             const glm::vec3& v2, F tmax) {
+// `a`, `b`, `c`: the vertices minus the packet's origin (computed once for all lanes).
+RP_SIMD_INLINE TriangleHits intersectTriangle(const RayGroup& group, const F shear[3],
+                                             const glm::vec3& a, const glm::vec3& b,
+                                             const glm::vec3& c, F tmax) {
     using S = Simd;
-    const Permuted p0 = permute(group, v0), p1 = permute(group, v1), p2 = permute(group, v2);
-    // a = v0 - org, in (kx, ky, kz) order.
-    const F aX = S::sub(p0.k[0], orgK[0]), aY = S::sub(p0.k[1], orgK[1]), aZ = S::sub(p0.k[2], orgK[2]);
-    const F bX = S::sub(p1.k[0], orgK[0]), bY = S::sub(p1.k[1], orgK[1]), bZ = S::sub(p1.k[2], orgK[2]);
-    const F cX = S::sub(p2.k[0], orgK[0]), cY = S::sub(p2.k[1], orgK[1]), cZ = S::sub(p2.k[2], orgK[2]);
+    // a, b, c in each lane's (kx, ky, kz) order.
+    const Permuted pa = permute(group, a), pb = permute(group, b), pc = permute(group, c);
+    const F aX = pa.k[0], aY = pa.k[1], aZ = pa.k[2];
+    const F bX = pb.k[0], bY = pb.k[1], bZ = pb.k[2];
+    const F cX = pc.k[0], cY = pc.k[1], cZ = pc.k[2];
     const F ax = S::sub(aX, S::mul(shear[0], aZ));
     const F ay = S::sub(aY, S::mul(shear[1], aZ));
     const F bx = S::sub(bX, S::mul(shear[0], bZ));
@@ -345,9 +368,9 @@ RP_SIMD_INLINE void countLanes(uint32_t* counts, uint32_t laneBits, uint32_t amo
 // `laneBits`, keeping per lane the least (t, triangle index) (gpu::isCloserHit).
 template <bool kCount>
 RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const BvhNode& leaf,
-                                   const glm::vec3* leafVertices, const uint32_t* primIndices) {
+                                   const glm::vec3* leafVertices, const uint32_t* primIndices,
+                                   const glm::vec3& org) {
     using S = Simd;
-    const F orgK[3] = {S::load(group.orgK[0]), S::load(group.orgK[1]), S::load(group.orgK[2])};
     const F shear[3] = {S::load(group.shearX), S::load(group.shearY), S::load(group.shearZ)};
     const F lanes = S::fromBits(laneBits);
     F tmax = S::load(group.tmax);
@@ -357,7 +380,8 @@ RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
     const uint32_t end = leaf.index + leaf.count;
     for (uint32_t entry = leaf.index; entry < end; ++entry) {
         const glm::vec3* v = leafVertices + 3 * size_t(entry);
-        const TriangleHits hits = intersectTriangle(group, orgK, shear, v[0], v[1], v[2], tmax);
+        const TriangleHits hits =
+            intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
         const F prim = S::set1Bits(primIndices[entry]);
         // isCloserHit(t, prim, bestT, bestPrim): t < bestT || (t == bestT && prim < bestPrim).
         const F closer = S::andF(
@@ -379,9 +403,9 @@ RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
 // and done. Returns the lanes that became done.
 template <bool kCount>
 RP_SIMD_INLINE uint32_t anyHitLeaf(RayGroup& group, uint32_t laneBits, const BvhNode& leaf,
-                                   const glm::vec3* leafVertices, const uint32_t* primIndices) {
+                                   const glm::vec3* leafVertices, const uint32_t* primIndices,
+                                   const glm::vec3& org) {
     using S = Simd;
-    const F orgK[3] = {S::load(group.orgK[0]), S::load(group.orgK[1]), S::load(group.orgK[2])};
     const F shear[3] = {S::load(group.shearX), S::load(group.shearY), S::load(group.shearZ)};
     const F tmax = S::load(group.tmax);
     const F skipPrim = S::loadBits(group.prim);
@@ -393,7 +417,8 @@ RP_SIMD_INLINE uint32_t anyHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
         if (!testing) continue;
         if (kCount) countLanes(group.tests, testing, 1);
         const glm::vec3* v = leafVertices + 3 * size_t(entry);
-        const TriangleHits hits = intersectTriangle(group, orgK, shear, v[0], v[1], v[2], tmax);
+        const TriangleHits hits =
+            intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
         open &= ~(S::bits(hits.mask) & testing);
     }
     const uint32_t occluded = laneBits & ~open;
@@ -425,7 +450,8 @@ PacketScratch& threadScratch() {
 // Traverses the packet's groups through the tree (renderer/cpu_packet_tracer.h).
 template <bool kShadow, bool kCount>
 void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCount,
-                    const PacketInterval& interval, const float dirSign[3], StackItem* stack) {
+                    const glm::vec3& org, const PacketInterval& interval, const float dirSign[3],
+                    StackItem* stack) {
     const BvhNode* nodes = frame.nodes;
     uint32_t activeLanes = 0;
     uint32_t first = groupCount;
@@ -444,17 +470,18 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
         const BvhNode& node = nodes[nodeIndex];
         uint32_t firstMask = 0;
         uint32_t lastMask = 0;
-        if (!interval.enabled || intervalMayHit(interval, node)) {
+        const NodeSlabs slabs = nodeSlabs(node, org);
+        if (!interval.enabled || intervalMayHit(interval, slabs)) {
             // The first and the last group that hit (Overbeck 2008's active range): the groups
             // outside [first, last] miss this node and all below it (a child's box lies inside
             // its parent's, rounding is monotone, and a ray's tmax only shrinks).
             for (; first <= last; ++first) {
-                firstMask = boxMask(groups[first], node);
+                firstMask = boxMask(groups[first], slabs, node);
                 if (firstMask) break;
             }
             if (firstMask) {
                 for (; last > first; --last) {
-                    lastMask = boxMask(groups[last], node);
+                    lastMask = boxMask(groups[last], slabs, node);
                     if (lastMask) break;
                 }
                 if (last == first) lastMask = firstMask;
@@ -480,13 +507,15 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
             }
             for (uint32_t g = first; g <= last; ++g) {
                 RayGroup& group = groups[g];
-                const uint32_t mask = g == first ? firstMask : g == last ? lastMask : boxMask(group, node);
+                const uint32_t mask = g == first  ? firstMask
+                                      : g == last ? lastMask
+                                                  : boxMask(group, slabs, node);
                 if (!mask) continue;
                 if (kShadow) {
                     activeLanes -= uint32_t(__builtin_popcount(
-                        anyHitLeaf<kCount>(group, mask, node, frame.leafVertices, frame.primIndices)));
+                        anyHitLeaf<kCount>(group, mask, node, frame.leafVertices, frame.primIndices, org)));
                 } else {
-                    closestHitLeaf<kCount>(group, mask, node, frame.leafVertices, frame.primIndices);
+                    closestHitLeaf<kCount>(group, mask, node, frame.leafVertices, frame.primIndices, org);
                 }
             }
             if (kShadow && activeLanes == 0) return;  // every shadow ray is occluded
@@ -499,10 +528,9 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
     }
 }
 
-// Fills group lanes for the packet at (x0, y0); `makeLane(lane data, pixel x, y)` returns false
-// for a pixel that casts no ray. Returns the number of groups.
+// The pixels of a packet, cut at the image border, and its groups.
 struct PacketLayout {
-    uint32_t x0, y0, x1, y1;  // pixels [x0, x1) x [y0, y1) of the packet, cut at the image border
+    uint32_t x0, y0, x1, y1;  // pixels [x0, x1) x [y0, y1)
     uint32_t groupsX, groupsY;
 };
 
@@ -517,32 +545,67 @@ PacketLayout packetLayout(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     return layout;
 }
 
-// One lane from its ray: slab data, permuted triangle data.
-void setLane(RayGroup& group, int lane, const gpu::TraceRay& ray, float tmax, uint32_t prim) {
-    group.rays[lane] = ray;
-    group.orgX[lane] = ray.org.x;
-    group.orgY[lane] = ray.org.y;
-    group.orgZ[lane] = ray.org.z;
-    group.invX[lane] = ray.invDir.x;
-    group.invY[lane] = ray.invDir.y;
-    group.invZ[lane] = ray.invDir.z;
-    const int axes[3] = {ray.kx, ray.ky, ray.kz};
-    for (int j = 0; j < 3; ++j) {
-        group.orgK[j][lane] = ray.org[axes[j]];
-        group.axisIs0[j][lane] = axes[j] == 0 ? 0xFFFFFFFFu : 0u;
-        group.axisIs1[j][lane] = axes[j] == 1 ? 0xFFFFFFFFu : 0u;
+// What the whole packet's tests need, gathered group by group after the lanes are set: the
+// bounds of 1/dir and the largest tmax (PacketInterval), whether a ray is parallel to an axis,
+// and the signs of the packet's direction (the child order).
+struct PacketBuilder {
+    F invMin[3];
+    F invMax[3];
+    F tmaxMax;
+    bool any = false;
+    bool parallel = false;
+
+    // A constructor of its own (not member initializers): GCC compiles an implicit one without
+    // the file's target pragma, and the SIMD calls would not inline into it.
+    PacketBuilder() {
+        for (int a = 0; a < 3; ++a) {
+            invMin[a] = Simd::set1(std::numeric_limits<float>::infinity());
+            invMax[a] = Simd::set1(-std::numeric_limits<float>::infinity());
+        }
+        tmaxMax = Simd::set1(0.0f);
     }
-    group.shearX[lane] = ray.shearX;
-    group.shearY[lane] = ray.shearY;
-    group.shearZ[lane] = ray.shearZ;
-    group.tmax[lane] = tmax;
-    group.prim[lane] = prim;
-    group.activeBits |= 1u << lane;
-    if (ray.anyParallel) group.anyParallel = true;
-}
+
+    void add(const RayGroup& group) {
+        using S = Simd;
+        if (!group.activeBits) return;
+        any = true;
+        if (group.parallelBits) parallel = true;
+        const F active = S::fromBits(group.activeBits);
+        const float* inv[3] = {group.invX, group.invY, group.invZ};
+        for (int a = 0; a < 3; ++a) {
+            const F v = S::load(inv[a]);
+            invMin[a] = S::select(active, S::glmMin(invMin[a], v), invMin[a]);
+            invMax[a] = S::select(active, S::glmMax(invMax[a], v), invMax[a]);
+        }
+        tmaxMax = S::select(active, S::glmMax(tmaxMax, S::load(group.tmax)), tmaxMax);
+    }
+
+    void finish(PacketInterval& interval, float dirSign[3]) const {
+        alignas(32) float lanes[L];
+        for (int a = 0; a < 3; ++a) {
+            Simd::store(lanes, invMin[a]);
+            interval.invMin[a] = *std::min_element(lanes, lanes + L);
+            Simd::store(lanes, invMax[a]);
+            interval.invMax[a] = *std::max_element(lanes, lanes + L);
+            // Where every ray has the same sign on an axis, so do both bounds of 1/dir.
+            dirSign[a] = interval.invMin[a] + interval.invMax[a] < 0.0f ? -1.0f : 1.0f;
+        }
+        Simd::store(lanes, tmaxMax);
+        interval.tmaxWidened = *std::max_element(lanes, lanes + L) * gpu::kBoxTmaxWiden;
+        interval.enabled = any && !parallel;
+    }
+};
 
 void clearGroup(RayGroup& group) {
     for (int lane = 0; lane < L; ++lane) {
+        // Lanes that trace nothing keep finite, harmless values and tmax kLaneDone, so that no
+        // test they run passes.
+        group.invX[lane] = group.invY[lane] = group.invZ[lane] = 1.0f;
+        group.shearX[lane] = group.shearY[lane] = 0.0f;
+        group.shearZ[lane] = 1.0f;
+        group.axisCode[lane] = 0 | 1 << 2 | 2 << 4;
+        group.tmax[lane] = kLaneDone;
+        group.prim[lane] = kNoHit;
         group.baryU[lane] = 0.0f;
         group.baryV[lane] = 0.0f;
         group.nodes[lane] = 0;
@@ -551,77 +614,114 @@ void clearGroup(RayGroup& group) {
     }
     group.activeBits = 0;
     group.occludedBits = 0;
-    group.anyParallel = false;
+    group.parallelBits = 0;
 }
 
-// A lane that traces nothing keeps finite, harmless values (a unit ray along +z from the origin,
-// with both parallel axes' data) and tmax kLaneDone, so that no test it runs in passes.
-void setIdleLane(RayGroup& group, int lane) {
-    static const gpu::TraceRay idle =
-        gpu::makeTraceRay(glm::vec3(0.0f), glm::vec3(0.0f, 0.0f, 1.0f));
-    const bool parallel = group.anyParallel;
-    setLane(group, lane, idle, kLaneDone, kNoHit);
-    group.activeBits &= ~(1u << lane);
-    group.anyParallel = parallel;
+// gpu::primaryRayDirection for the lanes' pixels (x, y), operation for operation:
+// u = (2 (x + 0.5) / W - 1) * eye.w, v = (1 - 2 (y + 0.5) / H) * forward.w,
+// d = (forward + u right) + v up, dir = d * (1 / sqrt((d.x d.x + d.y d.y) + d.z d.z)) (glm's
+// normalize, dot and inversesqrt).
+RP_SIMD_INLINE void primaryDirections(const gpu::GpuCamera& cam, F x, F y, F dir[3]) {
+    using S = Simd;
+    const F half = S::set1(0.5f), one = S::set1(1.0f), two = S::set1(2.0f);
+    const F u = S::mul(S::sub(S::div(S::mul(two, S::add(x, half)), S::set1(cam.right.w)), one),
+                       S::set1(cam.eye.w));
+    const F v = S::mul(S::sub(one, S::div(S::mul(two, S::add(y, half)), S::set1(cam.up.w))),
+                       S::set1(cam.forward.w));
+    F d[3];
+    for (int a = 0; a < 3; ++a)
+        d[a] = S::add(S::add(S::set1(cam.forward[a]), S::mul(u, S::set1(cam.right[a]))),
+                      S::mul(v, S::set1(cam.up[a])));
+    const F length2 = S::add(S::add(S::mul(d[0], d[0]), S::mul(d[1], d[1])), S::mul(d[2], d[2]));
+    const F invLength = S::div(one, S::sqrt(length2));
+    for (int a = 0; a < 3; ++a) dir[a] = S::mul(d[a], invLength);
 }
 
-// After the lanes are set: the group's common axes, if any.
-void finishGroup(RayGroup& group) {
-    for (int j = 0; j < 3; ++j) group.axis[j] = -1;
-    if (!group.activeBits) return;
-    const int firstLane = __builtin_ctz(group.activeBits);
-    const gpu::TraceRay& ref = group.rays[firstLane];
-    for (int lane = 0; lane < L; ++lane) {
-        if (!(group.activeBits & (1u << lane))) continue;
-        const gpu::TraceRay& r = group.rays[lane];
-        if (r.kx != ref.kx || r.ky != ref.ky || r.kz != ref.kz) return;
-    }
-    group.axis[0] = ref.kx;
-    group.axis[1] = ref.ky;
-    group.axis[2] = ref.kz;
-}
-
-// The interval of the packet's active rays, and a representative direction's signs.
-void packetBounds(const RayGroup* groups, uint32_t groupCount, PacketInterval& interval,
-                  float dirSign[3]) {
-    interval.enabled = false;
-    bool any = false;
-    bool sameOrigin = true;
-    bool parallel = false;
-    float tmaxMax = 0.0f;
-    glm::vec3 dirSum(0.0f);
+// gpu::makeTraceRay(org, dir) for the lanes of `lanes`, into the group (tmax and prim are the
+// caller's): 1/dir (0 on axes with |dir| < kParallelEpsilon), the axis kz of the largest |dir|
+// (ties to the lower axis), kx and ky after it (swapped when dir[kz] < 0) and the shear. Lanes
+// parallel to an axis also get their whole TraceRay, for gpu::intersectBox.
+RP_SIMD_INLINE void setRays(RayGroup& group, uint32_t lanes, const glm::vec3& org,
+                            const F dir[3]) {
+    using S = Simd;
+    const F absMask = S::set1Bits(0x7FFFFFFFu);
+    const F one = S::set1(1.0f), zero = S::set1(0.0f);
+    F absDir[3];
+    F parallel = zero;
+    float* inv[3] = {group.invX, group.invY, group.invZ};
     for (int a = 0; a < 3; ++a) {
-        interval.invMin[a] = std::numeric_limits<float>::infinity();
-        interval.invMax[a] = -std::numeric_limits<float>::infinity();
+        absDir[a] = S::andF(dir[a], absMask);
+        const F isParallel = S::lt(absDir[a], S::set1(gpu::kParallelEpsilon));
+        parallel = S::orF(parallel, isParallel);
+        S::store(inv[a], S::select(isParallel, zero, S::div(one, dir[a])));
     }
-    for (uint32_t g = 0; g < groupCount; ++g) {
-        const RayGroup& group = groups[g];
-        if (group.anyParallel) parallel = true;
-        for (uint32_t bits = group.activeBits; bits; bits &= bits - 1) {
+    // kz: 0, then 1 where |y| > |x|, then 2 where |z| > |dir[kz]|.
+    const F kzIs1 = S::gt(absDir[1], absDir[0]);
+    const F absKz = S::select(kzIs1, absDir[1], absDir[0]);
+    const F kzIs2 = S::gt(absDir[2], absKz);
+    const F kz1 = S::andNot(kzIs2, kzIs1);  // kz == 1
+    const F dirKz = S::select(kzIs2, dir[2], S::select(kz1, dir[1], dir[0]));
+    // kx = kz + 1, ky = kz + 2 (mod 3), swapped where dir[kz] < 0.
+    const F dirNext = S::select(kzIs2, dir[0], S::select(kz1, dir[2], dir[1]));
+    const F dirNextNext = S::select(kzIs2, dir[1], S::select(kz1, dir[0], dir[2]));
+    const F swap = S::lt(dirKz, zero);
+    const F dirKx = S::select(swap, dirNextNext, dirNext);
+    const F dirKy = S::select(swap, dirNext, dirNextNext);
+    S::store(group.shearX, S::div(dirKx, dirKz));
+    S::store(group.shearY, S::div(dirKy, dirKz));
+    S::store(group.shearZ, S::div(one, dirKz));
+    const uint32_t kzBits1 = S::bits(kz1), kzBits2 = S::bits(kzIs2), swapBits = S::bits(swap);
+    group.activeBits |= lanes;
+    group.parallelBits |= S::bits(parallel) & lanes;
+    for (uint32_t bits = lanes; bits; bits &= bits - 1) {
+        const int lane = __builtin_ctz(bits);
+        const uint32_t bit = 1u << lane;
+        const int kz = (kzBits2 & bit) ? 2 : (kzBits1 & bit) ? 1 : 0;
+        int kx = kz == 2 ? 0 : kz + 1;
+        int ky = kx == 2 ? 0 : kx + 1;
+        if (swapBits & bit) std::swap(kx, ky);
+        group.axisCode[lane] = uint8_t(kx | ky << 2 | kz << 4);
+    }
+    if (group.parallelBits) {
+        alignas(32) float d[3][L];
+        for (int a = 0; a < 3; ++a) S::store(d[a], dir[a]);
+        for (uint32_t bits = group.parallelBits; bits; bits &= bits - 1) {
             const int lane = __builtin_ctz(bits);
-            const glm::vec3 org(group.orgX[lane], group.orgY[lane], group.orgZ[lane]);
-            const glm::vec3 inv(group.invX[lane], group.invY[lane], group.invZ[lane]);
-            // Primary directions are unit; shadow directions differ in length, which a sign
-            // does not mind.
-            dirSum += group.rays[lane].dir;
-            if (!any) {
-                any = true;
-                interval.org[0] = org.x;
-                interval.org[1] = org.y;
-                interval.org[2] = org.z;
-            }
-            sameOrigin = sameOrigin && org.x == interval.org[0] && org.y == interval.org[1] &&
-                         org.z == interval.org[2];
-            for (int a = 0; a < 3; ++a) {
-                interval.invMin[a] = std::min(interval.invMin[a], inv[a]);
-                interval.invMax[a] = std::max(interval.invMax[a], inv[a]);
-            }
-            tmaxMax = std::max(tmaxMax, group.tmax[lane]);
+            group.rays[lane] = gpu::makeTraceRay(org, glm::vec3(d[0][lane], d[1][lane], d[2][lane]));
         }
     }
-    for (int a = 0; a < 3; ++a) dirSign[a] = dirSum[a] < 0.0f ? -1.0f : 1.0f;
-    interval.tmaxWidened = tmaxMax * gpu::kBoxTmaxWiden;
-    interval.enabled = any && sameOrigin && !parallel;
+}
+
+// The lanes' pixel coordinates as floats (exact below 2^24), for the group at (gx, gy).
+RP_SIMD_INLINE void lanePixels(uint32_t x0, uint32_t y0, uint32_t gx, uint32_t gy, float xs[L],
+                               float ys[L]) {
+    for (int lane = 0; lane < L; ++lane) {
+        xs[lane] = float(x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW);
+        ys[lane] = float(y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW);
+    }
+}
+
+// After the lanes are set: the group's common axes if every active lane has the same, else the
+// per-lane axis masks that permute() selects with.
+void finishGroup(RayGroup& group, PacketBuilder& builder) {
+    builder.add(group);
+    for (int j = 0; j < 3; ++j) group.axis[j] = -1;
+    if (!group.activeBits) return;
+    const uint8_t code = group.axisCode[__builtin_ctz(group.activeBits)];
+    bool uniform = true;
+    for (uint32_t bits = group.activeBits; bits; bits &= bits - 1)
+        uniform = uniform && group.axisCode[__builtin_ctz(bits)] == code;
+    if (uniform) {
+        for (int j = 0; j < 3; ++j) group.axis[j] = (code >> (2 * j)) & 3;
+        return;
+    }
+    for (int lane = 0; lane < L; ++lane) {
+        for (int j = 0; j < 3; ++j) {
+            const int axis = (group.axisCode[lane] >> (2 * j)) & 3;
+            group.axisIs0[j][lane] = axis == 0 ? 0xFFFFFFFFu : 0u;
+            group.axisIs1[j][lane] = axis == 1 ? 0xFFFFFFFFu : 0u;
+        }
+    }
 }
 
 template <bool kCount>
@@ -632,28 +732,32 @@ void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     if (scratch.groups.size() < groupCount) scratch.groups.resize(groupCount);
     if (scratch.stack.size() < frame.stackEntries) scratch.stack.resize(frame.stackEntries);
     RayGroup* groups = scratch.groups.data();
+    PacketBuilder builder;
     for (uint32_t gy = 0; gy < layout.groupsY; ++gy) {
         for (uint32_t gx = 0; gx < layout.groupsX; ++gx) {
             RayGroup& group = groups[gy * layout.groupsX + gx];
             clearGroup(group);
+            alignas(32) float xs[L], ys[L];
+            lanePixels(x0, y0, gx, gy, xs, ys);
+            uint32_t lanes = 0;
             for (int lane = 0; lane < L; ++lane) {
-                const uint32_t x = x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW;
-                const uint32_t y = y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW;
-                if (x >= layout.x1 || y >= layout.y1) {
-                    setIdleLane(group, lane);
-                    continue;
-                }
-                const glm::vec3 dir = gpu::primaryRayDirection(frame.camera, x, y);
-                setLane(group, lane, gpu::makeTraceRay(frame.eye, dir), kRayTmaxInfinite, kNoHit);
+                const uint32_t x = uint32_t(xs[lane]), y = uint32_t(ys[lane]);
+                if (x >= layout.x1 || y >= layout.y1) continue;
+                lanes |= 1u << lane;
+                group.tmax[lane] = kRayTmaxInfinite;
                 group.pixel[lane] = y * frame.width + x;
             }
-            finishGroup(group);
+            F dir[3];
+            primaryDirections(frame.camera, Simd::load(xs), Simd::load(ys), dir);
+            setRays(group, lanes, frame.eye, dir);
+            finishGroup(group, builder);
         }
     }
     PacketInterval interval;
     float dirSign[3];
-    packetBounds(groups, groupCount, interval, dirSign);
-    traversePacket<false, kCount>(frame, groups, groupCount, interval, dirSign, scratch.stack.data());
+    builder.finish(interval, dirSign);
+    traversePacket<false, kCount>(frame, groups, groupCount, frame.eye, interval, dirSign,
+                                  scratch.stack.data());
     for (uint32_t g = 0; g < groupCount; ++g) {
         const RayGroup& group = groups[g];
         for (int lane = 0; lane < L; ++lane) {
@@ -682,43 +786,52 @@ void traceShadowPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     if (scratch.groups.size() < groupCount) scratch.groups.resize(groupCount);
     if (scratch.stack.size() < frame.stackEntries) scratch.stack.resize(frame.stackEntries);
     RayGroup* groups = scratch.groups.data();
+    PacketBuilder builder;
     for (uint32_t gy = 0; gy < layout.groupsY; ++gy) {
         for (uint32_t gx = 0; gx < layout.groupsX; ++gx) {
             RayGroup& group = groups[gy * layout.groupsX + gx];
             clearGroup(group);
+            alignas(32) float xs[L], ys[L], hitT[L];
+            lanePixels(x0, y0, gx, gy, xs, ys);
+            uint32_t lanes = 0;
             for (int lane = 0; lane < L; ++lane) {
-                const uint32_t x = x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW;
-                const uint32_t y = y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW;
-                if (x >= layout.x1 || y >= layout.y1) {
-                    setIdleLane(group, lane);
-                    continue;
-                }
+                hitT[lane] = 0.0f;
+                const uint32_t x = uint32_t(xs[lane]), y = uint32_t(ys[lane]);
+                if (x >= layout.x1 || y >= layout.y1) continue;
                 const uint32_t pixel = y * frame.width + x;
                 const ClosestHit& hit = frame.hits[pixel];
-                if (!hit.hit()) {  // no shadow ray: stays gpu::kShadowNone
-                    setIdleLane(group, lane);
-                    continue;
-                }
-                // As renderCpu: the shadow ray of the hit point, lit without tracing when the
-                // point is the light.
-                const glm::vec3 dir = gpu::primaryRayDirection(frame.camera, x, y);
-                const glm::vec3 point = gpu::hitPosition(frame.eye, dir, hit.t);
-                const gpu::ShadowRay shadow = gpu::makeShadowRay(frame.light, point, hit.prim);
+                if (!hit.hit()) continue;  // no shadow ray: stays gpu::kShadowNone
                 group.pixel[lane] = pixel;
-                if (gpu::isDegenerateShadowRay(shadow)) {
-                    setIdleLane(group, lane);
-                    continue;
-                }
-                setLane(group, lane, gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
-                        shadow.skipPrim);
+                group.prim[lane] = hit.prim;  // gpu::makeShadowRay's skipPrim
+                hitT[lane] = hit.t;
+                lanes |= 1u << lane;
             }
-            finishGroup(group);
+            if (lanes) {
+                // As renderCpu: from the light to hitPosition(eye, dir, t) = eye + t dir
+                // (gpu::makeShadowRay, tmax 1 - kShadowRayGap); a point at the light is lit
+                // without tracing (gpu::isDegenerateShadowRay).
+                F primaryDir[3], dir[3];
+                primaryDirections(frame.camera, Simd::load(xs), Simd::load(ys), primaryDir);
+                const F t = Simd::load(hitT);
+                F zero = Simd::set1(0.0f), degenerate = Simd::set1Bits(0xFFFFFFFFu);
+                for (int a = 0; a < 3; ++a) {
+                    const F point = Simd::add(Simd::set1(frame.eye[a]), Simd::mul(t, primaryDir[a]));
+                    dir[a] = Simd::sub(point, Simd::set1(frame.light[a]));
+                    degenerate = Simd::andF(degenerate, Simd::eq(dir[a], zero));
+                }
+                lanes &= ~Simd::bits(degenerate);
+                const float tmax = 1.0f - gpu::kShadowRayGap;
+                for (uint32_t bits = lanes; bits; bits &= bits - 1) group.tmax[__builtin_ctz(bits)] = tmax;
+                setRays(group, lanes, frame.light, dir);
+            }
+            finishGroup(group, builder);
         }
     }
     PacketInterval interval;
     float dirSign[3];
-    packetBounds(groups, groupCount, interval, dirSign);
-    traversePacket<true, kCount>(frame, groups, groupCount, interval, dirSign, scratch.stack.data());
+    builder.finish(interval, dirSign);
+    traversePacket<true, kCount>(frame, groups, groupCount, frame.light, interval, dirSign,
+                                 scratch.stack.data());
     for (uint32_t g = 0; g < groupCount; ++g) {
         const RayGroup& group = groups[g];
         for (int lane = 0; lane < L; ++lane) {

@@ -43,8 +43,9 @@ CpuSimd cpuSimdSupported();
 // Throws raypack::Error when the variable names another value or a width this CPU lacks.
 CpuSimd cpuSimdSelected();
 
-// The packet shape the viewer uses on CPU devices (docs/cpu-packet.md: the fastest shape measured
-// over the report scenes on 2 and 16 threads).
+// The packet shape the viewer uses on CPU devices (docs/cpu-packet.md: of 4x4, 8x8, 16x16 and 32x32
+// the fastest or within 13% of the fastest on every report scene, primary and shadow rays, on
+// the 2-core development machine).
 inline constexpr PacketShape kDefaultCpuPacket{16, 16};
 
 // One frame like renderCpu (same primary rays, shadow rays, shading through shadeCpuFrame, the

@@ -6,10 +6,13 @@
 #include "renderer/cpu_packet_tracer.h"
 #include "renderer/cpu_tracer.h"
 #include "renderer/error.h"
+#include "renderer/hits_io.h"
 #include "scenes/generators.h"
 #include "scenes/load.h"
 #include "shaders/camera.h"
 #include "shaders/shading.h"
+
+#include "cli_runner.h"
 
 #include <gtest/gtest.h>
 
@@ -17,6 +20,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <random>
 #include <sstream>
@@ -317,6 +322,51 @@ TEST(CpuPacket, HeatViewsAndTimings) {
     }
     settings.packet = {0, 4};
     EXPECT_THROW(renderCpuPackets(view, settings), Error);
+}
+
+// The CLI: `render --device cpu --kernel packet` writes the reference's hits file byte for byte,
+// reports the packet tracer as its device, and flags that do not apply are errors.
+TEST(CpuPacket, RenderCommand) {
+    using raypack::test::quoted;
+    using raypack::test::runCli;
+    const raypack::test::ScratchDir scratch("raypack-test-cpu-packet");
+    const std::string scene = "gen:sphereflake:3k --width 71 --height 45";
+    const std::filesystem::path single = scratch.path() / "single.hits";
+    const std::filesystem::path packets = scratch.path() / "packets.hits";
+    const auto r1 = runCli("render " + scene + " --hits " + quoted(single));
+    ASSERT_EQ(r1.exitCode, 0) << r1.output;
+    EXPECT_NE(r1.output.find("CPU reference"), std::string::npos) << r1.output;
+    const auto r2 =
+        runCli("render " + scene + " --kernel packet --packet 5x3 --hits " + quoted(packets));
+    ASSERT_EQ(r2.exitCode, 0) << r2.output;
+    EXPECT_NE(r2.output.find("CPU packets 5x3"), std::string::npos) << r2.output;
+    const auto read = [](const std::filesystem::path& path) {
+        std::ifstream in(path, std::ios::binary);
+        return std::string(std::istreambuf_iterator<char>(in), {});
+    };
+    EXPECT_FALSE(read(single).empty());
+    EXPECT_EQ(read(single), read(packets));
+    // Without --packet the CPU packet tracer takes its own default shape.
+    const auto r3 = runCli("render " + scene + " --kernel packet");
+    ASSERT_EQ(r3.exitCode, 0) << r3.output;
+    EXPECT_NE(r3.output.find("CPU packets " + std::to_string(kDefaultCpuPacket.width) + "x" +
+                             std::to_string(kDefaultCpuPacket.height)),
+              std::string::npos)
+        << r3.output;
+    for (const auto& [args, mentions] :
+         {std::pair<std::string, std::string>{"--packet 8x8", "--packet"},
+          {"--kernel single --packet 8x8", "--packet"},
+          {"--gpu 0", "--gpu"},
+          {"--validation", "--validation"}}) {
+        const auto r = runCli("render " + scene + " " + args);
+        EXPECT_EQ(r.exitCode, 2) << args << ":\n" << r.output;
+        EXPECT_NE(r.output.find(mentions), std::string::npos) << args << ":\n" << r.output;
+    }
+    ::setenv("RAYPACK_CPU_SIMD", "sse4", 1);
+    const auto bad = runCli("render " + scene + " --kernel packet");
+    ::unsetenv("RAYPACK_CPU_SIMD");
+    EXPECT_EQ(bad.exitCode, 2) << bad.output;
+    EXPECT_NE(bad.output.find("RAYPACK_CPU_SIMD"), std::string::npos) << bad.output;
 }
 
 }  // namespace
