@@ -3,6 +3,7 @@
 #include "renderer/camera.h"
 #include "renderer/cpu_box_pair.h"
 #include "renderer/error.h"
+#include "renderer/gpu_layout.h"  // gpuTexture
 #include "shaders/camera.h"
 #include "shaders/intersect.h"
 #include "shaders/shading.h"
@@ -52,6 +53,33 @@ void forEachPixelInZOrder(const tbb::blocked_range2d<uint32_t>& tile, PixelFunct
         const uint32_t y = tile.rows().begin() + evenBits(morton >> 1);
         if (x < tile.cols().end() && y < tile.rows().end()) pixel(x, y);
     }
+}
+
+// The diffuse colour at a hit on triangle `prim` (file order): material x texture x vertex colour,
+// by shaders/texture.h as the GPU kernel computes it. Without materials the default material's
+// grey, or white where vertex colours give the colour.
+glm::vec3 diffuseAt(const Scene& scene, uint32_t prim, glm::vec2 bary) {
+    const glm::uvec3 tri = scene.triangles[prim];
+    glm::vec3 materialColor = scene.hasVertexColors() ? glm::vec3(1.0f) : Material().diffuse;
+    uint32_t texture = kNoTexture;
+    if (scene.hasMaterials()) {
+        const Material& material = scene.materials[scene.triangleMaterial[prim]];
+        materialColor = material.diffuse;
+        texture = material.texture;
+    }
+    glm::vec4 texel(1.0f);
+    if (texture != kNoTexture) {
+        const Texture& t = scene.textures[texture];
+        const glm::vec2 uv = gpu::interpolateUv(scene.uvs[tri.x], scene.uvs[tri.y], scene.uvs[tri.z], bary);
+        const gpu::BilinearTaps taps = gpu::bilinearTaps(gpuTexture(t, 0), uv);
+        texel = gpu::bilinearBlend(t.texels[taps.texel.x], t.texels[taps.texel.y], t.texels[taps.texel.z],
+                                   t.texels[taps.texel.w], taps.weight);
+    }
+    glm::vec3 vertexColor(1.0f);
+    if (scene.hasVertexColors())
+        vertexColor = gpu::interpolateColor(scene.vertexColors[tri.x], scene.vertexColors[tri.y],
+                                            scene.vertexColors[tri.z], bary);
+    return gpu::surfaceColor(materialColor, texel, vertexColor);
 }
 
 // Triangles of the gathered view: entry i of primIndices has its vertices at 3i, 3i+1, 3i+2.
@@ -374,7 +402,6 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
     if (request.hits) frame.hits.resize(pixels);
     const glm::vec4 phong(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular,
                           settings.phong.shininess);
-    const Material defaultMaterial;
     tbb::parallel_for(
         tiles,
         [&](const tbb::blocked_range2d<uint32_t>& tile) {
@@ -417,10 +444,7 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
                             normal = gpu::interpolatedNormal(
                                 scene.normals[tri.x], scene.normals[tri.y], scene.normals[tri.z],
                                 hit.bary, normal, dir);
-                        const glm::vec3 diffuse =
-                            scene.hasMaterials()
-                                ? scene.materials[scene.triangleMaterial[hit.prim]].diffuse
-                                : defaultMaterial.diffuse;
+                        const glm::vec3 diffuse = diffuseAt(scene, hit.prim, hit.bary);
                         const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
                         const glm::vec3 toLight = light - point;
                         const bool lit = shadowState[pixel] != gpu::kShadowOccluded &&
