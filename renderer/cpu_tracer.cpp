@@ -55,10 +55,19 @@ void forEachPixelInZOrder(const tbb::blocked_range2d<uint32_t>& tile, PixelFunct
     }
 }
 
-// The diffuse colour at a hit on triangle `prim` (file order): material x texture x vertex colour,
-// by shaders/texture.h as the GPU kernel computes it. Without materials the default material's
-// grey, or white where vertex colours give the colour.
-glm::vec3 diffuseAt(const Scene& scene, uint32_t prim, glm::vec2 bary) {
+// One bilinear lookup in mip level `level` of `texture` (shaders/texture.h).
+glm::vec4 sampleLevel(const Texture& texture, const gpu::GpuTexture& descriptor, uint32_t level, glm::vec2 uv) {
+    const gpu::BilinearTaps taps = gpu::bilinearTaps(gpu::textureLevel(descriptor, level), uv);
+    const std::vector<uint32_t>& t = texture.texels;
+    return gpu::bilinearBlend(t[taps.texel.x], t[taps.texel.y], t[taps.texel.z], t[taps.texel.w], taps.weight);
+}
+
+// The diffuse colour at a hit on triangle `prim` (file order) at distance hitT along rayDir:
+// material x texture (trilinear at the pixel's level of detail) x vertex colour, by
+// shaders/texture.h as the GPU kernel computes it. Without materials the default material's grey,
+// or white where vertex colours give the colour.
+glm::vec3 diffuseAt(const Scene& scene, uint32_t prim, glm::vec2 bary, glm::vec3 rayDir, float hitT,
+                    float pixelSpread) {
     const glm::uvec3 tri = scene.triangles[prim];
     glm::vec3 materialColor = scene.hasVertexColors() ? glm::vec3(1.0f) : Material().diffuse;
     uint32_t texture = kNoTexture;
@@ -70,10 +79,15 @@ glm::vec3 diffuseAt(const Scene& scene, uint32_t prim, glm::vec2 bary) {
     glm::vec4 texel(1.0f);
     if (texture != kNoTexture) {
         const Texture& t = scene.textures[texture];
-        const glm::vec2 uv = gpu::interpolateUv(scene.uvs[tri.x], scene.uvs[tri.y], scene.uvs[tri.z], bary);
-        const gpu::BilinearTaps taps = gpu::bilinearTaps(gpuTexture(t, 0), uv);
-        texel = gpu::bilinearBlend(t.texels[taps.texel.x], t.texels[taps.texel.y], t.texels[taps.texel.z],
-                                   t.texels[taps.texel.w], taps.weight);
+        const gpu::GpuTexture descriptor = gpuTexture(t, 0);
+        const glm::vec2 uv0 = scene.uvs[tri.x], uv1 = scene.uvs[tri.y], uv2 = scene.uvs[tri.z];
+        const glm::vec2 uv = gpu::interpolateUv(uv0, uv1, uv2, bary);
+        const float lod = gpu::textureLod(descriptor, scene.positions[tri.x], scene.positions[tri.y],
+                                          scene.positions[tri.z], uv0, uv1, uv2, rayDir, hitT, pixelSpread);
+        const uint32_t level = uint32_t(lod);
+        texel = sampleLevel(t, descriptor, level, uv);
+        if (level + 1 < t.levels)
+            texel = gpu::lerpPrecise(texel, sampleLevel(t, descriptor, level + 1, uv), lod - float(level));
     }
     glm::vec3 vertexColor(1.0f);
     if (scene.hasVertexColors())
@@ -397,6 +411,7 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
     const glm::vec3 eye = gpu::cameraEye(camera);
     const glm::vec3 light = frame.light;
     const bool heatView = settings.view != ViewMode::Shaded;
+    const float pixelSpread = gpu::pixelSpread(camera);
     const tbb::blocked_range2d<uint32_t> tiles(0, height, kTile, 0, width, kTile);
     if (request.image) frame.rgba.resize(pixels);
     if (request.hits) frame.hits.resize(pixels);
@@ -444,7 +459,8 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
                             normal = gpu::interpolatedNormal(
                                 scene.normals[tri.x], scene.normals[tri.y], scene.normals[tri.z],
                                 hit.bary, normal, dir);
-                        const glm::vec3 diffuse = diffuseAt(scene, hit.prim, hit.bary);
+                        const glm::vec3 diffuse =
+                            diffuseAt(scene, hit.prim, hit.bary, dir, hit.t, pixelSpread);
                         const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
                         const glm::vec3 toLight = light - point;
                         const bool lit = shadowState[pixel] != gpu::kShadowOccluded &&

@@ -37,7 +37,7 @@ gpu::GpuTexture gpuTexture(const Texture& texture, uint32_t offset) {
     t.offset = offset;
     t.width = texture.width;
     t.height = texture.height;
-    t.wrap = uint32_t(texture.wrapU) | (uint32_t(texture.wrapV) << 2u);
+    t.wrap = uint32_t(texture.wrapU) | (uint32_t(texture.wrapV) << 2u) | (texture.levels << 8u);
     return t;
 }
 
@@ -133,7 +133,8 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
                     " texels, more than the GPU kernels' 32-bit texel indices reach");
     layout.texels.reserve(size_t(texels));
     for (const Texture& t : scene.textures) {
-        RAYPACK_CHECK(t.texels.size() == size_t(t.width) * t.height);
+        RAYPACK_CHECK(t.levels >= 1 && t.levels <= 255 &&
+                      t.texels.size() == Texture::texelCount(t.width, t.height, t.levels));
         layout.textures.push_back(gpuTexture(t, uint32_t(layout.texels.size())));
         layout.texels.insert(layout.texels.end(), t.texels.begin(), t.texels.end());
     }

@@ -23,15 +23,28 @@ constexpr uint32_t kNoTexture = 0xFFFFFFFFu;
 enum class TextureWrap : uint32_t { Repeat = 0, Clamp = 1, Mirror = 2 };
 
 // A decoded image, RGBA8 with R in the low byte of each texel (shaders/texture.h), rows from the
-// top: texel (x, y) at texels[y * width + x], UV (0, 0) at the top-left corner.
+// top: texel (x, y) at texels[y * width + x], UV (0, 0) at the top-left corner; then its further
+// mip levels, each max(1, size / 2) of the one before (`levels` in all, 1 when none were built).
 struct Texture {
     std::string name;  // the file or image it came from, for messages
     uint32_t width = 0;
     uint32_t height = 0;
+    uint32_t levels = 1;
     TextureWrap wrapU = TextureWrap::Repeat;
     TextureWrap wrapV = TextureWrap::Repeat;
     std::vector<uint32_t> texels;
     uint64_t fileBytes = 0;  // size of the image file it was read from; 0 when embedded
+
+    // Texels of all `levels` levels of a width x height image.
+    static size_t texelCount(uint32_t width, uint32_t height, uint32_t levels) {
+        size_t n = 0;
+        for (uint32_t k = 0; k < levels; ++k) {
+            n += size_t(width) * height;
+            width = width > 1 ? width / 2 : 1;
+            height = height > 1 ? height / 2 : 1;
+        }
+        return n;
+    }
 };
 
 struct Material {

@@ -25,6 +25,7 @@
 #include <cstring>
 #include <limits>
 #include <map>
+#include <sstream>
 #include <tuple>
 
 namespace raypack {
@@ -436,9 +437,16 @@ Scene loadGltf(const std::filesystem::path& path, LoadProgress* progress) {
         while (!errors.empty() && errors.back() == '\n') errors.pop_back();
         throwFileError(path, errors.empty() ? "tinygltf could not parse the file" : errors);
     }
-    if (!warnings.empty()) {
-        while (warnings.back() == '\n') warnings.pop_back();
-        std::fprintf(stderr, "raypack: warning: %s: %s\n", path.string().c_str(), warnings.c_str());
+    // tinygltf's warnings about external images it could not read are left out: the image is
+    // loaded (or reported missing) by loadTextureImage, and only when a material uses it.
+    std::istringstream lines(warnings);
+    for (std::string line; std::getline(lines, line);) {
+        if (line.empty() || line.find("for image[") != std::string::npos) continue;
+        bool aboutAnImage = false;
+        for (const tinygltf::Image& image : model.images)
+            if (!image.uri.empty() && line.rfind("File not found", 0) == 0 && line.find(image.uri) != std::string::npos)
+                aboutAnImage = true;
+        if (!aboutAnImage) std::fprintf(stderr, "raypack: warning: %s: %s\n", path.string().c_str(), line.c_str());
     }
     Scene scene = GltfConverter(model, path).convert();
     scene.sourceBytes = file.size;

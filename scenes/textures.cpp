@@ -24,6 +24,37 @@ void warnWithout(const Error& error) {
 
 }  // namespace
 
+void buildMipLevels(Texture& texture) {
+    RAYPACK_CHECK(texture.levels == 1 && texture.texels.size() == size_t(texture.width) * texture.height);
+    uint32_t width = texture.width, height = texture.height;
+    size_t level = 0;  // offset of the level above
+    while (width > 1 || height > 1) {
+        const uint32_t w = std::max(width / 2, 1u), h = std::max(height / 2, 1u);
+        const size_t next = texture.texels.size();
+        texture.texels.resize(next + size_t(w) * h);
+        for (uint32_t y = 0; y < h; ++y)
+            for (uint32_t x = 0; x < w; ++x) {
+                const uint32_t x0 = std::min(2 * x, width - 1), x1 = std::min(2 * x + 1, width - 1);
+                const uint32_t y0 = std::min(2 * y, height - 1), y1 = std::min(2 * y + 1, height - 1);
+                const uint32_t taps[4] = {texture.texels[level + size_t(y0) * width + x0],
+                                          texture.texels[level + size_t(y0) * width + x1],
+                                          texture.texels[level + size_t(y1) * width + x0],
+                                          texture.texels[level + size_t(y1) * width + x1]};
+                uint32_t mean = 0;
+                for (int c = 0; c < 4; ++c) {
+                    uint32_t sum = 2;  // rounds the mean of four to nearest
+                    for (uint32_t t : taps) sum += (t >> (8 * c)) & 0xFFu;
+                    mean |= (sum / 4) << (8 * c);
+                }
+                texture.texels[next + size_t(y) * w + x] = mean;
+            }
+        level = next;
+        width = w;
+        height = h;
+        ++texture.levels;
+    }
+}
+
 Texture decodeTextureImage(const unsigned char* bytes, size_t size, const std::string& name,
                            const std::filesystem::path& sceneFile) {
     if (size == 0) failTexture(sceneFile, name, "the image is empty");
@@ -52,6 +83,7 @@ Texture decodeTextureImage(const unsigned char* bytes, size_t size, const std::s
     static_assert(std::endian::native == std::endian::little);
     std::memcpy(texture.texels.data(), decoded, texture.texels.size() * 4);
     stbi_image_free(decoded);
+    buildMipLevels(texture);
     return texture;
 }
 

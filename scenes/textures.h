@@ -15,7 +15,11 @@ namespace raypack {
 // would also overflow the kernels' 32-bit texel indices sooner.
 constexpr uint32_t kMaxTextureSide = 16384;
 
-// Decodes an encoded image (`name` says where it came from, for messages). Throws raypack::Error
+// Appends the mip levels below level 0 (which `texture` holds alone) down to 1 x 1: each texel the
+// rounded mean of the 2 x 2 texels above it (odd sizes drop the last row or column).
+void buildMipLevels(Texture& texture);
+
+// Decodes an encoded image (`name` says where it came from, for messages), with its mip levels. Throws raypack::Error
 // naming `sceneFile` and `name` when the bytes are not an image stb_image reads or it is too large.
 Texture decodeTextureImage(const unsigned char* bytes, size_t size, const std::string& name,
                            const std::filesystem::path& sceneFile);

@@ -6,10 +6,14 @@
 // The filter is split in two so that neither side needs the other's memory: bilinearTaps gives the
 // four texel indices and the weights, each side reads the four texels from its own storage (a
 // storage buffer of uints on the GPU, Texture::texels on the CPU), and bilinearBlend mixes them.
-// No mipmaps: a texture far away aliases, on both sides alike.
+// Textures are mipmapped (scenes/textures.cpp builds the levels) and sampled trilinearly at a level
+// of detail from the pixel's footprint (a ray cone: the pixel's angle times the hit distance,
+// widened by the slant), so that distant textures neither alias nor turn the GPU's last-ulp
+// differences in ray directions into visible steps.
 #ifndef RAYPACK_SHADERS_TEXTURE_H
 #define RAYPACK_SHADERS_TEXTURE_H
 #include "common.h"
+#include "camera.h"     // GpuCamera
 #include "intersect.h"  // RP_PRECISE
 
 RP_BEGIN_NAMESPACE
@@ -31,10 +35,13 @@ RP_FUNC uint packRgba8(vec4 c) {
            (packChannel(c.w) << 24u);
 }
 
+// Multiplied by the float nearest 1/255 rather than divided by 255: GLSL lets a division be
+// approximate (2.5 ulp), a multiplication is exact to rounding on both sides.
 RP_FUNC vec4 unpackRgba8(uint packed) {
-    return vec4(float(packed & 255u), float((packed >> 8u) & 255u), float((packed >> 16u) & 255u),
-                float(packed >> 24u)) /
-           255.0f;
+    RP_PRECISE const vec4 c = vec4(float(packed & 255u), float((packed >> 8u) & 255u),
+                                   float((packed >> 16u) & 255u), float(packed >> 24u)) *
+                              (1.0f / 255.0f);
+    return c;
 }
 
 // Wrap modes (the values of raypack::TextureWrap): glTF's REPEAT, CLAMP_TO_EDGE, MIRRORED_REPEAT.
@@ -45,8 +52,10 @@ const uint kWrapMirror = 2u;
 const uint kNoTextureIndex = 0xFFFFFFFFu;
 
 // 16 bytes: one texture's place in the texel buffer.
-//   offset: index of its first texel (row 0 is the image's top row, UV v = 0)
-//   wrap:   bits 0-1 the wrap of u, bits 2-3 the wrap of v (kWrap*)
+//   offset: index of its first texel (row 0 is the image's top row, UV v = 0); level k + 1 follows
+//           level k, each max(1, size / 2) of the one before
+//   wrap:   bits 0-1 the wrap of u, bits 2-3 the wrap of v (kWrap*), bits 8-15 the number of
+//           levels (0 counts as 1)
 struct GpuTexture {
     uint offset;
     uint width;
@@ -109,11 +118,57 @@ RP_FUNC BilinearTaps bilinearTaps(GpuTexture tex, vec2 uv) {
     return taps;
 }
 
+// a (1 - w) + b w, with the GPU kept from fusing it differently from the CPU (GLSL's mix leaves
+// the formula to the implementation).
+RP_FUNC vec4 lerpPrecise(vec4 a, vec4 b, float w) {
+    RP_PRECISE const vec4 r = a * (1.0f - w) + b * w;
+    return r;
+}
+
+RP_FUNC uint textureLevels(GpuTexture tex) {
+    return max((tex.wrap >> 8u) & 255u, 1u);
+}
+
+// The descriptor of one mip level (its offset and size, the same wrap modes).
+RP_FUNC GpuTexture textureLevel(GpuTexture tex, uint level) {
+    GpuTexture l = tex;
+    for (uint k = 0u; k < level; ++k) {
+        l.offset += l.width * l.height;
+        l.width = max(l.width / 2u, 1u);
+        l.height = max(l.height / 2u, 1u);
+    }
+    return l;
+}
+
+// The angle one pixel spans vertically: 2 tan(fov / 2) / height (shaders/camera.h's GpuCamera).
+RP_FUNC float pixelSpread(GpuCamera camera) {
+    return 2.0f * camera.forward.w / camera.up.w;
+}
+
+// The level of detail at a hit: log2 of the texels the pixel's footprint covers. The footprint is
+// hitT * pixelSpread (the pixel's angle, 2 tan(fov / 2) / height) over the cosine between the ray
+// and the triangle (at least 0.1); the texels per unit of length are the square root of the
+// triangle's area in texels over its area in the scene. Clamped to the texture's levels.
+RP_FUNC float textureLod(GpuTexture tex, vec3 v0, vec3 v1, vec3 v2, vec2 uv0, vec2 uv1, vec2 uv2,
+                         vec3 rayDir, float hitT, float pixelSpread) {
+    const vec3 n = cross(v1 - v0, v2 - v0);
+    const float worldArea = length(n);
+    const vec2 a = uv1 - uv0;
+    const vec2 b = uv2 - uv0;
+    const float texelArea = abs(a.x * b.y - a.y * b.x) * float(tex.width) * float(tex.height);
+    if (!(worldArea > 0.0f) || !(texelArea > 0.0f)) return 0.0f;
+    const float cosine = max(abs(dot(n, rayDir)) / (worldArea * length(rayDir)), 0.1f);
+    const float footprint = hitT * pixelSpread / cosine;
+    const float texels = footprint * sqrt(texelArea / worldArea);
+    const float lod = texels > 1.0f ? log2(texels) : 0.0f;
+    return min(lod, float(textureLevels(tex) - 1u));
+}
+
 // The filtered colour from the four texels bilinearTaps named, in its order.
 RP_FUNC vec4 bilinearBlend(uint t00, uint t10, uint t01, uint t11, vec2 weight) {
-    const vec4 top = mix(unpackRgba8(t00), unpackRgba8(t10), weight.x);
-    const vec4 bottom = mix(unpackRgba8(t01), unpackRgba8(t11), weight.x);
-    return mix(top, bottom, weight.y);
+    const vec4 top = lerpPrecise(unpackRgba8(t00), unpackRgba8(t10), weight.x);
+    const vec4 bottom = lerpPrecise(unpackRgba8(t01), unpackRgba8(t11), weight.x);
+    return lerpPrecise(top, bottom, weight.y);
 }
 
 // Per-vertex attributes at a hit, with its barycentric weights (bary.x for vertex 1, bary.y for

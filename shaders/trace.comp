@@ -55,6 +55,13 @@ layout(std430, set = 0, binding = 10) readonly buffer Colors { GpuTriangleColors
 layout(std430, set = 0, binding = 11) readonly buffer Textures { GpuTexture textures[]; };
 layout(std430, set = 0, binding = 12) readonly buffer Texels { uint texels[]; };
 
+// One bilinear lookup in mip level `level` (shaders/texture.h; the CPU's sampleLevel).
+vec4 sampleLevel(GpuTexture tex, uint level, vec2 uv) {
+    const BilinearTaps taps = bilinearTaps(textureLevel(tex, level), uv);
+    return bilinearBlend(texels[taps.texel.x], texels[taps.texel.y], texels[taps.texel.z],
+                         texels[taps.texel.w], taps.weight);
+}
+
 // (node index, count) of the nodes the packet still has to visit; written by one invocation only.
 shared uvec2 sStack[kPacketStackEntries];
 // The packet's vote counts across subgroups, four rotating slots (see packetVote).
@@ -436,10 +443,14 @@ void main() {
         vec4 texel = vec4(1.0f);
         if (texture != kNoTextureIndex && (params.frame.z & kFrameHasUvs) != 0u) {
             const GpuTriangleUvs u = uvs[leafTri];
+            const GpuTexture tex = textures[texture];
             const vec2 uv = interpolateUv(u.uv01.xy, u.uv01.zw, u.uv2.xy, bary);
-            const BilinearTaps taps = bilinearTaps(textures[texture], uv);
-            texel = bilinearBlend(texels[taps.texel.x], texels[taps.texel.y], texels[taps.texel.z],
-                                  texels[taps.texel.w], taps.weight);
+            const float lod = textureLod(tex, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, u.uv01.xy,
+                                         u.uv01.zw, u.uv2.xy, dir, t, pixelSpread(params.camera));
+            const uint level = uint(lod);
+            texel = sampleLevel(tex, level, uv);
+            if (level + 1u < textureLevels(tex))
+                texel = lerpPrecise(texel, sampleLevel(tex, level + 1u, uv), lod - float(level));
         }
         vec3 vertexColor = vec3(1.0f);
         if (hasColors) {

@@ -4,6 +4,7 @@
 // and shared) against the CPU reference with the bars of issue 3.
 #include "renderer/gpu_layout.h"
 #include "renderer/image.h"
+#include "renderer/start_view.h"
 #include "scenes/textures.h"
 #include "shaders/texture.h"
 #include "test_gpu_common.h"
@@ -141,13 +142,47 @@ TEST(TextureSampling, InterpolationAndSurfaceColour) {
     EXPECT_EQ(s, glm::vec3(0.5f, 0.5f, 0.25f));
 }
 
+TEST(TextureSampling, MipLevelsAndLevelOfDetail) {
+    // A 4x2 texture: levels 4x2, 2x1, 1x1, each texel the rounded mean of the 2x2 above it.
+    Texture t;
+    t.width = 4;
+    t.height = 2;
+    t.texels = {kRed, kRed, kGreen, kGreen, kRed, kRed, kBlue, kBlue};
+    buildMipLevels(t);
+    EXPECT_EQ(t.levels, 3u);
+    ASSERT_EQ(t.texels.size(), Texture::texelCount(4, 2, 3));
+    ASSERT_EQ(t.texels.size(), 11u);
+    EXPECT_EQ(t.texels[8], kRed);
+    EXPECT_EQ(t.texels[9], 0xFF808000u);  // half green, half blue: 127.5 rounds to 128
+    EXPECT_EQ(t.texels[10], 0xFF404080u);  // the 2x1 level's mean: red 510 / 4 -> 128, green 256 / 4 -> 64
+    const gpu::GpuTexture d = gpuTexture(t, 0);
+    EXPECT_EQ(gpu::textureLevels(d), 3u);
+    const gpu::GpuTexture level2 = gpu::textureLevel(d, 2);
+    EXPECT_EQ(level2.offset, 10u);
+    EXPECT_EQ(level2.width, 1u);
+    EXPECT_EQ(level2.height, 1u);
+    // A unit square with UVs over the whole 4x2 texture, seen head on: 2.83 texels a unit; a
+    // footprint of 1/2.83 units is level 0, eight times that level 3 (clamped to 2).
+    const glm::vec3 v0(0, 0, 0), v1(1, 0, 0), v2(0, 1, 0);
+    const glm::vec2 uv0(0, 0), uv1(1, 0), uv2(0, 1);
+    const float perUnit = std::sqrt(8.0f);
+    EXPECT_NEAR(gpu::textureLod(d, v0, v1, v2, uv0, uv1, uv2, {0, 0, -1}, 1.0f, 1.0f / perUnit), 0.0f, 1e-5f);
+    EXPECT_NEAR(gpu::textureLod(d, v0, v1, v2, uv0, uv1, uv2, {0, 0, -1}, 2.0f, 1.0f / perUnit), 1.0f, 1e-5f);
+    EXPECT_NEAR(gpu::textureLod(d, v0, v1, v2, uv0, uv1, uv2, {0, 0, -1}, 8.0f, 1.0f / perUnit), 2.0f, 1e-5f);
+    // Slanted 60 degrees: the footprint doubles.
+    EXPECT_NEAR(gpu::textureLod(d, v0, v1, v2, uv0, uv1, uv2, {0, std::sqrt(3.0f), -1}, 1.0f, 1.0f / perUnit), 1.0f,
+                1e-5f);
+}
+
 TEST(TextureImages, DecodesPngAndNamesBadImages) {
     TempDir dir;
     writePng((dir / "t.png").string(), 2, 2, {kRed, kGreen, kBlue, kWhite});
     const Texture t = loadTextureImage(dir / "scene.obj", "t.png");
     EXPECT_EQ(t.width, 2u);
     EXPECT_EQ(t.height, 2u);
-    EXPECT_TRUE(t.texels == (std::vector<uint32_t>{kRed, kGreen, kBlue, kWhite}));
+    // Level 0 as decoded, then the 1x1 level: the mean of the four.
+    EXPECT_EQ(t.levels, 2u);
+    EXPECT_TRUE(t.texels == (std::vector<uint32_t>{kRed, kGreen, kBlue, kWhite, 0xFF808080u}));
     writeFile(dir / "bad.png", "not an image");
     try {
         loadTextureImage(dir / "scene.obj", "bad.png");
@@ -215,7 +250,7 @@ TEST(TextureLoaders, GltfBaseColorTextureSamplerTransformAndCamera) {
     const Scene scene = loadScene(dir / "quad.gltf");
     ASSERT_EQ(scene.textures.size(), 1u);
     EXPECT_EQ(scene.textures[0].width, 2u);
-    EXPECT_TRUE(scene.textures[0].texels == (std::vector<uint32_t>{kRed, kGreen, kBlue, kWhite}));
+    EXPECT_TRUE(scene.textures[0].texels == (std::vector<uint32_t>{kRed, kGreen, kBlue, kWhite, 0xFF808080u}));
     EXPECT_EQ(scene.textures[0].wrapU, TextureWrap::Clamp);
     EXPECT_EQ(scene.textures[0].wrapV, TextureWrap::Mirror);
     ASSERT_TRUE(scene.hasMaterials());
@@ -231,7 +266,7 @@ TEST(TextureLoaders, GltfBaseColorTextureSamplerTransformAndCamera) {
     EXPECT_EQ(scene.fileCamera->eye, glm::vec3(0, 0, 5));
     EXPECT_EQ(scene.fileCamera->at, glm::vec3(0, 0, 4));
     EXPECT_NEAR(scene.fileCamera->fovYDegrees, 28.6479f, 1e-3f);
-    EXPECT_EQ(scene.textureBytes(), 16u);
+    EXPECT_EQ(scene.textureBytes(), 20u);  // 2x2 + 1x1 texels
 }
 
 TEST(TextureLoaders, GltfWithoutTextureHasNoUvsAndAMissingImageOnlyWarns) {
@@ -315,7 +350,7 @@ TEST(TextureLayout, GathersUvsColoursAndTexels) {
     EXPECT_EQ(layout.colors[0].rgba, glm::uvec4(kRed, kGreen, kBlue, 0u));
     ASSERT_EQ(layout.textures.size(), 2u);
     EXPECT_EQ(layout.textures[1].offset, 4u);
-    EXPECT_EQ(layout.textures[0].wrap, gpu::kWrapMirror | (gpu::kWrapMirror << 2u));
+    EXPECT_EQ(layout.textures[0].wrap, gpu::kWrapMirror | (gpu::kWrapMirror << 2u) | (1u << 8u));  // one level
     EXPECT_EQ(layout.texels.size(), 8u);
     uint32_t textureBits;
     std::memcpy(&textureBits, &layout.materials[0].diffuse.w, 4);
@@ -389,10 +424,9 @@ TEST(TextureImages, SharedTexturedScenesGpuMatchCpu) {
         ASSERT_FALSE(scene.textures.empty()) << file;
         expectGpuMatchesCpu(scene, frameScene(scene.bounds()), file);
     }
-    Camera inside;  // Sibenik's nave (sibenik.obj's frame: the Blender re-export)
+    // Sibenik from its start view, inside the nave.
     const Scene sibenik = openScene(sharedScene("sibenik/sibenik.obj"));
-    inside = frameScene(sibenik.bounds());
-    expectGpuMatchesCpu(sibenik, inside, "sibenik.obj");
+    expectGpuMatchesCpu(sibenik, startCamera(sibenik, buildBvh(sibenik, BvhBuildOptions{})), "sibenik.obj");
 }
 
 }  // namespace
