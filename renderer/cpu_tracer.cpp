@@ -3,6 +3,7 @@
 #include "renderer/camera.h"
 #include "renderer/cpu_box_pair.h"
 #include "renderer/error.h"
+#include "renderer/gpu_layout.h"  // gpuTexture
 #include "shaders/camera.h"
 #include "shaders/intersect.h"
 #include "shaders/shading.h"
@@ -52,6 +53,47 @@ void forEachPixelInZOrder(const tbb::blocked_range2d<uint32_t>& tile, PixelFunct
         const uint32_t y = tile.rows().begin() + evenBits(morton >> 1);
         if (x < tile.cols().end() && y < tile.rows().end()) pixel(x, y);
     }
+}
+
+// One bilinear lookup in mip level `level` of `texture` (shaders/texture.h).
+glm::vec4 sampleLevel(const Texture& texture, const gpu::GpuTexture& descriptor, uint32_t level, glm::vec2 uv) {
+    const gpu::BilinearTaps taps = gpu::bilinearTaps(gpu::textureLevel(descriptor, level), uv);
+    const std::vector<uint32_t>& t = texture.texels;
+    return gpu::bilinearBlend(t[taps.texel.x], t[taps.texel.y], t[taps.texel.z], t[taps.texel.w], taps.weight);
+}
+
+// The diffuse colour at a hit on triangle `prim` (file order) at distance hitT along rayDir:
+// material x texture (trilinear at the pixel's level of detail) x vertex colour, by
+// shaders/texture.h as the GPU kernel computes it. Without materials the default material's grey,
+// or white where vertex colours give the colour.
+glm::vec3 diffuseAt(const Scene& scene, uint32_t prim, glm::vec2 bary, glm::vec3 rayDir, float hitT,
+                    float pixelSpread) {
+    const glm::uvec3 tri = scene.triangles[prim];
+    glm::vec3 materialColor = scene.hasVertexColors() ? glm::vec3(1.0f) : Material().diffuse;
+    uint32_t texture = kNoTexture;
+    if (scene.hasMaterials()) {
+        const Material& material = scene.materials[scene.triangleMaterial[prim]];
+        materialColor = material.diffuse;
+        texture = material.texture;
+    }
+    glm::vec4 texel(1.0f);
+    if (texture != kNoTexture) {
+        const Texture& t = scene.textures[texture];
+        const gpu::GpuTexture descriptor = gpuTexture(t, 0);
+        const glm::vec2 uv0 = scene.uvs[tri.x], uv1 = scene.uvs[tri.y], uv2 = scene.uvs[tri.z];
+        const glm::vec2 uv = gpu::interpolateUv(uv0, uv1, uv2, bary);
+        const float lod = gpu::textureLod(descriptor, scene.positions[tri.x], scene.positions[tri.y],
+                                          scene.positions[tri.z], uv0, uv1, uv2, rayDir, hitT, pixelSpread);
+        const uint32_t level = uint32_t(lod);
+        texel = sampleLevel(t, descriptor, level, uv);
+        if (level + 1 < t.levels)
+            texel = gpu::lerpPrecise(texel, sampleLevel(t, descriptor, level + 1, uv), lod - float(level));
+    }
+    glm::vec3 vertexColor(1.0f);
+    if (scene.hasVertexColors())
+        vertexColor = gpu::interpolateColor(scene.vertexColors[tri.x], scene.vertexColors[tri.y],
+                                            scene.vertexColors[tri.z], bary);
+    return gpu::surfaceColor(materialColor, texel, vertexColor);
 }
 
 // Triangles of the gathered view: entry i of primIndices has its vertices at 3i, 3i+1, 3i+2.
@@ -369,12 +411,12 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
     const glm::vec3 eye = gpu::cameraEye(camera);
     const glm::vec3 light = frame.light;
     const bool heatView = settings.view != ViewMode::Shaded;
+    const float pixelSpread = gpu::pixelSpread(camera);
     const tbb::blocked_range2d<uint32_t> tiles(0, height, kTile, 0, width, kTile);
     if (request.image) frame.rgba.resize(pixels);
     if (request.hits) frame.hits.resize(pixels);
     const glm::vec4 phong(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular,
                           settings.phong.shininess);
-    const Material defaultMaterial;
     tbb::parallel_for(
         tiles,
         [&](const tbb::blocked_range2d<uint32_t>& tile) {
@@ -418,9 +460,7 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
                                 scene.normals[tri.x], scene.normals[tri.y], scene.normals[tri.z],
                                 hit.bary, normal, dir);
                         const glm::vec3 diffuse =
-                            scene.hasMaterials()
-                                ? scene.materials[scene.triangleMaterial[hit.prim]].diffuse
-                                : defaultMaterial.diffuse;
+                            diffuseAt(scene, hit.prim, hit.bary, dir, hit.t, pixelSpread);
                         const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
                         const glm::vec3 toLight = light - point;
                         const bool lit = shadowState[pixel] != gpu::kShadowOccluded &&

@@ -23,7 +23,22 @@ glm::vec4 withBits(const glm::vec3& xyz, uint32_t bits) { return {xyz, uintAsFlo
 
 size_t GpuLayout::bytes() const {
     return nodes.size() * sizeof(gpu::GpuNode) + triangles.size() * sizeof(gpu::GpuTriangle) +
-           normals.size() * sizeof(gpu::GpuTriangleNormals) + materials.size() * sizeof(glm::vec4);
+           normals.size() * sizeof(gpu::GpuTriangleNormals) +
+           materials.size() * sizeof(gpu::GpuMaterial) + uvs.size() * sizeof(gpu::GpuTriangleUvs) +
+           colors.size() * sizeof(gpu::GpuTriangleColors) + textureBytes();
+}
+
+size_t GpuLayout::textureBytes() const {
+    return textures.size() * sizeof(gpu::GpuTexture) + texels.size() * sizeof(uint32_t);
+}
+
+gpu::GpuTexture gpuTexture(const Texture& texture, uint32_t offset) {
+    gpu::GpuTexture t;
+    t.offset = offset;
+    t.width = texture.width;
+    t.height = texture.height;
+    t.wrap = uint32_t(texture.wrapU) | (uint32_t(texture.wrapV) << 2u) | (texture.levels << 8u);
+    return t;
 }
 
 GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
@@ -32,6 +47,8 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
     layout.nodes.resize(bvh.nodes.size());
     const bool normals = scene.hasNormals();
     const bool materials = scene.hasMaterials();
+    const bool uvs = scene.hasUvs();
+    const bool colors = scene.hasVertexColors();
 
     // 1. A depth-first walk from the root with an explicit stack converts every node and gives each
     //    leaf its first slot in leaf order: the order the walk meets the leaves.
@@ -73,6 +90,8 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
     layout.triangles.resize(placed);
     layout.leafToFile.resize(placed);
     if (normals) layout.normals.resize(placed);
+    if (uvs) layout.uvs.resize(placed);
+    if (colors) layout.colors.resize(placed);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024),
                       [&](const tbb::blocked_range<size_t>& range) {
         for (size_t l = range.begin(); l != range.end(); ++l) {
@@ -91,12 +110,33 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
                     layout.normals[slot] = {glm::vec4(scene.normals[v.x], 0.0f),
                                             glm::vec4(scene.normals[v.y], 0.0f),
                                             glm::vec4(scene.normals[v.z], 0.0f)};
+                if (uvs)
+                    layout.uvs[slot] = {glm::vec4(scene.uvs[v.x], scene.uvs[v.y]),
+                                        glm::vec4(scene.uvs[v.z], 0.0f, 0.0f)};
+                if (colors)
+                    layout.colors[slot] = {glm::uvec4(scene.vertexColors[v.x], scene.vertexColors[v.y],
+                                                      scene.vertexColors[v.z], 0u)};
             }
         }
     });
     if (materials) {
         layout.materials.reserve(scene.materials.size());
-        for (const Material& m : scene.materials) layout.materials.emplace_back(m.diffuse, 1.0f);
+        for (const Material& m : scene.materials) {
+            RAYPACK_CHECK(m.texture == kNoTexture || (m.texture < scene.textures.size() && uvs));
+            layout.materials.push_back({withBits(m.diffuse, m.texture)});
+        }
+    }
+    uint64_t texels = 0;
+    for (const Texture& t : scene.textures) texels += t.texels.size();
+    if (texels > 0xFFFFFFFFull)
+        throw Error(scene.source + ": the textures hold " + std::to_string(texels) +
+                    " texels, more than the GPU kernels' 32-bit texel indices reach");
+    layout.texels.reserve(size_t(texels));
+    for (const Texture& t : scene.textures) {
+        RAYPACK_CHECK(t.levels >= 1 && t.levels <= 255 &&
+                      t.texels.size() == Texture::texelCount(t.width, t.height, t.levels));
+        layout.textures.push_back(gpuTexture(t, uint32_t(layout.texels.size())));
+        layout.texels.insert(layout.texels.end(), t.texels.begin(), t.texels.end());
     }
     return layout;
 }

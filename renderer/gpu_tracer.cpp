@@ -42,6 +42,10 @@ enum Binding : uint32_t {
     kBindHits,
     kBindCounters,
     kBindStatus,
+    kBindUvs,
+    kBindColors,
+    kBindTextures,
+    kBindTexels,
     kBindingCount
 };
 
@@ -115,8 +119,8 @@ struct GpuTracer::State {
     VkFence syncFence = VK_NULL_HANDLE;
 
     // Scene.
-    vk::Buffer nodes, triangles, normals, materials, dummy;
-    bool hasScene = false, hasNormals = false, hasMaterials = false;
+    vk::Buffer nodes, triangles, normals, materials, uvs, colors, textures, texels, dummy;
+    bool hasScene = false, hasNormals = false, hasMaterials = false, hasUvs = false, hasColors = false;
     bool hostTimedPasses = false;  // setHostTimedPasses
     uint32_t stackEntries = 1;
     Aabb sceneBounds;
@@ -197,7 +201,8 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
         VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
         vk::check(vkCreateFence(device, &fenceInfo, nullptr, &s.syncFence), "vkCreateFence");
 
-        // Bound where the scene has no normals or materials: the kernels never read it then.
+        // Bound where the scene has no normals, materials, UVs or colours: the kernels never read
+        // it then.
         s.dummy = vk::createBuffer(context, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                    VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "an unused binding");
         s.status = vk::createBuffer(
@@ -220,7 +225,8 @@ void destroyState(GpuTracer::State& s) {
     if (device) vkDeviceWaitIdle(device);
     for (auto& [key, pipeline] : s.pipelines) vkDestroyPipeline(device, pipeline, nullptr);
     s.pipelines.clear();
-    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.dummy,
+    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors,
+                          &s.textures, &s.texels, &s.dummy,
                           &s.primaryHits, &s.output, &s.hits, &s.counters, &s.status, &s.readback})
         vk::destroyBuffer(s.ctx, *b);
     if (s.syncFence) vkDestroyFence(device, s.syncFence, nullptr);
@@ -258,7 +264,8 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
                     " (build with a larger leaf size or use the CPU tracer)");
 
     vkQueueWaitIdle(s.ctx.queue);
-    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials})
+    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors,
+                          &s.textures, &s.texels})
         vk::destroyBuffer(s.ctx, *b);
     s.hasScene = false;
 
@@ -277,8 +284,20 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
         make(s.normals, layout.normals.data(),
              layout.normals.size() * sizeof(gpu::GpuTriangleNormals), "vertex normals");
     if (s.hasMaterials)
-        make(s.materials, layout.materials.data(), layout.materials.size() * sizeof(glm::vec4),
-             "materials");
+        make(s.materials, layout.materials.data(),
+             layout.materials.size() * sizeof(gpu::GpuMaterial), "materials");
+    // UVs come with textures (Scene::uvs): the UVs, the texture table and the texels together.
+    s.hasUvs = !layout.uvs.empty() && !layout.texels.empty();
+    s.hasColors = !layout.colors.empty();
+    if (s.hasUvs) {
+        make(s.uvs, layout.uvs.data(), layout.uvs.size() * sizeof(gpu::GpuTriangleUvs), "UVs");
+        make(s.textures, layout.textures.data(), layout.textures.size() * sizeof(gpu::GpuTexture),
+             "the texture table");
+        make(s.texels, layout.texels.data(), layout.texels.size() * sizeof(uint32_t), "texels");
+    }
+    if (s.hasColors)
+        make(s.colors, layout.colors.data(), layout.colors.size() * sizeof(gpu::GpuTriangleColors),
+             "vertex colours");
     s.stackEntries = entries;
     s.sceneBounds = scene.bounds();
     s.hasScene = true;
@@ -306,7 +325,11 @@ void writeDescriptors(GpuTracer::State& s) {
         &s.nodes,       &s.triangles, s.hasNormals ? &s.normals : &s.dummy,
         s.hasMaterials ? &s.materials : &s.dummy,
         &s.primaryHits, &s.output,    &s.hits,
-        &s.counters,    &s.status};
+        &s.counters,    &s.status,
+        s.hasUvs ? &s.uvs : &s.dummy,
+        s.hasColors ? &s.colors : &s.dummy,
+        s.hasUvs ? &s.textures : &s.dummy,
+        s.hasUvs ? &s.texels : &s.dummy};
     std::array<VkDescriptorBufferInfo, kBindingCount> infos{};
     std::array<VkWriteDescriptorSet, kBindingCount> writes{};
     for (uint32_t b = 0; b < kBindingCount; ++b) {
@@ -461,7 +484,9 @@ gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings&
                          (writeHits ? gpu::kFrameWriteHits : 0u) |
                              (options.bgra ? gpu::kFrameBgra : 0u) |
                              (s.hasNormals ? gpu::kFrameHasNormals : 0u) |
-                             (s.hasMaterials ? gpu::kFrameHasMaterials : 0u),
+                             (s.hasMaterials ? gpu::kFrameHasMaterials : 0u) |
+                             (s.hasUvs ? gpu::kFrameHasUvs : 0u) |
+                             (s.hasColors ? gpu::kFrameHasColors : 0u),
                          packetsPerRow);
     return p;
 }

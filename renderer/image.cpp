@@ -5,9 +5,14 @@
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 
 namespace raypack {
@@ -34,6 +39,42 @@ void writePng(const std::string& path, uint32_t width, uint32_t height,
         for (int c = 0; c < 4; ++c) bytes[4 * i + c] = static_cast<unsigned char>(channel(rgba[i], c));
     if (!stbi_write_png(path.c_str(), int(width), int(height), 4, bytes.data(), int(width) * 4))
         throw Error("cannot write " + path + ": " + std::strerror(errno));
+}
+
+ImageFormat imageFormatFor(const std::string& path) {
+    std::string extension = std::filesystem::path(path).extension().string();
+    for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (extension == ".png") return ImageFormat::Png;
+    if (extension == ".jpg" || extension == ".jpeg") return ImageFormat::Jpeg;
+    throw Error(path + ": unknown image format \"" + extension +
+                "\" (the file name must end in .png, .jpg or .jpeg)");
+}
+
+void writeImage(const std::string& path, uint32_t width, uint32_t height,
+                const std::vector<uint32_t>& rgba) {
+    if (imageFormatFor(path) == ImageFormat::Png) return writePng(path, width, height, rgba);
+    if (width == 0 || height == 0 || rgba.size() != size_t(width) * height)
+        throw Error("cannot write " + path + ": the image is empty or inconsistent");
+    if (width > 65535 || height > 65535)
+        throw Error("cannot write " + path + ": JPEG images are at most 65535 pixels a side");
+    std::vector<unsigned char> bytes(rgba.size() * 3);
+    for (size_t i = 0; i < rgba.size(); ++i)
+        for (int c = 0; c < 3; ++c) bytes[3 * i + c] = static_cast<unsigned char>(channel(rgba[i], c));
+    errno = 0;
+    if (!stbi_write_jpg(path.c_str(), int(width), int(height), 3, bytes.data(), 95))
+        throw Error("cannot write " + path + ": " + (errno ? std::strerror(errno) : "stb_image_write failed"));
+}
+
+void checkOutputPath(const std::string& flag, const std::string& path) {
+    namespace fs = std::filesystem;
+    const std::string what = flag + " " + path + ": ";
+    if (path.empty()) throw Error(flag + ": empty file name");
+    std::error_code error;
+    if (fs::is_directory(path, error)) throw Error(what + "is a folder, not a file");
+    const fs::path folder = fs::path(path).has_parent_path() ? fs::path(path).parent_path() : fs::path(".");
+    if (!fs::exists(folder, error)) throw Error(what + "the folder " + folder.string() + " does not exist");
+    if (!fs::is_directory(folder, error)) throw Error(what + folder.string() + " is not a folder");
+    if (::access(folder.c_str(), W_OK) != 0) throw Error(what + "the folder " + folder.string() + " is not writable");
 }
 
 void writePng(const std::string& path, const Image& image) {

@@ -1,5 +1,5 @@
 #pragma once
-// RGBA8 images: PNG files (stb) and the pixel-by-pixel comparison the tests and `raypack-cli diff`
+// RGBA8 images: PNG and JPEG files (stb) and the pixel-by-pixel comparison the tests and `raypack-cli diff`
 // use to hold a tracer against the reference.
 #include <cstdint>
 #include <string>
@@ -20,6 +20,19 @@ struct Image {
 void writePng(const std::string& path, const Image& image);
 void writePng(const std::string& path, uint32_t width, uint32_t height,
               const std::vector<uint32_t>& rgba);
+
+// The formats an image can be written in, by the path's extension (case-insensitive): .png, and
+// .jpg / .jpeg (JPEG, quality 95, alpha dropped).
+enum class ImageFormat { Png, Jpeg };
+// Throws raypack::Error naming the path when its extension is none of those.
+ImageFormat imageFormatFor(const std::string& path);
+// Writes PNG or JPEG by imageFormatFor(path); throws as writePng does.
+void writeImage(const std::string& path, uint32_t width, uint32_t height,
+                const std::vector<uint32_t>& rgba);
+
+// Checks, before any work is done, that a file can be created at `path`: its folder exists, is a
+// folder and is writable, and `path` is not a folder. Throws raypack::Error ("FLAG PATH: why").
+void checkOutputPath(const std::string& flag, const std::string& path);
 
 // Reads any PNG (grey, grey+alpha, RGB, RGBA; 8 bit) as RGBA8. Throws raypack::Error naming the
 // file when it is missing or not a readable PNG.

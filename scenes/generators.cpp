@@ -4,6 +4,7 @@
 
 #include "renderer/error.h"
 #include "scenes/load.h"
+#include "shaders/texture.h"
 
 #include <glm/gtc/constants.hpp>
 #include <tbb/parallel_sort.h>
@@ -314,6 +315,10 @@ Scene subdivideOnce(const Scene& in) {
 
     Scene out;
     out.materials = in.materials;
+    out.textures = in.textures;
+    out.fileCamera = in.fileCamera;
+    out.uvs = in.uvs;
+    out.vertexColors = in.vertexColors;
     out.positions = in.positions;
     out.positions.reserve(in.positions.size() + uniqueEdges);
     if (in.hasNormals()) {
@@ -330,6 +335,11 @@ Scene subdivideOnce(const Scene& in) {
                 const float length = glm::length(sum);
                 out.normals.push_back(length > 0.0f ? sum / length : in.normals[a]);
             }
+            // The midpoint's UV and colour are the ends' average, what the unsplit triangle gave it.
+            if (in.hasUvs()) out.uvs.push_back(0.5f * (in.uvs[a] + in.uvs[b]));
+            if (in.hasVertexColors())
+                out.vertexColors.push_back(gpu::packRgba8(0.5f * (gpu::unpackRgba8(in.vertexColors[a]) +
+                                                                  gpu::unpackRgba8(in.vertexColors[b]))));
         }
         midpoint[edges[i].slot] = uint32_t(out.positions.size() - 1);
     }

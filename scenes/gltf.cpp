@@ -4,7 +4,14 @@
 // children, so a mesh used by two nodes appears twice (the MANIFEST's "after node instancing"
 // counts). Accessor reads are bounds-checked here: a bad file gives an Error, never a read
 // outside a buffer.
+//
+// Textures: a material's baseColorTexture (times baseColorFactor) with its sampler's wrap modes
+// and KHR_texture_transform, which is folded into the primitive's UVs here (an affine map of the
+// UVs commutes with their barycentric interpolation). Only images a used material samples are
+// decoded, and UVs are kept only when some triangle's material has a texture. The first camera
+// met in the node walk becomes Scene::fileCamera.
 #include "scenes/formats.h"
+#include "scenes/textures.h"
 
 #include <tiny_gltf.h>
 
@@ -17,14 +24,41 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <map>
+#include <sstream>
+#include <tuple>
 
 namespace raypack {
 namespace {
 
-// Images are not needed to trace triangles; skipping their decoding keeps DamagedHelmet's 4 MB of
-// JPEG from costing more than its geometry.
-bool skipImage(tinygltf::Image*, const int, std::string*, std::string*, int, int, const unsigned char*, int, void*) {
+// Images are decoded later, only those a material's base colour samples (DamagedHelmet's four
+// other 2048x2048 JPEGs cost nothing): an embedded image (buffer view or data URI) keeps its
+// encoded bytes in Image::image with width 0; an external one keeps only its URI, for
+// loadTextureImage, which opens every texture file (the bytes tinygltf read here are dropped).
+bool keepEncodedImage(tinygltf::Image* image, const int, std::string*, std::string*, int, int,
+                      const unsigned char* bytes, int size, void*) {
+    if (image->uri.empty() && bytes && size > 0) image->image.assign(bytes, bytes + size);
+    image->width = image->height = 0;
     return true;
+}
+
+TextureWrap wrapOf(int gltfWrap) {
+    switch (gltfWrap) {
+        case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE: return TextureWrap::Clamp;
+        case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT: return TextureWrap::Mirror;
+        default: return TextureWrap::Repeat;
+    }
+}
+
+double numberOr(const tinygltf::Value& object, const char* key, int element, double fallback) {
+    if (!object.IsObject() || !object.Has(key)) return fallback;
+    const tinygltf::Value& value = object.Get(key);
+    if (element >= 0) {
+        if (!value.IsArray() || int(value.ArrayLen()) <= element) return fallback;
+        const tinygltf::Value& entry = value.Get(element);
+        return entry.IsNumber() ? entry.GetNumberAsDouble() : fallback;
+    }
+    return value.IsNumber() ? value.GetNumberAsDouble() : fallback;
 }
 
 glm::dmat4 localTransform(const tinygltf::Node& node) {
@@ -64,10 +98,15 @@ public:
             if (factor.size() >= 3) colour = glm::vec3(float(factor[0]), float(factor[1]), float(factor[2]));
             materials_.push_back(Material{m.name, colour});
         }
+        texturing_.resize(model_.materials.size());
         for (int root : roots) visit(root, glm::dmat4(1.0), 0);
         if (scene_.triangles.empty()) fail("no TRIANGLES primitives in the scene");
         // Normals only when every primitive had them: a mesh cannot be half smooth-shaded.
         if (!allHaveNormals_) scene_.normals.clear();
+        // UVs only when a triangle samples a texture.
+        if (scene_.textures.empty()) scene_.uvs.clear();
+        for (size_t m = 0; m < texturing_.size(); ++m)
+            if (texturing_[m].resolved) materials_[m].texture = texturing_[m].texture;
         if (usesMaterials_) {
             scene_.materials = materials_;
             if (usesDefaultMaterial_) scene_.materials.push_back(Material{"default", glm::vec3(1.0f)});
@@ -84,6 +123,90 @@ private:
 
     [[noreturn]] void fail(const std::string& what) const { throwFileError(path_, what); }
 
+    // A material's base colour texture, resolved when a primitive first uses the material.
+    struct MaterialTexturing {
+        bool resolved = false;
+        uint32_t texture = kNoTexture;  // into scene_.textures
+        int texCoord = 0;               // TEXCOORD_n
+        glm::mat3 uvTransform{1.0f};    // KHR_texture_transform, as a 2D affine map
+    };
+
+    const MaterialTexturing& texturingOf(uint32_t material) {
+        MaterialTexturing& t = texturing_[material];
+        if (t.resolved) return t;
+        t.resolved = true;
+        const tinygltf::TextureInfo& info = model_.materials[material].pbrMetallicRoughness.baseColorTexture;
+        if (info.index < 0) return t;
+        if (size_t(info.index) >= model_.textures.size())
+            fail("material " + std::to_string(material) + " refers to missing texture " + std::to_string(info.index));
+        const tinygltf::Texture& texture = model_.textures[size_t(info.index)];
+        if (texture.source < 0) return t;  // no image (an extension's source only): untextured
+        if (size_t(texture.source) >= model_.images.size())
+            fail("texture " + std::to_string(info.index) + " refers to missing image " + std::to_string(texture.source));
+        TextureWrap wrapU = TextureWrap::Repeat, wrapV = TextureWrap::Repeat;
+        if (texture.sampler >= 0) {
+            if (size_t(texture.sampler) >= model_.samplers.size())
+                fail("texture " + std::to_string(info.index) + " refers to missing sampler " + std::to_string(texture.sampler));
+            wrapU = wrapOf(model_.samplers[size_t(texture.sampler)].wrapS);
+            wrapV = wrapOf(model_.samplers[size_t(texture.sampler)].wrapT);
+        }
+        t.texCoord = info.texCoord;
+        const auto transform = info.extensions.find("KHR_texture_transform");
+        if (transform != info.extensions.end()) {
+            // KHR_texture_transform: uv' = T * R * S * uv, R rotating by -rotation (the spec's matrix).
+            const tinygltf::Value& x = transform->second;
+            const float ox = float(numberOr(x, "offset", 0, 0.0)), oy = float(numberOr(x, "offset", 1, 0.0));
+            const float rotation = float(numberOr(x, "rotation", -1, 0.0));
+            const float sx = float(numberOr(x, "scale", 0, 1.0)), sy = float(numberOr(x, "scale", 1, 1.0));
+            const float c = std::cos(rotation), s = std::sin(rotation);
+            // Column-major: columns are the images of u, v and the translation.
+            t.uvTransform = glm::mat3(glm::vec3(c * sx, -s * sx, 0.0f), glm::vec3(s * sy, c * sy, 0.0f),
+                                      glm::vec3(ox, oy, 1.0f));
+            if (x.IsObject() && x.Has("texCoord") && x.Get("texCoord").IsNumber())
+                t.texCoord = int(x.Get("texCoord").GetNumberAsDouble());
+        }
+        const auto key = std::make_tuple(texture.source, int(wrapU), int(wrapV));
+        const auto known = textureOfImage_.find(key);
+        if (known != textureOfImage_.end()) {
+            t.texture = known->second;
+            return t;
+        }
+        const tinygltf::Image& image = model_.images[size_t(texture.source)];
+        const std::string name = !image.uri.empty() ? image.uri
+                                 : !image.name.empty() ? "image " + std::to_string(texture.source) + " (" + image.name + ")"
+                                                       : "image " + std::to_string(texture.source);
+        std::optional<Texture> decoded;
+        if (!image.uri.empty()) {
+            decoded = tryLoadTextureImage(path_, image.uri);
+        } else if (image.bufferView >= 0) {
+            decoded = tryDecodeTextureImage(bufferViewBytes(image.bufferView, name), bufferViewSize(image.bufferView), name, path_);
+        } else {
+            decoded = tryDecodeTextureImage(image.image.data(), image.image.size(), name, path_);
+        }
+        uint32_t index = kNoTexture;
+        if (decoded) {
+            decoded->wrapU = wrapU;
+            decoded->wrapV = wrapV;
+            index = uint32_t(scene_.textures.size());
+            scene_.textures.push_back(std::move(*decoded));
+        }
+        textureOfImage_.emplace(key, index);
+        t.texture = index;
+        return t;
+    }
+
+    // The bytes of an image's buffer view, checked to lie inside its buffer.
+    const unsigned char* bufferViewBytes(int index, const std::string& what) const {
+        if (index < 0 || size_t(index) >= model_.bufferViews.size()) fail(what + ": buffer view " + std::to_string(index) + " does not exist");
+        const tinygltf::BufferView& view = model_.bufferViews[size_t(index)];
+        if (view.buffer < 0 || size_t(view.buffer) >= model_.buffers.size()) fail(what + ": its buffer view refers to a missing buffer");
+        const std::vector<unsigned char>& buffer = model_.buffers[size_t(view.buffer)].data;
+        if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
+            fail(what + ": buffer view " + std::to_string(index) + " lies outside its buffer (truncated file?)");
+        return buffer.data() + view.byteOffset;
+    }
+    size_t bufferViewSize(int index) const { return model_.bufferViews[size_t(index)].byteLength; }
+
     void visit(int nodeIndex, const glm::dmat4& parent, int depth) {
         if (nodeIndex < 0 || size_t(nodeIndex) >= model_.nodes.size()) fail("node " + std::to_string(nodeIndex) + " does not exist");
         // A node hierarchy is a forest; a cycle would recurse forever, so depth is bounded by the
@@ -91,6 +214,7 @@ private:
         if (size_t(depth) > model_.nodes.size()) fail("the node hierarchy has a cycle");
         const tinygltf::Node& node = model_.nodes[size_t(nodeIndex)];
         const glm::dmat4 world = parent * localTransform(node);
+        if (node.camera >= 0 && !scene_.fileCamera) addCamera(node.camera, world);
         if (node.mesh >= 0) {
             if (size_t(node.mesh) >= model_.meshes.size()) fail("node " + std::to_string(nodeIndex) + " refers to a missing mesh");
             for (const tinygltf::Primitive& primitive : model_.meshes[size_t(node.mesh)].primitives)
@@ -139,6 +263,45 @@ private:
         result.count = accessor.count;
         result.componentType = accessor.componentType;
         return result;
+    }
+
+    // A glTF camera looks down its node's -z with +y up (glTF 2.0, 3.10.1). Orthographic cameras
+    // and perspective ones without a field of view are skipped.
+    void addCamera(int cameraIndex, const glm::dmat4& world) {
+        if (size_t(cameraIndex) >= model_.cameras.size()) fail("a node refers to missing camera " + std::to_string(cameraIndex));
+        const tinygltf::Camera& camera = model_.cameras[size_t(cameraIndex)];
+        if (camera.type != "perspective") return;
+        const double yfov = camera.perspective.yfov;
+        if (!(yfov > 0.0 && yfov < 3.14159)) return;
+        const glm::dvec3 eye(world * glm::dvec4(0.0, 0.0, 0.0, 1.0));
+        const glm::dvec3 forward(world * glm::dvec4(0.0, 0.0, -1.0, 0.0));
+        const glm::dvec3 up(world * glm::dvec4(0.0, 1.0, 0.0, 0.0));
+        if (glm::length(forward) == 0.0 || glm::length(glm::cross(forward, up)) == 0.0) return;
+        Camera c;
+        c.eye = glm::vec3(eye);
+        c.at = glm::vec3(eye + glm::normalize(forward));
+        c.up = glm::vec3(glm::normalize(up));
+        c.fovYDegrees = float(glm::degrees(yfov));
+        if (!std::isfinite(c.eye.x + c.eye.y + c.eye.z + c.at.x + c.at.y + c.at.z + c.up.x + c.up.y + c.up.z)) return;
+        scene_.fileCamera = c;
+    }
+
+    // UV accessors are float, or unsigned byte/short normalized (glTF 2.0, 3.7.2.1).
+    glm::vec2 readUv(const AccessorView& v, size_t i) const {
+        const unsigned char* p = v.data + i * v.stride;
+        glm::vec2 uv(0.0f);
+        switch (v.componentType) {
+            case TINYGLTF_COMPONENT_TYPE_FLOAT: std::memcpy(&uv, p, sizeof uv); break;
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: uv = glm::vec2(p[0], p[1]) / 255.0f; break;
+            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+                uint16_t value[2];
+                std::memcpy(value, p, sizeof value);
+                uv = glm::vec2(value[0], value[1]) / 65535.0f;
+                break;
+            }
+            default: fail("TEXCOORD accessor is not float, or normalized unsigned byte or short");
+        }
+        return std::isfinite(uv.x) && std::isfinite(uv.y) ? uv : glm::vec2(0.0f);
     }
 
     glm::vec3 readVec3(const AccessorView& v, size_t i, const char* what) const {
@@ -205,6 +368,20 @@ private:
             if (size_t(primitive.material) >= materials_.size()) fail("a primitive refers to a missing material");
             material = uint32_t(primitive.material);
         }
+        // UVs of every vertex (zero where the material has no texture), kept at the end only when
+        // some material has one.
+        scene_.uvs.resize(base, glm::vec2(0.0f));
+        if (material != kDefaultMaterial) {
+            const MaterialTexturing& texturing = texturingOf(material);
+            const auto texcoord = primitive.attributes.find("TEXCOORD_" + std::to_string(texturing.texCoord));
+            if (texturing.texture != kNoTexture && texcoord != primitive.attributes.end()) {
+                const AccessorView uvs = view(texcoord->second, TINYGLTF_TYPE_VEC2, "TEXCOORD");
+                if (uvs.count != positions.count) fail("TEXCOORD and POSITION accessors differ in length");
+                for (size_t i = 0; i < uvs.count; ++i)
+                    scene_.uvs.push_back(glm::vec2(texturing.uvTransform * glm::vec3(readUv(uvs, i), 1.0f)));
+            }
+        }
+        scene_.uvs.resize(scene_.positions.size(), glm::vec2(0.0f));
         if (!materials_.empty()) usesMaterials_ = true;
         if (material == kDefaultMaterial) usesDefaultMaterial_ = true;
 
@@ -232,6 +409,8 @@ private:
     const tinygltf::Model& model_;
     const std::filesystem::path& path_;
     std::vector<Material> materials_;
+    std::vector<MaterialTexturing> texturing_;                          // per material
+    std::map<std::tuple<int, int, int>, uint32_t> textureOfImage_;    // (image, wrap u, wrap v)
     Scene scene_;
     bool allHaveNormals_ = true;
     bool usesMaterials_ = false;
@@ -243,7 +422,7 @@ private:
 Scene loadGltf(const std::filesystem::path& path, LoadProgress* progress) {
     const FileBytes file = readWholeFile(path, progress);
     tinygltf::TinyGLTF loader;
-    loader.SetImageLoader(skipImage, nullptr);
+    loader.SetImageLoader(keepEncodedImage, nullptr);
     tinygltf::Model model;
     std::string errors, warnings;
     const std::string baseDir = path.has_parent_path() ? path.parent_path().string() : std::string(".");
@@ -258,11 +437,22 @@ Scene loadGltf(const std::filesystem::path& path, LoadProgress* progress) {
         while (!errors.empty() && errors.back() == '\n') errors.pop_back();
         throwFileError(path, errors.empty() ? "tinygltf could not parse the file" : errors);
     }
-    if (!warnings.empty()) {
-        while (warnings.back() == '\n') warnings.pop_back();
-        std::fprintf(stderr, "raypack: warning: %s: %s\n", path.string().c_str(), warnings.c_str());
+    // tinygltf's warnings about external images it could not read are left out: the image is
+    // loaded (or reported missing) by loadTextureImage, and only when a material uses it.
+    std::istringstream lines(warnings);
+    for (std::string line; std::getline(lines, line);) {
+        if (line.empty() || line.find("for image[") != std::string::npos) continue;
+        bool aboutAnImage = false;
+        for (const tinygltf::Image& image : model.images)
+            if (!image.uri.empty() && line.rfind("File not found", 0) == 0 && line.find(image.uri) != std::string::npos)
+                aboutAnImage = true;
+        if (!aboutAnImage) std::fprintf(stderr, "raypack: warning: %s: %s\n", path.string().c_str(), line.c_str());
     }
     Scene scene = GltfConverter(model, path).convert();
+    scene.sourceBytes = file.size;
+    for (const tinygltf::Buffer& buffer : model.buffers)
+        if (!buffer.uri.empty() && buffer.uri.rfind("data:", 0) != 0) scene.sourceBytes += buffer.data.size();
+    for (const Texture& texture : scene.textures) scene.sourceBytes += texture.fileBytes;
     reportParsed(progress, path, file.size, file.size);
     return scene;
 }

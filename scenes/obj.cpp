@@ -4,9 +4,12 @@
 //
 // Polygons are fan-triangulated here as (v0, v(k-1), v(k)) instead of by tinyobjloader's
 // triangulate flag, because tinyobjloader 2.0 splits quads along their shorter diagonal, which
-// would change the triangle order issue 2 fixes. OBJ normals belong to face corners, so where the
-// file has them every (position, normal) pair becomes its own vertex.
+// would change the triangle order issue 2 fixes. OBJ normals and UVs belong to face corners, so
+// where the file has them every (position, normal, UV) triple becomes its own vertex. UVs are kept
+// only when a material used by a face has a map_Kd texture that loads (scenes/textures.h); OBJ's
+// v runs up the image, so v is flipped to the top-down convention of Scene::uvs.
 #include "scenes/formats.h"
+#include "scenes/textures.h"
 
 #include <tiny_obj_loader.h>
 
@@ -15,6 +18,8 @@
 #include <cstring>
 #include <istream>
 #include <limits>
+#include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <streambuf>
@@ -141,6 +146,7 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
 
     const size_t positionCount = attrib.vertices.size() / 3;
     const size_t normalCount = attrib.normals.size() / 3;
+    const size_t uvCount = attrib.texcoords.size() / 2;
     if (positionCount > std::numeric_limits<uint32_t>::max())
         throwFileError(path, "more vertices than 32-bit indices can address");
     for (size_t i = 0; i < attrib.vertices.size(); ++i)
@@ -172,9 +178,13 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
     scene.triangles.reserve(cornerCount - 2 * faceCount);
     // Materials: those of the MTL, in its order, plus a default one for faces without a material.
     bool anyMaterial = false;
+    std::vector<bool> materialUsed(objMaterials.size(), false);
     for (const tinyobj::shape_t& shape : shapes)
         for (int id : shape.mesh.material_ids)
-            if (id >= 0) anyMaterial = true;
+            if (id >= 0) {
+                anyMaterial = true;
+                if (size_t(id) < materialUsed.size()) materialUsed[size_t(id)] = true;
+            }
     uint32_t defaultMaterial = 0;
     if (anyMaterial) {
         for (const tinyobj::material_t& m : objMaterials)
@@ -184,21 +194,68 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
     }
     bool usedDefaultMaterial = false;
 
-    if (!everyCornerHasNormal) {
+    // map_Kd textures of the used materials, each file decoded once per wrap mode (-clamp on).
+    if (uvCount > 0) {
+        std::map<std::pair<std::string, bool>, uint32_t> textureOfFile;
+        for (size_t m = 0; m < objMaterials.size(); ++m) {
+            const tinyobj::material_t& objMaterial = objMaterials[m];
+            if (!materialUsed[m] || objMaterial.diffuse_texname.empty()) continue;
+            const bool clamp = objMaterial.diffuse_texopt.clamp;
+            const auto key = std::make_pair(objMaterial.diffuse_texname, clamp);
+            auto known = textureOfFile.find(key);
+            if (known == textureOfFile.end()) {
+                uint32_t index = kNoTexture;
+                if (std::optional<Texture> texture = tryLoadTextureImage(path, objMaterial.diffuse_texname)) {
+                    texture->wrapU = texture->wrapV = clamp ? TextureWrap::Clamp : TextureWrap::Repeat;
+                    index = uint32_t(scene.textures.size());
+                    scene.textures.push_back(std::move(*texture));
+                }
+                known = textureOfFile.emplace(key, index).first;
+            }
+            scene.materials[m].texture = known->second;
+        }
+    }
+    const bool keepUvs = !scene.textures.empty();
+    for (size_t i = 0; keepUvs && i < attrib.texcoords.size(); ++i)
+        if (!std::isfinite(attrib.texcoords[i]))
+            failAtLine(path, lineOfStatement(file, "vt", i / 2), "texture coordinate " + std::to_string(i / 2 + 1) + " is not finite");
+    const bool unweld = everyCornerHasNormal || keepUvs;
+
+    if (!unweld) {
         scene.positions.resize(positionCount);
         for (size_t v = 0; v < positionCount; ++v)
             scene.positions[v] = glm::vec3(attrib.vertices[3 * v], attrib.vertices[3 * v + 1], attrib.vertices[3 * v + 2]);
     }
-    // (position, normal) pair -> vertex, when un-welding by normals.
-    std::unordered_map<uint64_t, uint32_t> vertexOfPair;
+    // (position, normal, UV) -> vertex, when un-welding by normals or UVs (an absent one is -1).
+    struct Corner {
+        int32_t v, n, t;
+        bool operator==(const Corner&) const = default;
+    };
+    struct CornerHash {
+        size_t operator()(const Corner& c) const {
+            return size_t((uint64_t(uint32_t(c.v)) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(uint32_t(c.n)) << 32) ^
+                          (uint64_t(uint32_t(c.t)) * 0xC2B2AE3D27D4EB4Full));
+        }
+    };
+    std::unordered_map<Corner, uint32_t, CornerHash> vertexOfCorner;
     auto vertexOf = [&](const tinyobj::index_t& index) -> uint32_t {
-        if (!everyCornerHasNormal) return uint32_t(index.vertex_index);
-        const uint64_t key = (uint64_t(uint32_t(index.vertex_index)) << 32) | uint32_t(index.normal_index);
-        auto [it, inserted] = vertexOfPair.try_emplace(key, uint32_t(scene.positions.size()));
+        if (!unweld) return uint32_t(index.vertex_index);
+        const Corner key{index.vertex_index, everyCornerHasNormal ? index.normal_index : -1,
+                         keepUvs ? index.texcoord_index : -1};
+        auto [it, inserted] = vertexOfCorner.try_emplace(key, uint32_t(scene.positions.size()));
         if (inserted) {
-            const size_t v = size_t(index.vertex_index), n = size_t(index.normal_index);
+            const size_t v = size_t(index.vertex_index);
             scene.positions.emplace_back(attrib.vertices[3 * v], attrib.vertices[3 * v + 1], attrib.vertices[3 * v + 2]);
-            scene.normals.emplace_back(attrib.normals[3 * n], attrib.normals[3 * n + 1], attrib.normals[3 * n + 2]);
+            if (everyCornerHasNormal) {
+                const size_t n = size_t(index.normal_index);
+                scene.normals.emplace_back(attrib.normals[3 * n], attrib.normals[3 * n + 1], attrib.normals[3 * n + 2]);
+            }
+            if (keepUvs) {
+                // A corner without a UV samples the texture's corner (0, 0) of the top-down image.
+                const size_t t = size_t(key.t);
+                scene.uvs.push_back(key.t < 0 ? glm::vec2(0.0f, 0.0f)
+                                              : glm::vec2(attrib.texcoords[2 * t], 1.0f - attrib.texcoords[2 * t + 1]));
+            }
         }
         return it->second;
     };
@@ -220,6 +277,10 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
                     failAtLine(path, lineOfStatement(file, "f", faceIndex),
                                "face refers to normal " + std::to_string(int64_t(index.normal_index) + 1) +
                                    ", but the file has " + std::to_string(normalCount) + " normals");
+                if (keepUvs && index.texcoord_index >= 0 && size_t(index.texcoord_index) >= uvCount)
+                    failAtLine(path, lineOfStatement(file, "f", faceIndex),
+                               "face refers to texture coordinate " + std::to_string(int64_t(index.texcoord_index) + 1) +
+                                   ", but the file has " + std::to_string(uvCount));
                 polygon.push_back(vertexOf(index));
             }
             corner += n;
@@ -236,6 +297,8 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
         }
     }
     if (usedDefaultMaterial) scene.materials.push_back(Material{"default", glm::vec3(0.8f)});
+    scene.sourceBytes = file.size;  // the MTL, which tinyobjloader reads, is not counted
+    for (const Texture& texture : scene.textures) scene.sourceBytes += texture.fileBytes;
     reportParsed(progress, path, file.size, file.size);
     return scene;
 }

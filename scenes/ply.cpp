@@ -6,8 +6,8 @@
 // order; scalar types char/uchar/short/ushort/int/uint/float/double (and their int8..float64
 // aliases); vertex x, y, z (required) and nx, ny, nz (optional, all three or none); a face list
 // named vertex_indices or vertex_index with any integer count and index type, polygons fan-
-// triangulated as (v0, v(k-1), v(k)); optional red/green/blue on faces or vertices, which become
-// one material per distinct colour (a face with vertex colours takes its first corner's colour).
+// triangulated as (v0, v(k-1), v(k)); optional red/green/blue on faces, which become one material
+// per distinct colour, or on vertices (when the faces have none), kept per vertex and interpolated.
 // Every other element and property is skipped.
 #include "scenes/formats.h"
 
@@ -714,14 +714,19 @@ private:
         }
     }
 
-    // One material per distinct colour, in order of first use; face colours win over vertex colours.
+    // Face colours: one material per distinct colour, in order of first use. Vertex colours (when
+    // the faces have none) stay per vertex (Scene::vertexColors), interpolated across each face.
     void finishMaterials() {
         std::vector<uint32_t> colours;
         if (face_.hasColours()) {
             colours = std::move(faceColour_);
         } else if (vertex_.hasColours()) {
-            colours.resize(scene_.triangles.size());
-            for (size_t t = 0; t < scene_.triangles.size(); ++t) colours[t] = vertexColour_[scene_.triangles[t][0]];
+            scene_.vertexColors.resize(vertexColour_.size());
+            for (size_t v = 0; v < vertexColour_.size(); ++v) {
+                const uint32_t rgb = vertexColour_[v];  // packRgb's 0xRRGGBB
+                scene_.vertexColors[v] = ((rgb >> 16) & 0xFFu) | (rgb & 0xFF00u) | ((rgb & 0xFFu) << 16) | 0xFF000000u;
+            }
+            return;
         } else {
             return;
         }

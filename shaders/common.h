@@ -46,6 +46,7 @@ using glm::dot;
 using glm::floatBitsToUint;
 using glm::inversesqrt;
 using glm::length;
+using glm::log2;
 using glm::max;
 using glm::min;
 using glm::mix;
@@ -53,6 +54,7 @@ using glm::normalize;
 using glm::pow;
 using glm::reflect;
 using glm::sign;
+using glm::sqrt;
 using glm::uintBitsToFloat;
 RP_END_NAMESPACE
 

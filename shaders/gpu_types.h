@@ -5,6 +5,7 @@
 #define RAYPACK_SHADERS_GPU_TYPES_H
 #include "common.h"
 #include "camera.h"
+#include "texture.h"  // GpuTexture
 
 RP_BEGIN_NAMESPACE
 
@@ -43,11 +44,35 @@ struct GpuTriangleNormals {
 };
 RP_CHECK_SIZE(GpuTriangleNormals, 48);
 
+// 32 bytes, leaf order, present only when the scene has UVs (a material has a texture): the UVs
+// at v0, v1, v2 as uv01 = (u0, v0, u1, v1), uv2 = (u2, v2, 0, 0).
+struct GpuTriangleUvs {
+    vec4 uv01;
+    vec4 uv2;
+};
+RP_CHECK_SIZE(GpuTriangleUvs, 32);
+
+// 16 bytes, leaf order, present only when the scene has vertex colours: RGBA8 (texture.h's
+// packing) at v0, v1, v2 in x, y, z; w: 0.
+struct GpuTriangleColors {
+    uvec4 rgba;
+};
+RP_CHECK_SIZE(GpuTriangleColors, 16);
+
+// 16 bytes per material: diffuse.xyz the colour, diffuse.w (uint bits) the index of its texture in
+// the texture table (GpuTexture), or kNoTextureIndex.
+struct GpuMaterial {
+    vec4 diffuse;
+};
+RP_CHECK_SIZE(GpuMaterial, 16);
+
 // Bits of GpuFrameParams::frame.z.
 const uint kFrameWriteHits = 1u;     // write HitRecords
 const uint kFrameBgra = 2u;          // output bytes in B, G, R, A order
 const uint kFrameHasNormals = 4u;    // the normals buffer holds real data
 const uint kFrameHasMaterials = 8u;  // the materials buffer holds real data
+const uint kFrameHasUvs = 16u;       // the UV, texture table and texel buffers hold real data
+const uint kFrameHasColors = 32u;    // the vertex colour buffer holds real data
 
 // 128 bytes: the push constants of every pass (the guaranteed minimum of maxPushConstantsSize).
 struct GpuFrameParams {

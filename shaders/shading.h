@@ -1,10 +1,12 @@
-// Shading shared by the GPU kernels, the CPU reference and the viewer: the normal at a hit, Phong,
-// RGBA8 packing and the heat-map ramp of the N_TR / N_IT views (see common.h for the GLSL/C++
-// rules). One text for all, so images compare pixel for pixel up to the GPU's arithmetic.
+// Shading shared by the GPU kernels, the CPU reference and the viewer: the normal at a hit, Phong
+// and the heat-map ramp of the N_TR / N_IT views; RGBA8 packing and texture sampling are in
+// texture.h (see common.h for the GLSL/C++ rules). One text for all, so images compare pixel for
+// pixel up to the GPU's arithmetic.
 #ifndef RAYPACK_SHADERS_SHADING_H
 #define RAYPACK_SHADERS_SHADING_H
 #include "common.h"
 #include "intersect.h"  // RP_PRECISE
+#include "texture.h"    // RGBA8 packing, texture sampling
 
 RP_BEGIN_NAMESPACE
 
@@ -50,25 +52,6 @@ RP_FUNC vec3 shadePhong(vec4 phong, vec3 diffuseColor, vec3 normal, vec3 toViewe
         if (cosView > 0.0f) color = color + vec3(phong.z * pow(cosView, phong.w));
     }
     return clamp(color, vec3(0.0f), vec3(1.0f));
-}
-
-// RGBA8 with R in the low byte (the byte order of VK_FORMAT_R8G8B8A8_UNORM in memory). Each channel
-// is clamp(c, 0, 1) * 255 rounded half up; `precise` keeps the GPU from fusing the multiply-add so
-// the rounding matches the CPU's.
-RP_FUNC uint packChannel(float c) {
-    RP_PRECISE const float scaled = clamp(c, 0.0f, 1.0f) * 255.0f + 0.5f;
-    return uint(floor(scaled));
-}
-
-RP_FUNC uint packRgba8(vec4 c) {
-    return packChannel(c.x) | (packChannel(c.y) << 8u) | (packChannel(c.z) << 16u) |
-           (packChannel(c.w) << 24u);
-}
-
-RP_FUNC vec4 unpackRgba8(uint packed) {
-    return vec4(float(packed & 255u), float((packed >> 8u) & 255u), float((packed >> 16u) & 255u),
-                float(packed >> 24u)) /
-           255.0f;
 }
 
 // Heat-map views: the per-pixel work (primary + shadow ray) divided by a fixed full-scale value, so

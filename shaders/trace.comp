@@ -43,12 +43,24 @@ layout(push_constant) uniform Params { GpuFrameParams params; };
 layout(std430, set = 0, binding = 0) readonly buffer Nodes { GpuNode nodes[]; };
 layout(std430, set = 0, binding = 1) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Normals { GpuTriangleNormals normals[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Materials { vec4 materials[]; };
+layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = 4) buffer PrimaryHits { GpuPrimaryHit primaryHits[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer Output { uint outputRgba[]; };
 layout(std430, set = 0, binding = 6) writeonly buffer Hits { HitRecord hitRecords[]; };
 layout(std430, set = 0, binding = 7) buffer Counters { RayCounters counters[]; };
 layout(std430, set = 0, binding = 8) buffer Status { uint status; };
+// Present only when the scene has UVs and textures (kFrameHasUvs), vertex colours (kFrameHasColors).
+layout(std430, set = 0, binding = 9) readonly buffer Uvs { GpuTriangleUvs uvs[]; };
+layout(std430, set = 0, binding = 10) readonly buffer Colors { GpuTriangleColors colors[]; };
+layout(std430, set = 0, binding = 11) readonly buffer Textures { GpuTexture textures[]; };
+layout(std430, set = 0, binding = 12) readonly buffer Texels { uint texels[]; };
+
+// One bilinear lookup in mip level `level` (shaders/texture.h; the CPU's sampleLevel).
+vec4 sampleLevel(GpuTexture tex, uint level, vec2 uv) {
+    const BilinearTaps taps = bilinearTaps(textureLevel(tex, level), uv);
+    return bilinearBlend(texels[taps.texel.x], texels[taps.texel.y], texels[taps.texel.z],
+                         texels[taps.texel.w], taps.weight);
+}
 
 // (node index, count) of the nodes the packet still has to visit; written by one invocation only.
 shared uvec2 sStack[kPacketStackEntries];
@@ -424,9 +436,33 @@ void main() {
             const GpuTriangleNormals n = normals[leafTri];
             normal = interpolatedNormal(n.n0.xyz, n.n1.xyz, n.n2.xyz, bary, geometric, dir);
         }
-        vec3 diffuse = vec3(0.8f, 0.8f, 0.8f);  // Material's default
-        if ((params.frame.z & kFrameHasMaterials) != 0u)
-            diffuse = materials[floatBitsToUint(tri.v1.w)].xyz;
+        // Material x texture x vertex colour, as the CPU's diffuseAt (renderer/cpu_tracer.cpp).
+        const bool hasColors = (params.frame.z & kFrameHasColors) != 0u;
+        vec3 materialColor = hasColors ? vec3(1.0f) : vec3(0.8f, 0.8f, 0.8f);  // Material's default
+        uint texture = kNoTextureIndex;
+        if ((params.frame.z & kFrameHasMaterials) != 0u) {
+            const GpuMaterial m = materials[floatBitsToUint(tri.v1.w)];
+            materialColor = m.diffuse.xyz;
+            texture = floatBitsToUint(m.diffuse.w);
+        }
+        vec4 texel = vec4(1.0f);
+        if (texture != kNoTextureIndex && (params.frame.z & kFrameHasUvs) != 0u) {
+            const GpuTriangleUvs u = uvs[leafTri];
+            const GpuTexture tex = textures[texture];
+            const vec2 uv = interpolateUv(u.uv01.xy, u.uv01.zw, u.uv2.xy, bary);
+            const float lod = textureLod(tex, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, u.uv01.xy,
+                                         u.uv01.zw, u.uv2.xy, dir, t, pixelSpread(params.camera));
+            const uint level = uint(lod);
+            texel = sampleLevel(tex, level, uv);
+            if (level + 1u < textureLevels(tex))
+                texel = lerpPrecise(texel, sampleLevel(tex, level + 1u, uv), lod - float(level));
+        }
+        vec3 vertexColor = vec3(1.0f);
+        if (hasColors) {
+            const uvec4 c = colors[leafTri].rgba;
+            vertexColor = interpolateColor(c.x, c.y, c.z, bary);
+        }
+        const vec3 diffuse = surfaceColor(materialColor, texel, vertexColor);
         const vec3 p = hitPosition(eye, dir, t);
         const vec3 toLight = params.light.xyz - p;
         // A point at the light itself is not lit (and has no direction to it), as on the CPU.

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 namespace raypack::test {
 namespace {
@@ -223,6 +224,73 @@ TEST(Cli, StatsPrintsTable1AsJson) {
     const CliResult text = runCli("stats gen:terrain:2k");
     EXPECT_EQ(text.exitCode, 0);
     EXPECT_NE(text.output.find("D_AVG"), std::string::npos) << text.output;
+}
+
+// Issue 10: --out x.jpg wrote PNG bytes into a .jpg.
+TEST(Cli, RenderWritesJpegForJpgAndRefusesUnknownExtensionsBeforeRendering) {
+    for (const char* name : {"render.jpg", "render.JPEG"}) {
+        const fs::path jpg = scratch() / name;
+        const CliResult r = runCli("render gen:terrain:1k --width 32 --height 24 --out " + quoted(jpg));
+        ASSERT_EQ(r.exitCode, 0) << r.output;
+        std::ifstream file(jpg, std::ios::binary);
+        unsigned char magic[3] = {};
+        file.read(reinterpret_cast<char*>(magic), 3);
+        EXPECT_EQ(magic[0], 0xFF) << name;  // JPEG start-of-image marker FF D8 FF
+        EXPECT_EQ(magic[1], 0xD8) << name;
+        EXPECT_EQ(magic[2], 0xFF) << name;
+    }
+    const fs::path bmp = scratch() / "render.bmp";
+    const CliResult r = runCli("render gen:terrain:1k --width 32 --height 24 --out " + quoted(bmp));
+    expectCleanError(r, "unknown image format \".bmp\"");
+    EXPECT_EQ(r.output.find("Table 1"), std::string::npos) << "rendered before refusing:\n" << r.output;
+    EXPECT_FALSE(fs::exists(bmp));
+}
+
+// Issue 10: --out into a missing folder failed only after the whole render.
+TEST(Cli, RenderIntoAMissingFolderFailsBeforeLoading) {
+    for (const char* flag : {"--out", "--hits", "--json"}) {
+        const std::string target = (scratch() / "missing-dir" / "x.png").string();
+        const CliResult r = runCli("render gen:terrain:1k --width 32 --height 24 " + std::string(flag) + " " +
+                                   quoted(fs::path(target)));
+        expectCleanError(r, std::string(flag) + " " + target + ": the folder");
+        EXPECT_NE(r.output.find("does not exist"), std::string::npos) << r.output;
+        EXPECT_EQ(r.output.find("scene "), std::string::npos) << flag << " loaded the scene first:\n" << r.output;
+    }
+}
+
+// Issue 10: stats of a .gltf reported MB/s of the JSON alone, without its .bin and images.
+TEST(Cli, StatsOfAGltfCountsItsBuffersAndImages) {
+    const fs::path folder = fs::path(RAYPACK_SHARED_SCENES) / "gltf" / "Duck" / "glTF";
+    const CliResult r = runCli("stats " + quoted(folder / "Duck.gltf") + " --json");
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    const nlohmann::json row = nlohmann::json::parse(r.output);
+    const uint64_t expected =
+        fs::file_size(folder / "Duck.gltf") + fs::file_size(folder / "Duck0.bin") + fs::file_size(folder / "DuckCM.png");
+    EXPECT_EQ(row.at("input_bytes").get<uint64_t>(), expected);
+    EXPECT_EQ(row.at("textures").get<uint64_t>(), 1u);
+    EXPECT_GT(row.at("texture_bytes").get<uint64_t>(), 0u);
+    const CliResult text = runCli("stats " + quoted(folder / "Duck.gltf"));
+    EXPECT_NE(text.output.find("textures   1,"), std::string::npos) << text.output;
+}
+
+// Issue 10: scripts/bench-report rewrote the repository's docs/benchmarks.md and docs/img by default.
+TEST(Cli, BenchReportWritesNextToTheResultsByDefault) {
+    const fs::path folder = scratch() / "my-results";
+    fs::create_directories(folder);
+    const fs::path results = folder / "mine.json";
+    // A minimal result as `bench` writes it: one CPU cell.
+    std::ofstream(results) << R"({"machine": {"cpu_model": "test CPU", "cpu_threads": 2}, "command": "raypack-cli bench",
+      "date": "2026-12-01T00:00:00Z", "settings": {"width_px": 8, "height_px": 8}, "skipped": [], "records": []})";
+    const fs::path repositoryMarkdown = fs::path(RAYPACK_SOURCE_DIR) / "docs" / "benchmarks.md";
+    const auto before = fs::last_write_time(repositoryMarkdown);
+    const std::string command = "/usr/bin/python3 '" + std::string(RAYPACK_SOURCE_DIR) + "/scripts/bench-report' " +
+                                quoted(results) + " > /dev/null 2>&1";
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+    EXPECT_TRUE(fs::exists(folder / "benchmarks.md"));
+    std::stringstream text;
+    text << std::ifstream(folder / "benchmarks.md").rdbuf();
+    EXPECT_NE(text.str().find("bench-report:begin mine"), std::string::npos) << text.str();
+    EXPECT_EQ(fs::last_write_time(repositoryMarkdown), before);
 }
 
 TEST(Cli, GenerateWritesAPlyThatLoadsBackTheSameScene) {

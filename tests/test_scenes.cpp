@@ -299,17 +299,18 @@ TEST(PlyLoader, SavePlyRoundTrip) {
     expectSameScene(bare, loadScene(dir / "bare.ply"));
 }
 
-TEST(PlyLoader, VertexColoursBecomeMaterials) {
+TEST(PlyLoader, VertexColoursStayPerVertex) {
     TempDir dir;
     writeFile(dir / "vc.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
                               "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
                               "element face 2\nproperty list uchar uint vertex_index\nend_header\n"
                               "0 0 0 0 255 0\n1 0 0 9 9 9\n1 1 0 9 9 9\n0 1 0 1 2 3\n3 0 1 2\n3 3 2 1\n");
     const Scene scene = loadScene(dir / "vc.ply");
-    ASSERT_EQ(scene.materials.size(), 2u);
-    EXPECT_EQ(scene.materials[0].diffuse, glm::vec3(0, 1, 0));  // first corner of face 0 is vertex 0
-    EXPECT_EQ(scene.materials[1].diffuse, glm::vec3(colourFromByte(1), colourFromByte(2), colourFromByte(3)));
+    EXPECT_FALSE(scene.hasMaterials());
+    // RGBA8, R in the low byte, opaque.
+    EXPECT_TRUE(scene.vertexColors == (std::vector<uint32_t>{0xFF00FF00u, 0xFF090909u, 0xFF090909u, 0xFF030201u}));
     EXPECT_FALSE(scene.hasNormals());
+    EXPECT_FALSE(scene.hasUvs());
 }
 
 TEST(PlyLoader, DegenerateTrianglesAreKept) {

@@ -9,6 +9,7 @@
 #include "renderer/pick.h"
 #include "renderer/progressive.h"
 #include "renderer/settings_json.h"
+#include "renderer/start_view.h"
 #include "renderer/vk/context.h"
 #include "scenes/load.h"
 #include "ui/bookmarks.h"
@@ -458,8 +459,10 @@ void takeWorkerResults(Session& s) {
     s.info.triangles = s.scene->triangleCount();
     s.info.loadSeconds = build->loadSeconds;
     const Aabb bounds = s.scene->bounds();
-    // The start camera is the CLI's default framing, so the viewer and raypack-cli render agree.
-    const Camera camera = (s.firstScene && s.options.cameraGiven) ? s.options.settings.camera : frameScene(bounds);
+    // The start camera is the CLI's start view (the file's camera, the framing, or inside a room),
+    // so the viewer and raypack-cli render agree.
+    const Camera camera =
+        (s.firstScene && s.options.cameraGiven) ? s.options.settings.camera : startCamera(*s.scene, *s.bvh);
     s.firstScene = false;
     s.panel.settings.camera = camera;
     s.fly.reset(camera, bounds);

@@ -10,6 +10,7 @@
 #include "renderer/image.h"
 #include "renderer/progressive.h"
 #include "renderer/settings_json.h"
+#include "renderer/start_view.h"
 
 #include <cstdio>
 #include <memory>
@@ -47,7 +48,7 @@ struct RenderOptions {
 bool given(const CLI::Option* option) { return option->count() > 0; }
 
 // The setup a render uses: --from first (when given), then every flag given on the command line
-// on top of it, then the default framing when neither gave a camera.
+// on top of it, then the start view (startCamera) when neither gave a camera.
 // `cpuKernelFromFile`: the --from file is a CPU render's (device_kind "cpu"), so its kernel and
 // packet are what that render traced.
 RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cameraGiven,
@@ -101,7 +102,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
 void printCamera(const Camera& c, bool framed) {
     std::printf("camera     --eye %g,%g,%g --at %g,%g,%g --up %g,%g,%g --fov %g%s\n", c.eye.x,
                 c.eye.y, c.eye.z, c.at.x, c.at.y, c.at.z, c.up.x, c.up.y, c.up.z, c.fovYDegrees,
-                framed ? " (default framing)" : "");
+                framed ? " (start view)" : "");
 }
 
 }  // namespace
@@ -122,10 +123,14 @@ CommandRunner addRenderCommand(CLI::App& app) {
         "Warm-up runs are not timed: one counts N_TR / N_IT, then untimed frames in the timed configuration (one on the CPU; "
         "on a GPU 0.3 s of frames back to back, so that its clocks are up); the --repeat N timed runs give the "
         "median (and min/max).\n"
-        "Without --eye/--at (and no --from camera) the camera frames the scene: it looks at the "
-        "centre of the scene's bounding box from direction (0.5, 0.4, 1.0) (front, right, above), "
-        "up +y, vertical fov 60 degrees, at the distance where the bounding sphere fills the "
-        "field of view with a 10% margin; --up / --fov then still override their part.");
+        "Without --eye/--at (and no --from camera) the camera is the scene's start view: the "
+        "file's own camera (glTF); else it frames the scene, looking at the centre of the scene's "
+        "bounding box from direction (0.5, 0.4, 1.0) (front, right, above), up +y, vertical fov 60 "
+        "degrees, at the distance where the bounding sphere fills the field of view with a 10% "
+        "margin; when a 32x24 probe of that view hits mostly the bounding box's faces or back faces "
+        "(the outside of a closed room), it starts inside instead: a third of the way along the "
+        "box's longest horizontal axis, looking along it, fov 70 degrees. --up / --fov then still "
+        "override their part.");
     o.scene = command->add_option("SCENE", f.scene, sceneArgumentHelp());
     o.width = command->add_option("--width", f.width, "Image width in pixels")
                   ->check(CLI::Range(1u, 16384u))
@@ -171,7 +176,9 @@ CommandRunner addRenderCommand(CLI::App& app) {
                               "of N_IT)")
                  ->check(CLI::IsMember({"shaded", "nodes", "tests"}))
                  ->capture_default_str();
-    command->add_option("--out", f.out, "Write the image to this PNG file");
+    command->add_option("--out", f.out,
+                        "Write the image to this file: PNG for .png, JPEG (quality 95) for .jpg or "
+                        ".jpeg; any other extension is refused before rendering");
     command->add_option("--hits", f.hits,
                         "Write every pixel's primary ray and result to this hits file "
                         "(RPKHITS1, docs/hits-format.md)");
@@ -221,11 +228,19 @@ CommandRunner addRenderCommand(CLI::App& app) {
         }
         if (settings.kernel == KernelKind::Single && given(options->packet))
             throw Error("--packet applies to --kernel packet only");
+        // Output paths are checked before the scene is loaded: a typo fails at once, not after
+        // the render.
+        if (!f.out.empty()) {
+            imageFormatFor(f.out);
+            checkOutputPath("--out", f.out);
+        }
+        if (!f.hits.empty()) checkOutputPath("--hits", f.hits);
+        if (!f.json.empty()) checkOutputPath("--json", f.json);
 
         const LoadedScene loaded = loadSceneTimed(setup.scene);
         const Bvh bvh = buildBvh(loaded.scene, setup.bvh);
         if (!cameraGiven) {
-            const Camera framed = frameScene(loaded.scene.bounds());
+            const Camera framed = startCamera(loaded.scene, bvh);
             settings.camera.eye = framed.eye;
             settings.camera.at = framed.at;
             if (!given(options->up)) settings.camera.up = framed.up;
@@ -290,7 +305,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         printTable2(stdout, measured.stats);
 
         if (!f.out.empty()) {
-            writePng(f.out, measured.frame.width, measured.frame.height, measured.frame.rgba);
+            writeImage(f.out, measured.frame.width, measured.frame.height, measured.frame.rgba);
             std::printf("image      %s\n", f.out.c_str());
         }
         if (!f.hits.empty()) {

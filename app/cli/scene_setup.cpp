@@ -16,10 +16,15 @@ LoadedScene loadSceneTimed(const std::string& spec) {
     loaded.info.spec = spec;
     loaded.info.triangles = loaded.scene.triangleCount();
     loaded.info.degenerateTriangles = loaded.scene.degenerateCount();
+    loaded.info.textureCount = loaded.scene.textures.size();
+    loaded.info.textureBytes = loaded.scene.textureBytes();
+    // The bytes of every file the loader read (a glTF's buffers and images too), else the file's
+    // size, else (a generator) the scene's memory.
     std::error_code error;
     const bool isFile = std::filesystem::is_regular_file(spec, error);
     loaded.info.inputBytes = isFile ? std::filesystem::file_size(spec, error) : 0;
     if (!isFile || error) loaded.info.inputBytes = loaded.scene.bytes();
+    if (loaded.scene.sourceBytes > 0) loaded.info.inputBytes = loaded.scene.sourceBytes;
     return loaded;
 }
 

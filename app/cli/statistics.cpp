@@ -36,6 +36,8 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh,
         {"sah_cost", bvh.sahCost},
         {"bvh_bytes", uint64_t(bvh.bytes)},
         {"bvh_bytes_per_triangle", triangles > 0 ? double(bvh.bytes) / triangles : 0.0},
+        {"textures", scene.textureCount},
+        {"texture_bytes", scene.textureBytes},
     };
 }
 
@@ -55,6 +57,8 @@ void printTable1(std::FILE* out, const SceneInfo& scene, const BvhStats& bvh,
     std::fprintf(out, "           nodes %u, SAH cost %.3f, %.2f MB (%.1f bytes/triangle)\n",
                  bvh.nodeCount, bvh.sahCost, double(bvh.bytes) / 1e6,
                  scene.triangles ? double(bvh.bytes) / double(scene.triangles) : 0.0);
+    std::fprintf(out, "textures   %llu, %.2f MB of RGBA8 texels\n", (unsigned long long)scene.textureCount,
+                 double(scene.textureBytes) / 1e6);
 }
 
 FrameStats summarizeRuns(const CounterSummary& counters, const std::vector<FrameTimings>& timedRuns,

@@ -39,9 +39,13 @@ struct SceneInfo {
     uint64_t triangles = 0;
     uint64_t degenerateTriangles = 0;
     double loadSeconds = 0.0;
-    // Bytes read: the file's size for a file, the scene's in-memory size for a generator spec (so
-    // that MB/s is defined for both).
+    // Bytes read: every file the loader read (a glTF's buffers and texture images and an OBJ's
+    // textures included), the scene's in-memory size for a generator spec (so that MB/s is
+    // defined for both).
     uint64_t inputBytes = 0;
+    // Decoded textures (Scene::textureBytes), which the GPU holds beside the BVH.
+    uint64_t textureCount = 0;
+    uint64_t textureBytes = 0;
     double loadMegabytesPerSecond() const {
         return loadSeconds > 0.0 ? double(inputBytes) / 1e6 / loadSeconds : 0.0;
     }
