@@ -471,13 +471,17 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
         uint32_t firstMask = 0;
         uint32_t lastMask = 0;
         const NodeSlabs slabs = nodeSlabs(node, org);
-        if (!interval.enabled || intervalMayHit(interval, slabs)) {
+        // The first group of the range is tested first (it hits most nodes of a coherent
+        // packet); only when it misses does the interval test try to cull the node for the
+        // whole packet before the other groups are tested.
+        firstMask = boxMask(groups[first], slabs, node);
+        if (firstMask || !interval.enabled || intervalMayHit(interval, slabs)) {
             // The first and the last group that hit (Overbeck 2008's active range): the groups
             // outside [first, last] miss this node and all below it (a child's box lies inside
             // its parent's, rounding is monotone, and a ray's tmax only shrinks).
-            for (; first <= last; ++first) {
+            for (; !firstMask && first < last;) {
+                ++first;
                 firstMask = boxMask(groups[first], slabs, node);
-                if (firstMask) break;
             }
             if (firstMask) {
                 for (; last > first; --last) {

@@ -6,13 +6,16 @@
 #include "renderer/error.h"
 #include "shaders/intersect.h"
 
+#if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
+#endif
 
 #include <algorithm>
 #include <limits>
 #include <cstdint>
 #include <vector>
 
+#if defined(__x86_64__) || defined(__i386__)
 #pragma GCC push_options
 #pragma GCC target("sse4.1")
 #define RAYPACK_PACKET_AVX2 0
@@ -31,3 +34,19 @@ void traceShadowPacketSse41(const PacketFrame& frame, uint32_t x0, uint32_t y0) 
 }  // namespace raypack::packet_detail
 
 #pragma GCC pop_options
+
+#else  // not x86: cpu_packet_tracer.cpp never selects this width (cpuHas), the scalar one runs
+
+namespace raypack::packet_detail {
+
+void tracePrimaryPacketSse41(const PacketFrame&, uint32_t, uint32_t) {
+    RAYPACK_CHECK_MSG(false, "no Sse41 kernel on this architecture");
+}
+
+void traceShadowPacketSse41(const PacketFrame&, uint32_t, uint32_t) {
+    RAYPACK_CHECK_MSG(false, "no Sse41 kernel on this architecture");
+}
+
+}  // namespace raypack::packet_detail
+
+#endif

@@ -26,9 +26,14 @@ double secondsSince(Clock::time_point start) {
 bool cpuHas(CpuSimd simd) {
     switch (simd) {
         case CpuSimd::Scalar: return true;
+#if defined(__x86_64__) || defined(__i386__)
         case CpuSimd::Sse41: return __builtin_cpu_supports("sse4.1");
         // libgcc's check includes the OS saving the AVX state (XGETBV).
         case CpuSimd::Avx2: return __builtin_cpu_supports("avx2");
+#else
+        case CpuSimd::Sse41:
+        case CpuSimd::Avx2: return false;
+#endif
     }
     return false;
 }

@@ -98,9 +98,14 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         if (kind == "primary")
             EXPECT_EQ(r.at("n_q_rays").get<uint64_t>(),
                       r.at("width_px").get<uint64_t>() * r.at("height_px").get<uint64_t>());
-        if (tracer == "cpu-reference" || tracer == "cpu-packet")
+        if (tracer == "cpu-reference" || tracer == "cpu-packet") {
             EXPECT_EQ(r.at("t_cu_s").get<double>(), 0.0);
-        else EXPECT_GT(r.at("t_cu_s").get<double>(), 0.0) << r.dump();
+        } else {
+            EXPECT_GT(r.at("t_cu_s").get<double>(), 0.0) << r.dump();
+        }
+        if (tracer == "cpu-packet") {
+            EXPECT_EQ(r.at("hits_identical_to_reference_share").get<double>(), 1.0) << r.dump();
+        }
         cells.emplace(r.at("scene"), tracer, r.at("packet").is_string() ? r.at("packet") : "", kind);
     }
     // Every cell of the matrix is there, primary and shadow: CPU reference, each packet shape,

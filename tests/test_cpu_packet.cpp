@@ -39,10 +39,12 @@ Bvh build(const Scene& scene, uint32_t leafSize = 2) {
     return buildBvh(bounds, options);
 }
 
+// Every width this CPU has: scalar always, SSE4.1 and AVX2 where CPUID has them.
 std::vector<CpuSimd> widths() {
     std::vector<CpuSimd> list{CpuSimd::Scalar};
-    if (__builtin_cpu_supports("sse4.1")) list.push_back(CpuSimd::Sse41);
-    if (__builtin_cpu_supports("avx2")) list.push_back(CpuSimd::Avx2);
+    const CpuSimd widest = cpuSimdSupported();
+    if (widest != CpuSimd::Scalar) list.push_back(CpuSimd::Sse41);
+    if (widest == CpuSimd::Avx2) list.push_back(CpuSimd::Avx2);
     return list;
 }
 

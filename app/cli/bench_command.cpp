@@ -16,6 +16,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <ctime>
 #include <memory>
@@ -261,6 +262,20 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 const MeasuredFrames measured =
                     measureFrames(source, packetSettings, repeats, false);
                 addRaypackRecords(records, scene, cell, measured, "");
+                // The packets' hits against the reference's (same rays): triangle, t to the
+                // bit and shadow state of every pixel.
+                if (!referenceHits.empty() && referenceHits.size() == measured.frame.hits.size()) {
+                    uint64_t same = 0;
+                    for (size_t i = 0; i < referenceHits.size(); ++i) {
+                        const HitRecord& a = referenceHits[i];
+                        const HitRecord& b = measured.frame.hits[i];
+                        same += a.prim == b.prim && std::memcmp(&a.t, &b.t, sizeof a.t) == 0 &&
+                                a.shadow == b.shadow;
+                    }
+                    for (size_t k = records.size() - 2; k < records.size(); ++k)
+                        records[k]["hits_identical_to_reference_share"] =
+                            double(same) / double(referenceHits.size());
+                }
             } else if (cell.kind == Cell::Cpu) {
                 const CpuSceneView view = makeCpuSceneView(loaded.scene, bvh);
                 FrameSource source;

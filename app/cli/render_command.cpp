@@ -154,7 +154,10 @@ CommandRunner addRenderCommand(CLI::App& app) {
     o.leafSize = command->get_option("--leaf-size");
     o.builder = command->get_option("--builder");
     o.bins = command->get_option("--bins");
-    command->add_option("--device", f.device, "Tracer: cpu (the reference, or the CPU packet tracer with --kernel packet) or gpu (Vulkan)")
+    command
+        ->add_option("--device", f.device,
+                     "Tracer: cpu (the reference, or the CPU packet tracer with --kernel packet) "
+                     "or gpu (Vulkan)")
         ->check(CLI::IsMember({"cpu", "gpu"}))
         ->capture_default_str();
     command->add_option("--gpu", f.gpu,
