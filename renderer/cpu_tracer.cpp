@@ -77,7 +77,7 @@ glm::vec3 diffuseAt(const Scene& scene, uint32_t prim, glm::vec2 bary, glm::vec3
         texture = material.texture;
     }
     glm::vec4 texel(1.0f);
-    if (texture != kNoTexture) {
+    if (texture != kNoTexture && scene.hasUvs()) {  // as the kernel's kFrameHasUvs
         const Texture& t = scene.textures[texture];
         const gpu::GpuTexture descriptor = gpuTexture(t, 0);
         const glm::vec2 uv0 = scene.uvs[tri.x], uv1 = scene.uvs[tri.y], uv2 = scene.uvs[tri.z];

@@ -272,6 +272,12 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     const VkBufferUsageFlags usage =
         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     auto make = [&](vk::Buffer& buffer, const void* data, size_t bytes, const char* what) {
+        // A storage buffer binds at most maxStorageBufferRange bytes (the texels of large
+        // textures are the likeliest to exceed it).
+        if (s.ctx.info.maxStorageBufferBytes > 0 && bytes > s.ctx.info.maxStorageBufferBytes)
+            throw Error("GPU: the " + std::string(what) + " need " + std::to_string(bytes) + " bytes, more than " +
+                        s.ctx.info.name + " binds in one storage buffer (" +
+                        std::to_string(s.ctx.info.maxStorageBufferBytes) + ")");
         buffer = vk::createBuffer(s.ctx, bytes, usage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
         vk::uploadToBuffer(s.ctx, s.pool, buffer, data, bytes);
     };

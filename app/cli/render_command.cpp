@@ -234,8 +234,12 @@ CommandRunner addRenderCommand(CLI::App& app) {
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
         // the render.
         if (!f.out.empty()) {
-            imageFormatFor(f.out);
             checkOutputPath("--out", f.out);
+            try {
+                imageFormatFor(f.out);
+            } catch (const Error& e) {
+                throw Error(std::string("--out ") + e.what());
+            }
         }
         if (!f.hits.empty()) checkOutputPath("--hits", f.hits);
         if (!f.json.empty()) checkOutputPath("--json", f.json);

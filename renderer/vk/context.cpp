@@ -153,6 +153,7 @@ DeviceInfo queryDevice(VkPhysicalDevice physical, uint32_t index) {
     info.apiVersion = props.properties.apiVersion;
     info.subgroupSize = subgroup.subgroupSize;
     info.maxSharedMemoryBytes = limits.maxComputeSharedMemorySize;
+    info.maxStorageBufferBytes = limits.maxStorageBufferRange;
     info.maxWorkgroupInvocations = limits.maxComputeWorkGroupInvocations;
     for (int i = 0; i < 3; ++i) {
         info.maxWorkgroupSize[i] = limits.maxComputeWorkGroupSize[i];

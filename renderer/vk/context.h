@@ -46,6 +46,7 @@ struct DeviceInfo {
     uint32_t apiVersion = 0;
     uint32_t subgroupSize = 0;
     uint32_t maxSharedMemoryBytes = 0;            // maxComputeSharedMemorySize
+    uint32_t maxStorageBufferBytes = 0;           // maxStorageBufferRange
     uint32_t maxWorkgroupInvocations = 0;         // maxComputeWorkGroupInvocations
     uint32_t maxWorkgroupSize[3] = {0, 0, 0};     // maxComputeWorkGroupSize
     uint32_t maxWorkgroupCount[3] = {0, 0, 0};    // maxComputeWorkGroupCount
