@@ -47,8 +47,10 @@ void SampleAccumulator::add(const std::vector<uint32_t>& rgba) {
     if (rgba.size() != size_t(width_) * height_)
         throw Error("sample image of " + std::to_string(rgba.size()) + " texels added to an accumulation of " +
                     std::to_string(width_) + "x" + std::to_string(height_));
-    for (size_t i = 0; i < rgba.size(); ++i)
-        for (int c = 0; c < 4; ++c) sums_[4 * i + c] += channel(rgba[i], c);
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rgba.size(), 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i)
+            for (int c = 0; c < 4; ++c) sums_[4 * i + c] += channel(rgba[i], c);
+    });
     ++samples_;
 }
 
@@ -57,11 +59,13 @@ std::vector<uint32_t> SampleAccumulator::resolve() const {
     if (samples_ == 0) return out;
     out.resize(size_t(width_) * height_);
     const uint32_t n = samples_;
-    for (size_t i = 0; i < out.size(); ++i) {
-        uint32_t texel = 0;
-        for (int c = 0; c < 4; ++c) texel |= ((2 * sums_[4 * i + c] + n) / (2 * n)) << (8 * c);
-        out[i] = texel;
-    }
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, out.size(), 1 << 14), [&](const tbb::blocked_range<size_t>& r) {
+        for (size_t i = r.begin(); i != r.end(); ++i) {
+            uint32_t texel = 0;
+            for (int c = 0; c < 4; ++c) texel |= ((2 * sums_[4 * i + c] + n) / (2 * n)) << (8 * c);
+            out[i] = texel;
+        }
+    });
     return out;
 }
 
