@@ -444,9 +444,9 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
                         const RayCounters& c = counters[pixel];
                         color = settings.view == ViewMode::HeatTraversal
                                     ? gpu::heatColorForCount(c.primaryNodes + c.shadowNodes,
-                                                             gpu::kHeatFullScaleNodes)
+                                                             gpu::heatFullScaleOf(settings.heatFullScale, true))
                                     : gpu::heatColorForCount(c.primaryTests + c.shadowTests,
-                                                             gpu::kHeatFullScaleTests);
+                                                             gpu::heatFullScaleOf(settings.heatFullScale, false));
                     } else if (!hit.hit()) {
                         color = settings.background;
                     } else {

@@ -482,7 +482,7 @@ gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings&
     *light = lightPosition(settings.camera, s.sceneBounds, settings.lightHeight);
     const uint32_t rows = (settings.height + settings.packet.height - 1) / settings.packet.height;
     p.light = glm::vec4(*light, glm::uintBitsToFloat(workgroupRowStride(s.ctx.info, rows)));
-    p.background = glm::vec4(settings.background, 0.0f);
+    p.background = glm::vec4(settings.background, settings.heatFullScale);
     p.phong = glm::vec4(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular,
                         settings.phong.shininess);
     const uint32_t packetsPerRow = (settings.width + settings.packet.width - 1) / settings.packet.width;

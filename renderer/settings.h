@@ -43,6 +43,9 @@ struct RenderSettings {
     PacketShape packet;
     bool collectCounters = false;  // per-ray N_TR / N_IT (statistics variant of the kernel)
     ViewMode view = ViewMode::Shaded;
+    // The count shown as full red in the heat maps; 0: the view's default (256 nodes, 128 tests;
+    // shaders/shading.h). The viewer's "auto" sets the frame's 99th percentile.
+    float heatFullScale = 0.0f;
 };
 
 const char* toString(KernelKind kind);

@@ -134,6 +134,7 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["collect_counters"] = s.collectCounters;
     j["view"] = jsonName(s.view);
+    j["heat_full_scale"] = s.heatFullScale;
     return j;
 }
 
@@ -170,6 +171,9 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
             badKey("camera.fov_y_degrees", "must be in (0, 180) degrees");
     }
     readFloat(j, "light_height", "", s.lightHeight);
+    readFloat(j, "heat_full_scale", "", s.heatFullScale);
+    if (!(s.heatFullScale >= 0.0f) || !std::isfinite(s.heatFullScale))
+        badKey("heat_full_scale", "must be a finite number >= 0 (0: the view's default)");
     readBool(j, "shadows", "", s.shadows);
     if (const json* phong = readObject(j, "phong", "")) {
         readFloat(*phong, "ambient", "phong.", s.phong.ambient);

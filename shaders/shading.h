@@ -75,6 +75,12 @@ RP_FUNC vec3 heatColor(float value) {
     return mix(c3, c4, x - 3.0f);
 }
 
+// The full-scale value of a heat map: the one asked for (RenderSettings::heatFullScale, > 0), or
+// the view's default above.
+RP_FUNC float heatFullScaleOf(float requested, bool nodes) {
+    return requested > 0.0f ? requested : (nodes ? kHeatFullScaleNodes : kHeatFullScaleTests);
+}
+
 RP_FUNC vec3 heatColorForCount(uint count, float fullScale) {
     return heatColor(float(count) / fullScale);
 }

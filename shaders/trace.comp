@@ -425,9 +425,9 @@ void main() {
     // Shading (shaders/shading.h, the CPU reference's text).
     vec3 color = params.background.xyz;
     if (kView == kViewHeatTraversal) {
-        color = heatColorForCount(counts.primaryNodes + counts.shadowNodes, kHeatFullScaleNodes);
+        color = heatColorForCount(counts.primaryNodes + counts.shadowNodes, heatFullScaleOf(params.background.w, true));
     } else if (kView == kViewHeatIntersections) {
-        color = heatColorForCount(counts.primaryTests + counts.shadowTests, kHeatFullScaleTests);
+        color = heatColorForCount(counts.primaryTests + counts.shadowTests, heatFullScaleOf(params.background.w, false));
     } else if (leafTri != kNoHit) {
         const GpuTriangle tri = triangles[leafTri];
         const vec3 geometric = geometricNormal(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, dir);

@@ -565,6 +565,12 @@ TEST_F(ViewerUnderXvfb, AReducedResolutionFrameEqualsTheCliRenderAtThatResolutio
         const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
         EXPECT_EQ(sidecar["resolution_scale"], 4) << viewer.output;
         EXPECT_EQ(readPng(shot).width, 200u);
+        // The heat map's full scale follows the frame (its 99th percentile), not the constant 256.
+        if (view == "nodes") {
+            const float scale = sidecar["heat_full_scale"].get<float>();
+            EXPECT_GT(scale, 0.0f) << viewer.output;
+            EXPECT_NE(scale, 256.0f);
+        }
         expectCliReproduces(dir_, shot, "--device cpu");
     }
 }

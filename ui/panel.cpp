@@ -213,8 +213,16 @@ void drawTracerSection(PanelState& state, const PanelInfo& info, PanelActions&) 
     ImGui::SameLine();
     ImGui::RadioButton("N_IT heat", &view, int(ViewMode::HeatIntersections));
     s.view = ViewMode(view);
-    if (s.view == ViewMode::HeatTraversal) drawHeatLegend("nodes visited", gpu::kHeatFullScaleNodes);
-    if (s.view == ViewMode::HeatIntersections) drawHeatLegend("triangle tests", gpu::kHeatFullScaleTests);
+    if (s.view != ViewMode::Shaded) {
+        const bool nodes = s.view == ViewMode::HeatTraversal;
+        drawHeatLegend(nodes ? "nodes visited" : "triangle tests", gpu::heatFullScaleOf(s.heatFullScale, nodes));
+        ImGui::Checkbox("full scale: the frame's 99th percentile", &state.heatAuto);
+        if (!state.heatAuto) {
+            float scale = gpu::heatFullScaleOf(s.heatFullScale, nodes);
+            if (ImGui::SliderFloat("full scale", &scale, 1.0f, 4096.0f, "%.0f", ImGuiSliderFlags_Logarithmic))
+                s.heatFullScale = std::max(scale, 1.0f);
+        }
+    }
 }
 
 void drawLightSection(PanelState& state, const PanelInfo&, PanelActions&) {

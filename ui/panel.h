@@ -66,6 +66,8 @@ struct PanelState {
     // Interactivity (issue 8): which tracer draws, the frame budget, refinement when still.
     TracerChoice tracer = TracerChoice::VulkanPacket;
     FrameLoopSettings frameLoop;
+    // Heat maps: the full scale follows the frame's 99th percentile (else settings.heatFullScale).
+    bool heatAuto = true;
     PanelLayout layout;        // width, collapsed, UI scale, overlay: kept in viewer.json
     FileBrowser fileBrowser;   // Browse...: its choice becomes openPath and the open action
 

@@ -231,6 +231,8 @@ struct Session {
     double countingSeconds = 0.0;
     std::string countedViewKey;
     Clock::time_point countersTime{};
+    float heatPercentile = 0.0f;  // of the newest counted frame, for the heat maps' full scale
+    ViewMode heatPercentileView = ViewMode::Shaded;
     std::string countersSource;
 
     // Camera paths.
@@ -889,7 +891,25 @@ void recordKernelTimes(Session& s, const FrameTimings& kernel, uint32_t width, u
     st.nonTracingShare = st.frameSeconds > 0 ? std::max(0.0, 1.0 - tracing / st.frameSeconds) : 0.0;
 }
 
+// The 99th percentile of the heat map's count (primary + shadow ray) over a frame's pixels, for
+// the heat maps' automatic full scale.
+float heatPercentile(const Frame& frame, ViewMode view) {
+    if (frame.counters.empty() || view == ViewMode::Shaded) return 0.0f;
+    std::vector<uint32_t> counts(frame.counters.size());
+    for (size_t i = 0; i < counts.size(); ++i) {
+        const RayCounters& c = frame.counters[i];
+        counts[i] = view == ViewMode::HeatTraversal ? c.primaryNodes + c.shadowNodes : c.primaryTests + c.shadowTests;
+    }
+    const size_t k = (counts.size() * 99) / 100;
+    std::nth_element(counts.begin(), counts.begin() + k, counts.end());
+    return float(counts[k]);
+}
+
 void takeCounters(Session& s, const Frame& frame, const std::string& source) {
+    if (s.panel.settings.view != ViewMode::Shaded) {
+        s.heatPercentile = heatPercentile(frame, s.panel.settings.view);
+        s.heatPercentileView = s.panel.settings.view;
+    }
     s.info.stats.counters = summarizeCounters(frame);
     s.info.stats.countersValid = true;
     s.countersTime = Clock::now();
@@ -989,7 +1009,8 @@ double traceFrame(Session& s, const FramePlan& plan, const FrameTarget* target) 
     traced.pixelJitter = plan.jitter;
     traced.collectCounters = false;
     FrameRequest request;
-    request.counters = isCpuTracer(s.panel.tracer) && s.panel.liveCounters;  // free on the CPU
+    // Free on the CPU; the heat maps' automatic scale needs them too.
+    request.counters = isCpuTracer(s.panel.tracer) && (s.panel.liveCounters || settings.view != ViewMode::Shaded);
     const Clock::time_point start = Clock::now();
     const Frame frame = traceOnHost(s, traced, request);
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
@@ -1155,6 +1176,15 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     // The image fills the part of the window the panel leaves free; when that part would be
     // narrower than the panel itself (a small window), the panel lies over the image instead.
     RenderSettings& settings = s.panel.settings;
+    // The heat maps' automatic full scale: the newest counted frame's 99th percentile, in two
+    // significant digits, changed only when it moves by more than 10% (no retrace for noise).
+    if (s.panel.heatAuto && settings.view != ViewMode::Shaded && s.heatPercentileView == settings.view &&
+        s.heatPercentile > 0.0f) {
+        const float magnitude = std::pow(10.0f, std::floor(std::log10(s.heatPercentile)) - 1.0f);
+        const float wanted = std::max(1.0f, std::round(s.heatPercentile / magnitude) * magnitude);
+        if (settings.heatFullScale <= 0.0f || std::abs(wanted - settings.heatFullScale) > 0.1f * settings.heatFullScale)
+            settings.heatFullScale = wanted;
+    }
     const float covered = s.options.hidePanel ? 0.0f : s.panel.coveredWidthPixels;
     s.imageOffsetX = covered > 0.0f && float(fbWidth) - covered >= covered ? std::floor(covered) : 0.0f;
     settings.width = uint32_t(fbWidth) - uint32_t(s.imageOffsetX);
@@ -1371,6 +1401,7 @@ int runViewer(const ViewerOptions& options) {
     s.panel.liveCounters = options.liveCounters;
     s.panel.openPath = options.scene;
     s.panel.frameLoop = options.frameLoop;
+    s.panel.heatAuto = options.settings.heatFullScale <= 0.0f;
     s.info.device = describe(s.context.info);
     s.info.maxPacketRays = s.context.info.maxWorkgroupInvocations;
     {

@@ -36,13 +36,14 @@ struct RenderFlags {
     std::string out, hits, json, from;
     uint32_t repeat = 1;
     uint32_t spp = 1;
+    float heatScale = 0.0f;
     uint32_t scale = 1;
     bool validation = false;
 };
 
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize,
-        *builder, *bins, *kernel, *packet, *view, *spp, *scale;
+        *builder, *bins, *kernel, *packet, *view, *spp, *scale, *heatScale;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -95,6 +96,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.fov)) s.camera.fovYDegrees = f.fov;
     cameraGiven = cameraGiven || given(o.eye) || given(o.at);
     if (given(o.spp)) setup.samples = f.spp;
+    if (given(o.heatScale)) s.heatFullScale = f.heatScale;
     if (given(o.scale)) setup.resolutionScale = f.scale;
     return setup;
 }
@@ -194,6 +196,11 @@ CommandRunner addRenderCommand(CLI::App& app) {
     command->add_option("--repeat", f.repeat, "Timed runs after the warm-up; the median is reported")
         ->check(CLI::Range(1u, 1000u))
         ->capture_default_str();
+    o.heatScale = command
+                      ->add_option("--heat-scale", f.heatScale,
+                                   "Count shown as full red in the heat maps of --view nodes|tests (default "
+                                   "256 nodes, 128 tests; a viewer sidecar carries the viewer's)")
+                      ->check(CLI::PositiveNumber);
     o.spp = command
                 ->add_option("--spp", f.spp,
                              "Samples per pixel: 1 traces pixel centres; N > 1 averages the N samples of the "

@@ -53,6 +53,9 @@ int main(int argc, char** argv) {
     app.add_flag("--no-shadows", noShadows, "no shadow rays");
     app.add_option("--kernel", kernel, "packet or single");
     app.add_option("--view", view, "shaded, nodes (N_TR heat map) or tests (N_IT heat map)");
+    app.add_option("--heat-scale", options.settings.heatFullScale,
+                   "count shown as full red in the heat maps (default: the frame's 99th percentile)")
+        ->check(CLI::PositiveNumber);
     app.add_option("--light-height", options.settings.lightHeight, "light above the camera, times the scene's height")
         ->capture_default_str();
     app.add_option("--eye", eye, "camera position x,y,z (default: the CLI's framing of the scene)");
