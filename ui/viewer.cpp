@@ -711,6 +711,7 @@ void moveCamera(Session& s, FlyInput& input, double frameSeconds) {
             s.panel.settings.camera = path.keys[std::min<size_t>(s.playFrame, path.keys.size() - 1)].camera;
             s.playbackOver = ++s.playFrame >= path.keys.size();
         } else {
+            if (s.playStart == Clock::time_point{}) s.playStart = Clock::now();  // the first frame with a scene
             const double t = std::chrono::duration<double>(Clock::now() - s.playStart).count();
             s.panel.settings.camera = cameraAt(path, t);
             s.playbackOver = t >= path.duration();
@@ -1430,10 +1431,11 @@ int runViewer(const ViewerOptions& options) {
     const bool scripted = options.frames > 0;
     bool idle = false;
     const auto running = [&] {
+        const bool done = idle && s.scene && (!s.playing || s.playbackOver);  // played and converged
+        if (options.exitWhenConverged && done) return false;
         if (scripted) return s.frameIndex < options.frames && (s.offscreen || !glfwWindowShouldClose(s.window.window));
         if (!s.offscreen) return !glfwWindowShouldClose(s.window.window);
-        // Offscreen without --frames: until the path is played and the image converged.
-        return !(idle && s.scene && (!s.playing || s.playbackOver));
+        return !done;  // offscreen without --frames: until the path is played and the image converged
     };
     while (running()) {
         const Clock::time_point iterationStart = Clock::now();
@@ -1466,8 +1468,6 @@ int runViewer(const ViewerOptions& options) {
                 if (windowShot.empty()) windowShot = options.windowScreenshot;
             }
         }
-        if (s.playing && !s.playbackOver && s.scene && s.playFrame == 0 && s.playStart == Clock::time_point{})
-            s.playStart = Clock::now();
         takeWorkerResults(s);
         const double startSeconds = s.secondsSinceStart(iterationStart);
         const FrameResult result = drawFrame(s, screenshot, windowShot, scriptedInput);

@@ -56,6 +56,7 @@ struct ViewerOptions {
     bool playFrames = false;  // one recorded key per frame instead of the recorded timing
     std::string summaryPath;  // a JSON summary of the run on exit
     bool offscreen = false;   // no window: the same frame loop into an offscreen image
+    bool exitWhenConverged = false;  // exit once the played path is over and the image converged
 };
 
 // Exit codes of `raypack`.

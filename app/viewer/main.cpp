@@ -86,6 +86,8 @@ int main(int argc, char** argv) {
                  "no window and no display: the same frame loop (budget, refinement, camera paths) into an offscreen "
                  "image, without the panel or input; without --frames it runs until --play-path is played and the "
                  "image has converged (for measuring on machines without a display)");
+    app.add_flag("--exit-when-converged", options.exitWhenConverged,
+                 "exit once the --play-path is over (or at once without one) and the image has converged");
     app.add_option("--summary", options.summaryPath,
                    "on exit, write a JSON summary: frames, frames/s while moving and still, resolution scales, "
                    "input-to-photon latency, idle CPU share, time to full resolution and to convergence");
