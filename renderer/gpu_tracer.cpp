@@ -12,9 +12,6 @@
 #include <cstring>
 #include <functional>
 #include <map>
-#include <numeric>
-#include <cstdlib>
-#include <string>
 #include <tuple>
 
 namespace raypack {
@@ -458,30 +455,12 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
                     " workgroups, more than " + d.name + " dispatches");
 }
 
-// The order in which workgroup rows cover the image (GpuFrameParams::light.w): lavapipe hands each
-// of its threads one contiguous block of workgroups (Mesa's lp_cs_tpool: iterations / threads
-// each), so in dispatch order one thread traces the top of the image and another the bottom, and
-// the thread with the sky idles. On a CPU device the rows are visited as (row * stride) mod rows
-// with a stride near rows / golden ratio and coprime to rows, so every contiguous block of
-// workgroups spans the whole image. 0 (GPUs, or RAYPACK_WORKGROUP_ORDER=linear): rows in order.
-uint32_t workgroupRowStride(const vk::DeviceInfo& device, uint32_t rows) {
-    static const bool linear = [] {
-        const char* order = std::getenv("RAYPACK_WORKGROUP_ORDER");
-        return order && std::string(order) == "linear";
-    }();
-    if (linear || device.type != VK_PHYSICAL_DEVICE_TYPE_CPU || rows < 3) return 0;
-    uint32_t stride = uint32_t(double(rows) * 0.6180339887 + 0.5);
-    while (std::gcd(stride, rows) != 1) ++stride;
-    return stride;
-}
-
 gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings& settings,
                                 const GpuRecordOptions& options, bool writeHits, glm::vec3* light) {
     gpu::GpuFrameParams p{};
     p.camera = makeGpuCamera(settings.camera, settings.width, settings.height, settings.pixelJitter);
     *light = lightPosition(settings.camera, s.sceneBounds, settings.lightHeight);
-    const uint32_t rows = (settings.height + settings.packet.height - 1) / settings.packet.height;
-    p.light = glm::vec4(*light, glm::uintBitsToFloat(workgroupRowStride(s.ctx.info, rows)));
+    p.light = glm::vec4(*light, 0.0f);
     p.background = glm::vec4(settings.background, settings.heatFullScale);
     p.phong = glm::vec4(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular,
                         settings.phong.shininess);

@@ -77,7 +77,7 @@ const uint kFrameHasColors = 32u;    // the vertex colour buffer holds real data
 // 128 bytes: the push constants of every pass (the guaranteed minimum of maxPushConstantsSize).
 struct GpuFrameParams {
     GpuCamera camera;  // 64 bytes, shaders/camera.h
-    vec4 light;        // xyz: point light position, w (uint bits): workgroup row stride, 0: in order
+    vec4 light;        // xyz: point light position, w: 0
     vec4 background;   // rgb: colour of a miss, w: heat-map scale (value shown as full red)
     vec4 phong;        // ambient, diffuse, specular, shininess
     uvec4 frame;       // x: width, y: height, z: kFrame* bits, w: packets per image row

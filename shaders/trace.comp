@@ -360,12 +360,7 @@ void main() {
     const uint height = params.frame.y;
     // Images not a multiple of the packet are padded; padding rays follow the packet but trace
     // nothing and write nothing (report 3.4).
-    // Workgroup rows in the host's order (renderer/gpu_tracer.cpp, workgroupRowStride): on CPU
-    // devices every contiguous block of workgroups spans the whole image.
-    uvec2 group = gl_WorkGroupID.xy;
-    const uint rowStride = floatBitsToUint(params.light.w);
-    if (rowStride != 0u) group.y = (group.y * rowStride) % gl_NumWorkGroups.y;
-    const uvec2 pixel = group * gl_WorkGroupSize.xy + gl_LocalInvocationID.xy;
+    const uvec2 pixel = gl_GlobalInvocationID.xy;
     const bool inside = pixel.x < width && pixel.y < height;
     const uint index = inside ? pixel.y * width + pixel.x : 0u;
     const vec3 eye = cameraEye(params.camera);
