@@ -1258,19 +1258,22 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
 
 nlohmann::json summaryJson(const Session& s) {
     std::vector<double> moving, still, latency;
-    std::map<uint32_t, uint64_t> scales;
+    std::map<uint32_t, uint64_t> scales, movingScales;
     uint64_t traced = 0, presented = 0;
     for (const FrameRecord& r : s.records) {
         if (r.kind != FrameKind::Idle) {
             ++traced;
             (r.kind == FrameKind::Moving ? moving : still).push_back(r.seconds);
             ++scales[r.scale];
+            if (r.kind == FrameKind::Moving) ++movingScales[r.scale];
         }
         presented += r.presented;
         if (r.inputLatencySeconds >= 0.0) latency.push_back(r.inputLatencySeconds);
     }
     nlohmann::json scaleJson = nlohmann::json::object();
     for (const auto& [scale, count] : scales) scaleJson[std::to_string(scale)] = count;
+    nlohmann::json movingScaleJson = nlohmann::json::object();
+    for (const auto& [scale, count] : movingScales) movingScaleJson[std::to_string(scale)] = count;
     const auto fps = [](const std::vector<double>& v) { const double m = median(v); return m > 0 ? 1.0 / m : 0.0; };
     return {
         {"device", s.info.device},
@@ -1286,6 +1289,7 @@ nlohmann::json summaryJson(const Session& s) {
         {"fps_moving_median", fps(moving)},
         {"fps_still_median", fps(still)},
         {"resolution_scales", scaleJson},
+        {"resolution_scales_moving", movingScaleJson},
         {"input_to_photon_ms_median", median(latency) * 1e3},
         {"input_frames", latency.size()},
         {"idle_frames", s.idleFrames},
