@@ -634,6 +634,35 @@ TEST_F(ViewerUnderXvfb, OffscreenRunsTheSameFrameLoopWithoutADisplay) {
     expectCliReproduces(dir_, shot, "");
 }
 
+TEST_F(ViewerUnderXvfb, SideBySideHalvesAreTheTwoTracersImages) {
+    const std::string shot = (dir_ / "split.png").string();
+    const CommandRun viewer = runCommand(viewerCommand("--width 161 --height 120 --frames 4 --samples 1 --tracer cpu-packet "
+                                                       "--side-by-side vulkan-single --script 1:wait --screenshot " + shot));
+    ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+    const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
+    ASSERT_TRUE(sidecar["stats"].contains("side_by_side")) << sidecar.dump();
+    EXPECT_EQ(sidecar["stats"]["side_by_side"]["right_tracer"], "vulkan-single");
+    const Image split = readPng(shot);
+    const auto render = [&](const std::string& flags, const std::string& name) {
+        const std::string out = (dir_ / name).string();
+        const CommandRun cli = runCommand(std::string("XDG_RUNTIME_DIR=/tmp ") + RAYPACK_CLI + " render --from " +
+                                          ui::sidecarPath(shot) + " " + flags + " --out " + out);
+        EXPECT_EQ(cli.exitCode, 0) << cli.output;
+        return readPng(out);
+    };
+    const Image left = render("", "left.png"), right = render("--device gpu --kernel single", "right.png");
+    ASSERT_EQ(left.width, split.width);
+    size_t leftDiffer = 0, rightDiffer = 0;
+    for (uint32_t y = 0; y < split.height; ++y)
+        for (uint32_t x = 0; x < split.width; ++x) {
+            const size_t i = size_t(y) * split.width + x;
+            if (x < split.width / 2) leftDiffer += split.rgba[i] != left.rgba[i];
+            else rightDiffer += split.rgba[i] != right.rgba[i];
+        }
+    EXPECT_EQ(leftDiffer, 0u);
+    EXPECT_EQ(rightDiffer, 0u);
+}
+
 TEST_F(ViewerUnderXvfb, ABadStartSceneFailsAScriptedRun) {
     const CommandRun viewer = runCommand(viewerCommand("--width 64 --height 48 --frames 3 --scene /nonexistent/scene.ply"));
     EXPECT_EQ(viewer.exitCode, 2) << viewer.output;

@@ -68,6 +68,10 @@ struct PanelState {
     FrameLoopSettings frameLoop;
     // Heat maps: the full scale follows the frame's 99th percentile (else settings.heatFullScale).
     bool heatAuto = true;
+    // Side by side: the right half of the image traced by another tracer (or packet shape).
+    bool sideBySide = false;
+    TracerChoice sideBySideTracer = TracerChoice::VulkanSingle;
+    PacketShape sideBySidePacket;
     PanelLayout layout;        // width, collapsed, UI scale, overlay: kept in viewer.json
     FileBrowser fileBrowser;   // Browse...: its choice becomes openPath and the open action
 
@@ -80,6 +84,12 @@ struct PanelState {
     float appliedUiScale = 0.0f;    // the scale the ImGui style and font carry now
     bool widthChangePending = false;  // a resize drag not yet reported as layoutChanged
     float lastDisplayWidth = 0.0f;    // the window's width in the previous frame
+};
+
+// Kernel times (primary + shadow) of the two halves of a side-by-side frame.
+struct SideBySideTimes {
+    double left = 0.0, right = 0.0;
+    uint32_t width = 0, height = 0;
 };
 
 // What the panel shows.
@@ -105,6 +115,7 @@ struct PanelInfo {
     float flySpeed = 0.0f;          // scene units per second
     // Interactivity: what the frame loop did with the newest frame, and why this tracer draws.
     FrameLoopStatus frameLoop;
+    SideBySideTimes sideBySideTimes;
     std::string tracerReason;
     std::vector<TracerChoice> tracers;  // the tracers this device offers
     bool orbitCamera = false;       // the orbit camera moves the view (else the fly camera)

@@ -2,6 +2,8 @@
 // frame budget and what the frame loop does with it.
 #include "ui/panel.h"
 
+#include "renderer/cpu_packet_tracer.h"
+
 #include <imgui.h>
 
 #include <algorithm>
@@ -20,6 +22,29 @@ void drawInteractivitySection(PanelState& state, const PanelInfo& info, PanelAct
         ImGui::EndCombo();
     }
     if (!info.tracerReason.empty()) ImGui::TextWrapped("%s", info.tracerReason.c_str());
+    ImGui::Checkbox("side by side: the right half traced by", &state.sideBySide);
+    if (state.sideBySide) {
+        if (ImGui::BeginCombo("right half", toString(state.sideBySideTracer))) {
+            for (const TracerChoice t : info.tracers)
+                if (ImGui::Selectable(toString(t), t == state.sideBySideTracer) && t != state.sideBySideTracer) {
+                    state.sideBySideTracer = t;
+                    state.sideBySidePacket = t == TracerChoice::CpuPacket ? kDefaultCpuPacket : PacketShape{};
+                }
+            ImGui::EndCombo();
+        }
+        if (state.sideBySideTracer == TracerChoice::VulkanPacket || state.sideBySideTracer == TracerChoice::CpuPacket) {
+            int shape[2] = {int(state.sideBySidePacket.width), int(state.sideBySidePacket.height)};
+            if (ImGui::InputInt2("right packet WxH", shape)) {
+                shape[0] = std::clamp(shape[0], 1, 1024);
+                shape[1] = std::clamp(shape[1], 1, 1024);
+                if (state.sideBySideTracer == TracerChoice::CpuPacket || uint32_t(shape[0] * shape[1]) <= info.maxPacketRays)
+                    state.sideBySidePacket = PacketShape{uint32_t(shape[0]), uint32_t(shape[1])};
+            }
+        }
+        const SideBySideTimes& t = info.sideBySideTimes;
+        if (t.width > 0)
+            ImGui::Text("T_K left %.2f ms, right %.2f ms (%ux%u)", t.left * 1e3, t.right * 1e3, t.width, t.height);
+    }
 
     FrameLoopSettings& loop = state.frameLoop;
     ImGui::SliderFloat("frame budget", &loop.frameBudgetMs, 5.0f, 500.0f, "%.0f ms", ImGuiSliderFlags_Logarithmic);

@@ -410,6 +410,13 @@ KernelKind kernelOf(TracerChoice tracer) {
     return tracer == TracerChoice::VulkanSingle ? KernelKind::Single : KernelKind::Packet;
 }
 
+// The right half traced by `tracer` (its own default packet shape).
+void setSideBySide(Session& s, TracerChoice tracer) {
+    s.panel.sideBySide = true;
+    s.panel.sideBySideTracer = tracer;
+    s.panel.sideBySidePacket = tracer == TracerChoice::CpuPacket ? kDefaultCpuPacket : PacketShape{};
+}
+
 // The packet shape belongs to the tracer: the CPU packet tracer's (16x16 by default) and the
 // Vulkan packet kernel's (8x4) are kept apart, and the panel's shape controls edit the one drawing.
 void setTracer(Session& s, TracerChoice tracer, const std::string& reason) {
@@ -489,6 +496,11 @@ nlohmann::json statisticsJson(const Session& s) {
         {"primary_mrays_s", st.primaryKernelSeconds > 0 ? double(st.primaryRays) / st.primaryKernelSeconds / 1e6 : 0.0},
         {"upload_s", s.uploadSeconds},
     };
+    if (s.panel.sideBySide)  // the sidecar's settings are the left half's; the right half's tracer:
+        stats["side_by_side"] = {{"right_tracer", cliName(s.panel.sideBySideTracer)},
+                                 {"right_packet", {s.panel.sideBySidePacket.width, s.panel.sideBySidePacket.height}},
+                                 {"left_kernel_s", s.info.sideBySideTimes.left},
+                                 {"right_kernel_s", s.info.sideBySideTimes.right}};
     if (st.countersValid) {
         stats["primary_nodes_per_ray"] = st.counters.primaryNodes;
         stats["primary_tests_per_ray"] = st.counters.primaryTests;
@@ -523,9 +535,9 @@ const CpuSceneView& cpuViewOf(Session& s) {
 
 // One frame traced synchronously on the host's side: the CPU tracers, or a Vulkan kernel through
 // GpuTracer::render (which reads the image back).
-Frame traceOnHost(Session& s, const RenderSettings& settings, const FrameRequest& request) {
-    if (s.panel.tracer == TracerChoice::CpuPacket) return renderCpuPackets(cpuViewOf(s), settings, request);
-    if (s.panel.tracer == TracerChoice::CpuReference) return renderCpu(cpuViewOf(s), settings, request);
+Frame traceOnHost(Session& s, TracerChoice tracer, const RenderSettings& settings, const FrameRequest& request) {
+    if (tracer == TracerChoice::CpuPacket) return renderCpuPackets(cpuViewOf(s), settings, request);
+    if (tracer == TracerChoice::CpuReference) return renderCpu(cpuViewOf(s), settings, request);
     return s.tracer->render(settings, request);
 }
 
@@ -633,6 +645,14 @@ void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
         if (!tracer)
             throw Error("tracer: \"" + step.value + "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
         setTracer(s, *tracer, "chosen by the script");
+    } else if (step.action == "side-by-side") {
+        if (step.value == "off") {
+            s.panel.sideBySide = false;
+        } else {
+            const std::optional<TracerChoice> tracer = parseTracerChoice(step.value);
+            if (!tracer) throw Error("side-by-side: \"" + step.value + "\" is not off or a tracer name");
+            setSideBySide(s, *tracer);
+        }
     } else if (step.action == "view") {
         const std::optional<ViewMode> mode = parseViewMode(step.value);
         if (!mode) throw Error("view: \"" + step.value + "\" is not shaded, nodes or tests");
@@ -870,6 +890,9 @@ std::string viewKey(const Session& s) {
     settings.collectCounters = false;
     nlohmann::json key = toJson(settings);
     key["tracer"] = cliName(s.panel.tracer);
+    if (s.panel.sideBySide)
+        key["side_by_side"] = {cliName(s.panel.sideBySideTracer), s.panel.sideBySidePacket.width,
+                               s.panel.sideBySidePacket.height};
     key["tree"] = reinterpret_cast<uintptr_t>(s.bvh.get());
     return key.dump();
 }
@@ -985,12 +1008,63 @@ void updateTitle(Session& s) {
     glfwSetWindowTitle(s.window.window, title);
 }
 
+// Whether the frame of `plan` stays on the GPU (recorded into the window's command buffer): a
+// plain full-resolution Vulkan frame on a GPU, not split with another tracer.
+bool recordsOnGpu(const Session& s, const FramePlan& plan) {
+    return !s.cpuDevice && !isCpuTracer(s.panel.tracer) && plan.scale == 1 && plan.kind != FrameKind::Refine &&
+           !s.panel.sideBySide;
+}
+
+// Side by side: the same view traced by the second tracer, whose right half replaces the right
+// half of `frame`; both tracers' kernel times go to the panel and the overlay.
+void traceRightHalf(Session& s, const RenderSettings& traced, Frame& frame) {
+    RenderSettings other = traced;
+    other.packet = s.panel.sideBySidePacket;
+    if (!isCpuTracer(s.panel.sideBySideTracer)) other.kernel = kernelOf(s.panel.sideBySideTracer);
+    const Frame right = traceOnHost(s, s.panel.sideBySideTracer, other, FrameRequest{});
+    const uint32_t half = frame.width / 2;
+    for (uint32_t y = 0; y < frame.height; ++y)
+        std::copy(right.rgba.begin() + size_t(y) * frame.width + half, right.rgba.begin() + size_t(y + 1) * frame.width,
+                  frame.rgba.begin() + size_t(y) * frame.width + half);
+    SideBySideTimes& t = s.info.sideBySideTimes;
+    t.left = frame.timings.primarySeconds + frame.timings.shadowSeconds;
+    t.right = right.timings.primarySeconds + right.timings.shadowSeconds;
+    t.width = frame.width;
+    t.height = frame.height;
+}
+
+// The names and kernel times of the two halves over the image, and the line between them.
+void drawSideBySideLabels(const Session& s) {
+    if (!s.panel.sideBySide || s.shown != ShownSource::Host) return;
+    const ImGuiIO& io = ImGui::GetIO();
+    const float scale = io.DisplayFramebufferScale.x > 0 ? io.DisplayFramebufferScale.x : 1.0f;
+    const float left = s.imageOffsetX / scale;
+    const float middle = left + float(s.panel.settings.width / 2) / scale;
+    ImDrawList* draw = ImGui::GetForegroundDrawList();
+    draw->AddLine(ImVec2(middle, 0), ImVec2(middle, io.DisplaySize.y), IM_COL32(255, 255, 255, 160));
+    const SideBySideTimes& t = s.info.sideBySideTimes;
+    const auto label = [&](TracerChoice tracer, PacketShape packet, double seconds) {
+        char text[160];
+        std::snprintf(text, sizeof text, "%s%s  T_K %.2f ms at %ux%u", toString(tracer),
+                      tracer == TracerChoice::VulkanPacket || tracer == TracerChoice::CpuPacket
+                          ? (" " + std::to_string(packet.width) + "x" + std::to_string(packet.height)).c_str()
+                          : "",
+                      seconds * 1e3, t.width, t.height);
+        return std::string(text);
+    };
+    const std::string a = label(s.panel.tracer, s.panel.settings.packet, t.left);
+    const std::string b = label(s.panel.sideBySideTracer, s.panel.sideBySidePacket, t.right);
+    draw->AddRectFilled(ImVec2(left + 4, 4), ImVec2(left + 8 + ImGui::CalcTextSize(a.c_str()).x, 22), IM_COL32(0, 0, 0, 160));
+    draw->AddText(ImVec2(left + 6, 5), IM_COL32(255, 255, 255, 255), a.c_str());
+    draw->AddRectFilled(ImVec2(middle + 4, 4), ImVec2(middle + 8 + ImGui::CalcTextSize(b.c_str()).x, 22), IM_COL32(0, 0, 0, 160));
+    draw->AddText(ImVec2(middle + 6, 5), IM_COL32(255, 255, 255, 255), b.c_str());
+}
+
 // Traces what `plan` asks for into what is shown; returns the tracing seconds.
 double traceFrame(Session& s, const FramePlan& plan, const FrameTarget* target) {
     RenderSettings& settings = s.panel.settings;
     const uint32_t width = settings.width, height = settings.height;
-    const bool gpuDevicePath = !s.cpuDevice && !isCpuTracer(s.panel.tracer) && plan.scale == 1 &&
-                               plan.kind != FrameKind::Refine && target;
+    const bool gpuDevicePath = recordsOnGpu(s, plan) && target;
     if (gpuDevicePath) {
         // On a GPU the plain frame stays on the device: recorded into the window's command buffer.
         GpuRecordOptions recordOptions;
@@ -1013,7 +1087,8 @@ double traceFrame(Session& s, const FramePlan& plan, const FrameTarget* target) 
     // Free on the CPU; the heat maps' automatic scale needs them too.
     request.counters = isCpuTracer(s.panel.tracer) && (s.panel.liveCounters || settings.view != ViewMode::Shaded);
     const Clock::time_point start = Clock::now();
-    const Frame frame = traceOnHost(s, traced, request);
+    Frame frame = traceOnHost(s, s.panel.tracer, traced, request);
+    if (s.panel.sideBySide) traceRightHalf(s, traced, frame);  // the budget counts both tracers
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     recordKernelTimes(s, frame.timings, traced.width, traced.height,
                       std::string("T_K: ") + (isCpuTracer(s.panel.tracer) ? "host clock" : s.cpuDevice ? "host clock (CPU device)" : "GPU timestamps") +
@@ -1167,6 +1242,7 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     if (!s.offscreen) {
         if (!s.options.hidePanel) actions = drawPanel(s.panel, s.info);
         drawHelp(s);
+        drawSideBySideLabels(s);
         handleKeys(s, actions);
         ImGui::Render();
     }
@@ -1211,8 +1287,7 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     // Frames traced on the host come first, before the swapchain image is acquired.
     double traceSeconds = 0.0;
     bool traced = false;
-    const bool recordOnGpu = !s.cpuDevice && !isCpuTracer(s.panel.tracer) && plan.scale == 1 &&
-                             plan.kind != FrameKind::Refine;
+    const bool recordOnGpu = recordsOnGpu(s, plan);
     if (!nothingNew && !recordOnGpu) {
         try {
             traceSeconds = traceFrame(s, plan, nullptr);
@@ -1418,6 +1493,7 @@ int runViewer(const ViewerOptions& options) {
         s.info.recentFiles = s.config.recent.entries();
     }
     chooseStartTracer(s);
+    if (options.sideBySide) setSideBySide(s, *options.sideBySide);
     if (options.packetGiven) s.panel.settings.packet = options.settings.packet;  // for the tracer drawing
     s.playing = std::move(path);
     std::printf("raypack: device %s; tracer %s\n", s.info.device.c_str(), cliName(s.panel.tracer));

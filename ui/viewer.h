@@ -49,6 +49,7 @@ struct ViewerOptions {
     bool hidePanel = false;
     std::vector<ScriptStep> script;
     std::optional<TracerChoice> tracer;  // default: by device (see runViewer)
+    std::optional<TracerChoice> sideBySide;  // the right half's tracer
     bool packetGiven = false;           // settings.packet is --packet, for the tracer that draws first
     FrameLoopSettings frameLoop;
     std::string recordPath;   // write the camera of every frame here on exit

@@ -77,6 +77,10 @@ int main(int argc, char** argv) {
                    "samples per pixel accumulated when still (1: no refinement)")
         ->check(CLI::Range(1u, 4096u))
         ->capture_default_str();
+    std::string sideBySide;
+    app.add_option("--side-by-side", sideBySide,
+                   "trace the right half of the image with this tracer too (vulkan-packet, vulkan-single, "
+                   "cpu-reference, cpu-packet), both halves labelled with their kernel times");
     bool fullResolution = false;
     app.add_flag("--no-adaptive", fullResolution, "trace every frame at full resolution, also while moving");
     app.add_option("--record-path", options.recordPath, "write the camera of every frame with its time to this JSON file on exit");
@@ -113,6 +117,10 @@ int main(int argc, char** argv) {
                 throw Error("--tracer: \"" + tracer + "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
         }
         if (options.playFrames && options.playPath.empty()) throw Error("--play-frames needs --play-path");
+        if (!sideBySide.empty()) {
+            options.sideBySide = ui::parseTracerChoice(sideBySide);
+            if (!options.sideBySide) throw Error("--side-by-side: \"" + sideBySide + "\" is not a tracer name");
+        }
         if (!kernel.empty()) {
             const std::optional<KernelKind> k = parseKernelKind(kernel);
             if (!k) throw Error("--kernel: \"" + kernel + "\" is not packet or single");
