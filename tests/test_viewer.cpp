@@ -191,13 +191,19 @@ TEST(FlyCamera, MovesAtASpeedScaledToTheSceneAndLooksAround) {
     EXPECT_EQ(fly.camera().at, start.at);
 }
 
-TEST(FlyInput, AKeyTappedBetweenTwoFramesMovesTheCamera) {
+// A fly camera over a 30 x 40 box (diagonal 50), at the box's default framing.
+Camera startFlyCamera(ui::FlyCamera& fly) {
     Aabb bounds;
     bounds.grow(glm::vec3(0.0f));
     bounds.grow(glm::vec3(30.0f, 40.0f, 0.0f));
-    ui::FlyCamera fly;
     const Camera start = frameScene(bounds);
     fly.reset(start, bounds);
+    return start;
+}
+
+TEST(FlyInput, AKeyTappedBetweenTwoFramesMovesTheCamera) {
+    ui::FlyCamera fly;
+    const Camera start = startFlyCamera(fly);
     // Pressed and released within one poll (both callbacks at the same time), before the frame.
     ui::HeldKeys keys;
     keys.take(10.0);
@@ -231,12 +237,8 @@ TEST(FlyInput, HeldKeysCountWallTimeAcrossFramesAndReleaseAll) {
 }
 
 TEST(FlyInput, AOneSecondFrameMovesNoMoreThanTheMaximumStep) {
-    Aabb bounds;
-    bounds.grow(glm::vec3(0.0f));
-    bounds.grow(glm::vec3(30.0f, 40.0f, 0.0f));
     ui::FlyCamera fly;
-    const Camera start = frameScene(bounds);
-    fly.reset(start, bounds);
+    const Camera start = startFlyCamera(fly);
     ui::FlyInput input;
     input.forward = true;
     input.heldSeconds = glm::vec3(0.0f, 0.0f, 1.0f);  // and the key held for the whole second
