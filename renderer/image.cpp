@@ -6,6 +6,7 @@
 #include <stb/stb_image_write.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -100,8 +101,12 @@ Image readPng(const std::string& path) {
     unsigned char* data = stbi_load_from_memory(bytes.data(), int(std::min<size_t>(bytes.size(), INT32_MAX)), &width,
                                                 &height, &channels, 4);
     if (!data) {
-        const char* reason = stbi_failure_reason();
-        throw Error("cannot read image " + path + ": " + (reason ? reason : "unknown error"));
+        // stb's reason is a short word ("bad IHDR len", "outofdata"), but not always printable.
+        std::string reason = stbi_failure_reason() ? stbi_failure_reason() : "";
+        for (char& c : reason)
+            if (!std::isprint(static_cast<unsigned char>(c))) c = ' ';
+        while (!reason.empty() && reason.back() == ' ') reason.pop_back();
+        throw Error("cannot read image " + path + ": corrupt PNG data" + (reason.empty() ? "" : " (" + reason + ")"));
     }
     Image image;
     image.width = uint32_t(width);

@@ -479,3 +479,15 @@ TEST(RobustCli, RenderLargerThanAvailableMemoryIsRefusedBeforeAllocating) {
     EXPECT_EQ(r.exitCode, 2) << r.output;
     EXPECT_NE(r.output.find("needs about 26.8 GB"), std::string::npos) << r.output;
 }
+
+// Found by fuzz_png in its first 10 s: a truncated PNG whose stb failure reason printed as an
+// empty second line.
+TEST(RobustPng, CorruptDataAfterAValidHeaderIsOneLine) {
+    TempDir dir;
+    const unsigned char bytes[] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 0x0d, 'I', 'H', 'D', 'R',
+                                   0, 0, 0, 4, 0, 0, 0, 1, 8, 0, 0, 0, 0, 0xdc, 'W', 'P', 'D', 'A', 'N', 'G',
+                                   0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 0, 0, 'I', 'E', 'N', 'D', 0x60, 0x82};
+    writeFile(dir / "cut.png", std::string(reinterpret_cast<const char*>(bytes), sizeof bytes));
+    const std::string message = errorOf([&] { readPng((dir / "cut.png").string()); });
+    EXPECT_NE(message.find("corrupt PNG data"), std::string::npos) << message;
+}
