@@ -97,6 +97,17 @@ Image readPng(const std::string& path) {
                     " pixels, more than the limit of " + std::to_string(limit) +
                     " (set RAYPACK_MAX_IMAGE_PIXELS to raise it)");
 
+    // Every chunk must lie inside the file: stb grows its IDAT buffer to a chunk's declared length
+    // before reading it, so a 100-byte file claiming a 1 GB chunk took 1 GB (found by fuzz_png).
+    for (size_t at = 8; at + 8 <= bytes.size();) {
+        const uint64_t length = bigEndian(at);
+        if (length > uint64_t(INT32_MAX) || at + 12 + length > bytes.size())
+            throw Error("cannot read image " + path + ": a PNG chunk at byte " + std::to_string(at) + " claims " +
+                        std::to_string(length) + " bytes, more than the file holds (truncated or corrupt)");
+        if (std::memcmp(bytes.data() + at + 4, "IEND", 4) == 0) break;
+        at += 12 + size_t(length);
+    }
+
     int width = 0, height = 0, channels = 0;
     unsigned char* data = stbi_load_from_memory(bytes.data(), int(std::min<size_t>(bytes.size(), INT32_MAX)), &width,
                                                 &height, &channels, 4);
