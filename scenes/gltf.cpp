@@ -152,6 +152,8 @@ private:
         }
     }
 
+    static uint64_t saturatingAdd(uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; }
+
     // Triangles and vertices one instance of a node's mesh adds (from the accessors' counts; their
     // bounds are checked when they are read).
     struct MeshSize {
@@ -167,8 +169,9 @@ private:
                 return accessor >= 0 && size_t(accessor) < model_.accessors.size() ? model_.accessors[size_t(accessor)].count : 0;
             };
             const uint64_t vertices = position == primitive.attributes.end() ? 0 : countOf(position->second);
-            size.vertices += vertices;
-            size.triangles += (primitive.indices >= 0 ? countOf(primitive.indices) : vertices) / 3;
+            // Saturating: a hostile count must not wrap the sum below the limits.
+            size.vertices = saturatingAdd(size.vertices, vertices);
+            size.triangles = saturatingAdd(size.triangles, (primitive.indices >= 0 ? countOf(primitive.indices) : vertices) / 3);
         }
         return size;
     }
@@ -241,8 +244,8 @@ private:
             vertices = checkedAdd(vertices, checkedMul(instances[n], size.vertices, path_, "the instanced vertex count"), path_, "the instanced vertex count");
             if (node.mesh >= 0 && !meshCounted[size_t(node.mesh)]) {
                 meshCounted[size_t(node.mesh)] = true;
-                storedTriangles += size.triangles;
-                storedVertices += size.vertices;
+                storedTriangles = saturatingAdd(storedTriangles, size.triangles);
+                storedVertices = saturatingAdd(storedVertices, size.vertices);
             }
             for (int child : node.children) {
                 instances[size_t(child)] = std::min(instances[size_t(child)] + instances[n], instanceLimit.value + 1);
