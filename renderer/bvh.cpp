@@ -70,6 +70,10 @@ std::vector<BvhNode> assembleFragments(Fragment& root) {
 
 void validateOptions(const BvhBuildOptions& options) {
     if (options.leafSize == 0) throw Error("BVH build: leafSize must be at least 1, got 0");
+    if (options.leafSize > kMaxLeafPrimitives)
+        throw Error("BVH build: leafSize must be at most " + std::to_string(kMaxLeafPrimitives) +
+                    " (what a GPU ray can test within its traversal budget), got " +
+                    std::to_string(options.leafSize));
     auto checkCost = [](float cost, const char* name) {
         if (!(cost > 0.0f) || !std::isfinite(cost))
             throw Error(std::string("BVH build: ") + name + " must be positive and finite, got " +

@@ -34,6 +34,13 @@ enum class BvhBuilder {
 // Every builder, in the order a menu lists them.
 inline constexpr BvhBuilder kAllBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned};
 
+// The most primitives any leaf holds, whatever leafSize asks (larger values are refused) and even
+// where the SAH finds no split worth its cost (a soup of long overlapping slivers, coincident
+// triangles): such a node is split at its object median instead. Derived from the kernels'
+// traversal budget, gpu::kMaxTraversalSteps = 60,000 (shaders/gpu_types.h): a ray may test 58
+// full leaves, and no leaf loop comes near lavapipe's 65,535 loop iterations.
+inline constexpr uint32_t kMaxLeafPrimitives = 1024;
+
 // Defaults chosen so that O_AVG lands between 1 and 2 as in the report (3.1); docs/bvh.md has the
 // measurements behind them.
 struct BvhBuildOptions {

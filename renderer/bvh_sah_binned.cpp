@@ -155,7 +155,8 @@ private:
 
             Split split;
             if (count > options_.leafSize) split = findBestSplit(work);
-            if (!split.found) {
+            const bool median = !split.found && count > kMaxLeafPrimitives;
+            if (!split.found && !median) {
                 fragment.nodes[work.slot].index = work.begin;
                 fragment.nodes[work.slot].count = count;
                 placedSinceReport += count;
@@ -166,8 +167,15 @@ private:
                 continue;
             }
             Aabb leftCentroids, rightCentroids;
-            const uint32_t mid = partition(split, work, leftCentroids, rightCentroids);
-            RAYPACK_CHECK(mid - work.begin == split.leftCount);
+            uint32_t mid = 0;
+            if (median) {
+                // The SAH refuses, but the leaf would be too large: the object median.
+                split.leftBox = split.rightBox = Aabb{};  // the refused candidate's boxes
+                mid = medianSplit(work, split.leftBox, split.rightBox, leftCentroids, rightCentroids);
+            } else {
+                mid = partition(split, work, leftCentroids, rightCentroids);
+                RAYPACK_CHECK(mid - work.begin == split.leftCount);
+            }
             const uint32_t pair = fragment.addPair();
             fragment.nodes[work.slot].index = pair;
             fragment.nodes[work.slot].count = 0;
@@ -186,6 +194,33 @@ private:
             }
         }
         addPlaced(progress_, placedSinceReport);
+    }
+
+    // Orders prims_[begin, end) by centroid along the widest axis of the centroids' box (ties by
+    // primitive index, so the order is total and the tree deterministic) and splits at the middle;
+    // returns the first right position and the halves' boxes. When every centroid coincides the
+    // order is by index alone: the halves overlap, but each is half as large.
+    uint32_t medianSplit(const Work& work, Aabb& leftBox, Aabb& rightBox, Aabb& leftCentroids,
+                         Aabb& rightCentroids) {
+        const glm::vec3 extent = work.centroidBox.hi - work.centroidBox.lo;
+        const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
+        const uint32_t mid = work.begin + (work.end - work.begin) / 2;
+        auto before = [&](uint32_t a, uint32_t b) {
+            const float ca = centroids_[a][axis], cb = centroids_[b][axis];
+            return ca < cb || (ca == cb && a < b);
+        };
+        std::nth_element(prims_.begin() + work.begin, prims_.begin() + mid, prims_.begin() + work.end, before);
+        // The two halves keep the order of their primitive indices, as the partition's stable
+        // order would (leaf contents do not depend on nth_element's internal order).
+        std::sort(prims_.begin() + work.begin, prims_.begin() + mid);
+        std::sort(prims_.begin() + mid, prims_.begin() + work.end);
+        throwIfCancelled(progress_);
+        for (uint32_t i = work.begin; i < work.end; ++i) {
+            const uint32_t prim = prims_[i];
+            (i < mid ? leftBox : rightBox).grow(bounds_[prim]);
+            (i < mid ? leftCentroids : rightCentroids).grow(centroids_[prim]);
+        }
+        return mid;
     }
 
     // A node of N primitives gets min(binCount, N) bins per axis: more bins than primitives only

@@ -145,6 +145,14 @@ private:
 
             Split split;
             if (count > options_.leafSize) split = findBestSplit(work);
+            if (!split.found && count > kMaxLeafPrimitives) {
+                // The SAH refuses, but the leaf would be too large: the object median of the
+                // widest axis (its list is sorted by centroid, ties by index).
+                const glm::vec3 extent = work.box.hi - work.box.lo;
+                split.found = true;
+                split.axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
+                split.mid = work.begin + count / 2;
+            }
             if (!split.found) {
                 node.index = work.begin;
                 node.count = count;

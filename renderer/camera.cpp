@@ -31,19 +31,22 @@ GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height, g
     if (!(camera.fovYDegrees > 0.0f && camera.fovYDegrees < 180.0f))
         throw Error("camera: vertical field of view " + std::to_string(camera.fovYDegrees) +
                     " degrees is outside (0, 180)");
-    const glm::vec3 view = camera.at - camera.eye;
-    if (view == glm::vec3(0.0f))
+    // In double: a float view vector's squared length overflows past |at - eye| ~ 2e19 and
+    // underflows below ~1e-19, while the tracer itself is watertight across that whole range.
+    const glm::dvec3 view = glm::dvec3(camera.at) - glm::dvec3(camera.eye);
+    if (view == glm::dvec3(0.0))
         throw Error("camera: eye and look-at point are the same (" + describe(camera.eye) + ")");
     if (camera.up == glm::vec3(0.0f)) throw Error("camera: the up vector is zero");
-    const glm::vec3 forward = glm::normalize(view);
-    const glm::vec3 side = glm::cross(forward, glm::normalize(camera.up));
+    const glm::dvec3 forwardD = glm::normalize(view);
+    const glm::dvec3 sideD = glm::cross(forwardD, glm::normalize(glm::dvec3(camera.up)));
     // sin of the angle between view direction and up; below ~1e-6 the right vector is noise.
-    if (!(glm::length(side) > 1e-6f))
+    if (!(glm::length(sideD) > 1e-6))
         throw Error("camera: up " + describe(camera.up) + " is parallel to the view direction " +
-                    describe(forward));
-    const glm::vec3 right = glm::normalize(side);
-    const glm::vec3 up = glm::cross(right, forward);
-
+                    describe(glm::vec3(forwardD)));
+    const glm::dvec3 rightD = glm::normalize(sideD);
+    const glm::vec3 forward(forwardD);
+    const glm::vec3 right(rightD);
+    const glm::vec3 up(glm::cross(rightD, forwardD));
     const float tanHalfFov = std::tan(glm::radians(camera.fovYDegrees) * 0.5f);
     const float aspect = float(width) / float(height);
     GpuCamera gpu;
@@ -61,20 +64,22 @@ GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height, g
 }
 
 Camera frameScene(const Aabb& bounds) {
-    glm::vec3 center(0.0f);
-    float radius = 1.0f;
+    // In double, and by the scene's own scale: a box of size 1e20 or 1e-30 is framed like one of
+    // size 1 (in float its diagonal's squared length overflows or underflows).
+    glm::dvec3 center(0.0);
+    double radius = 1.0;
     if (!bounds.empty()) {
-        center = bounds.center();
-        const float boxRadius = 0.5f * glm::length(bounds.extent());
-        if (boxRadius > 0.0f) radius = boxRadius;
+        center = 0.5 * (glm::dvec3(bounds.lo) + glm::dvec3(bounds.hi));
+        const double boxRadius = 0.5 * glm::length(glm::dvec3(bounds.hi) - glm::dvec3(bounds.lo));
+        if (boxRadius > 0.0) radius = boxRadius;
     }
     Camera camera;
     camera.fovYDegrees = 60.0f;
     camera.up = glm::vec3(0.0f, 1.0f, 0.0f);
     // The bounding sphere (radius enlarged by 10%) touches the vertical field of view's edges.
-    const float distance = 1.1f * radius / std::sin(glm::radians(camera.fovYDegrees) * 0.5f);
-    camera.at = center;
-    camera.eye = center + glm::normalize(glm::vec3(0.5f, 0.4f, 1.0f)) * distance;
+    const double distance = 1.1 * radius / std::sin(glm::radians(double(camera.fovYDegrees)) * 0.5);
+    camera.at = glm::vec3(center);
+    camera.eye = glm::vec3(center + glm::normalize(glm::dvec3(0.5, 0.4, 1.0)) * distance);
     return camera;
 }
 

@@ -687,6 +687,10 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
                     std::to_string(settings.packet.height) +
                     " rays across subgroups although it fits one subgroup of " +
                     std::to_string(s.ctx.info.subgroupSize) + "; use another packet shape");
+    if (status & gpu::kStatusTraversalTruncated)
+        throw Error("GPU: a ray needed more than " + std::to_string(gpu::kMaxTraversalSteps) +
+                    " traversal steps (nodes plus triangle tests) and was stopped, so the frame would be "
+                    "wrong; render this scene on the CPU (--device cpu)");
     RAYPACK_CHECK_MSG(status == 0, "a GPU traversal stack overflowed despite its sizing");
 
     Frame frame;

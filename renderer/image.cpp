@@ -10,9 +10,12 @@
 #include <algorithm>
 #include <cctype>
 #include <cerrno>
+#include <charconv>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <limits>
 
 namespace raypack {
@@ -81,13 +84,79 @@ void writePng(const std::string& path, const Image& image) {
     writePng(path, image.width, image.height, image.rgba);
 }
 
+namespace {
+
+// The most pixels readPng decodes (RAYPACK_MAX_IMAGE_PIXELS, default 2^26).
+uint64_t maxPngPixels() {
+    uint64_t limit = uint64_t(1) << 26;  // 67,108,864: 8192x8192, 256 MB as RGBA8
+    if (const char* text = std::getenv("RAYPACK_MAX_IMAGE_PIXELS")) {
+        uint64_t value = 0;
+        const char* end = text + std::strlen(text);
+        auto [stop, ec] = std::from_chars(text, end, value);
+        if (ec == std::errc() && stop == end && value > 0) limit = value;
+    }
+    return limit;
+}
+
+}  // namespace
+
 Image readPng(const std::string& path) {
+    // The whole file, bounded: a PNG of maxPngPixels() pixels compresses to far less than 1 GiB.
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw Error("cannot read image " + path + ": " + std::strerror(errno));
+    std::error_code error;
+    const uintmax_t size = std::filesystem::file_size(path, error);
+    if (error || !std::filesystem::is_regular_file(path, error))
+        throw Error("cannot read image " + path + ": not a regular file");
+    constexpr uintmax_t kMaxFileBytes = uintmax_t(1) << 30;
+    if (size > kMaxFileBytes)
+        throw Error("cannot read image " + path + ": " + std::to_string(size) + " bytes, more than a PNG raypack reads (1 GiB)");
+    std::vector<unsigned char> bytes(static_cast<size_t>(size));
+    in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()));
+    if (size_t(in.gcount()) != bytes.size()) throw Error("cannot read image " + path + ": read failed");
+
+    // PNG only (stb would decode BMP, PSD, GIF... named .png as well), and its IHDR, which the
+    // PNG specification puts first, holds the dimensions: they are checked against the limit
+    // before anything is decoded, so a small file cannot ask for gigabytes (a decompression bomb).
+    static constexpr unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+    if (bytes.size() < 8 || std::memcmp(bytes.data(), kSignature, 8) != 0)
+        throw Error("cannot read image " + path + ": not a PNG file (no PNG signature)");
+    if (bytes.size() < 8 + 8 + 13 || std::memcmp(bytes.data() + 12, "IHDR", 4) != 0)
+        throw Error("cannot read image " + path + ": the PNG has no IHDR chunk first (truncated or corrupt)");
+    auto bigEndian = [&](size_t at) {
+        return uint32_t(bytes[at]) << 24 | uint32_t(bytes[at + 1]) << 16 | uint32_t(bytes[at + 2]) << 8 | bytes[at + 3];
+    };
+    const uint32_t headerWidth = bigEndian(16), headerHeight = bigEndian(20);
+    const uint64_t limit = maxPngPixels();
+    if (headerWidth == 0 || headerHeight == 0)
+        throw Error("cannot read image " + path + ": the PNG header says " + std::to_string(headerWidth) + "x" +
+                    std::to_string(headerHeight));
+    if (uint64_t(headerWidth) * headerHeight > limit || headerWidth > (1u << 24) || headerHeight > (1u << 24))
+        throw Error("cannot read image " + path + ": " + std::to_string(headerWidth) + "x" + std::to_string(headerHeight) +
+                    " pixels, more than the limit of " + std::to_string(limit) +
+                    " (set RAYPACK_MAX_IMAGE_PIXELS to raise it)");
+
+    // Every chunk must lie inside the file: stb grows its IDAT buffer to a chunk's declared length
+    // before reading it, so a 100-byte file claiming a 1 GB chunk took 1 GB (found by fuzz_png).
+    for (size_t at = 8; at + 8 <= bytes.size();) {
+        const uint64_t length = bigEndian(at);
+        if (length > uint64_t(INT32_MAX) || at + 12 + length > bytes.size())
+            throw Error("cannot read image " + path + ": a PNG chunk at byte " + std::to_string(at) + " claims " +
+                        std::to_string(length) + " bytes, more than the file holds (truncated or corrupt)");
+        if (std::memcmp(bytes.data() + at + 4, "IEND", 4) == 0) break;
+        at += 12 + size_t(length);
+    }
+
     int width = 0, height = 0, channels = 0;
-    errno = 0;
-    unsigned char* data = stbi_load(path.c_str(), &width, &height, &channels, 4);
+    unsigned char* data = stbi_load_from_memory(bytes.data(), int(std::min<size_t>(bytes.size(), INT32_MAX)), &width,
+                                                &height, &channels, 4);
     if (!data) {
-        const char* reason = stbi_failure_reason();
-        throw Error("cannot read image " + path + ": " + (reason ? reason : "unknown error"));
+        // stb's reason is a short word ("bad IHDR len", "outofdata"), but not always printable.
+        std::string reason = stbi_failure_reason() ? stbi_failure_reason() : "";
+        for (char& c : reason)
+            if (!std::isprint(static_cast<unsigned char>(c))) c = ' ';
+        while (!reason.empty() && reason.back() == ' ') reason.pop_back();
+        throw Error("cannot read image " + path + ": corrupt PNG data" + (reason.empty() ? "" : " (" + reason + ")"));
     }
     Image image;
     image.width = uint32_t(width);

@@ -35,7 +35,9 @@ void writeImage(const std::string& path, uint32_t width, uint32_t height,
 void checkOutputPath(const std::string& flag, const std::string& path);
 
 // Reads any PNG (grey, grey+alpha, RGB, RGBA; 8 bit) as RGBA8. Throws raypack::Error naming the
-// file when it is missing or not a readable PNG.
+// file when it is missing, not a PNG (other formats are refused, whatever the name), not a
+// readable PNG, or larger than RAYPACK_MAX_IMAGE_PIXELS pixels (default 67,108,864 = 8192x8192;
+// checked from the header before decoding).
 Image readPng(const std::string& path);
 
 struct ImageDiff {

@@ -15,6 +15,14 @@ using nlohmann::json;
 
 json toJson(const glm::vec3& v) { return json::array({v.x, v.y, v.z}); }
 
+// A value as it appears in an error message: its JSON, cut to 60 characters so that a huge value
+// still gives a one-line error of readable length.
+std::string shortDump(const json& value) {
+    std::string text = value.dump();
+    if (text.size() > 60) text = text.substr(0, 57) + "...";
+    return text;
+}
+
 [[noreturn]] void badKey(const std::string& key, const std::string& what) {
     throw Error("settings JSON: \"" + key + "\" " + what);
 }
@@ -28,7 +36,7 @@ const json* find(const json& object, const char* key) {
 void readFloat(const json& object, const char* key, const std::string& path, float& out) {
     const json* value = find(object, key);
     if (!value) return;
-    if (!value->is_number()) badKey(path + key, "must be a number, got " + value->dump());
+    if (!value->is_number()) badKey(path + key, "must be a number, got " + shortDump(*value));
     const double d = value->get<double>();
     if (!std::isfinite(d)) badKey(path + key, "must be finite");
     out = float(d);
@@ -39,14 +47,14 @@ void readUint(const json& object, const char* key, const std::string& path, uint
     if (!value) return;
     if (!value->is_number_integer() || value->get<int64_t>() < 0 ||
         value->get<int64_t>() > int64_t(UINT32_MAX))
-        badKey(path + key, "must be a non-negative integer, got " + value->dump());
+        badKey(path + key, "must be a non-negative integer, got " + shortDump(*value));
     out = uint32_t(value->get<int64_t>());
 }
 
 void readBool(const json& object, const char* key, const std::string& path, bool& out) {
     const json* value = find(object, key);
     if (!value) return;
-    if (!value->is_boolean()) badKey(path + key, "must be true or false, got " + value->dump());
+    if (!value->is_boolean()) badKey(path + key, "must be true or false, got " + shortDump(*value));
     out = value->get<bool>();
 }
 
@@ -54,25 +62,25 @@ void readVec3(const json& object, const char* key, const std::string& path, glm:
     const json* value = find(object, key);
     if (!value) return;
     if (!value->is_array() || value->size() != 3)
-        badKey(path + key, "must be an array of 3 numbers, got " + value->dump());
+        badKey(path + key, "must be an array of 3 numbers, got " + shortDump(*value));
     for (int i = 0; i < 3; ++i) {
         const json& c = (*value)[i];
         if (!c.is_number() || !std::isfinite(c.get<double>()))
-            badKey(path + key, "must be an array of 3 finite numbers, got " + value->dump());
+            badKey(path + key, "must be an array of 3 finite numbers, got " + shortDump(*value));
         out[i] = float(c.get<double>());
     }
 }
 
 const json* readObject(const json& object, const char* key, const std::string& path) {
     const json* value = find(object, key);
-    if (value && !value->is_object()) badKey(path + key, "must be an object, got " + value->dump());
+    if (value && !value->is_object()) badKey(path + key, "must be an object, got " + shortDump(*value));
     return value;
 }
 
 std::string readString(const json& object, const char* key, const std::string& path) {
     const json* value = find(object, key);
     if (!value) return {};
-    if (!value->is_string()) badKey(path + key, "must be a string, got " + value->dump());
+    if (!value->is_string()) badKey(path + key, "must be a string, got " + shortDump(*value));
     return value->get<std::string>();
 }
 
@@ -87,6 +95,14 @@ std::optional<BvhBuilder> builderFromName(const std::string& name) {
     for (BvhBuilder b : kAllBvhBuilders)
         if (name == toString(b)) return b;
     return std::nullopt;
+}
+
+// nlohmann's messages quote the text last read, which may be long or hold a newline.
+std::string oneLine(std::string text) {
+    for (char& c : text)
+        if (c == '\n' || c == '\r') c = ' ';
+    if (text.size() > 200) text = text.substr(0, 197) + "...";
+    return text;
 }
 
 }  // namespace
@@ -162,6 +178,10 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
     readUint(j, "width", "", s.width);
     readUint(j, "height", "", s.height);
     if (s.width == 0 || s.height == 0) badKey("width/height", "must both be at least 1");
+    // The command line's limit (render --width/--height), which --from must not bypass.
+    if (s.width > kMaxImageSide || s.height > kMaxImageSide)
+        badKey("width/height", "must both be at most " + std::to_string(kMaxImageSide) + ", got " +
+                                   std::to_string(s.width) + "x" + std::to_string(s.height));
     if (const json* camera = readObject(j, "camera", "")) {
         readVec3(*camera, "eye", "camera.", s.camera.eye);
         readVec3(*camera, "at", "camera.", s.camera.at);
@@ -243,10 +263,21 @@ nlohmann::json readJsonFile(const std::string& path) {
     std::stringstream text;
     text << in.rdbuf();
     if (in.bad()) throw Error(path + ": cannot read the JSON file");
+    // Nesting is bounded while parsing, before a deep value exists: raypack's files nest 3 levels,
+    // and 200,000 levels would overflow the stack of anything that walks the value recursively.
+    constexpr int kMaxDepth = 64;
+    const json::parser_callback_t limitDepth = [&](int depth, json::parse_event_t event, json&) {
+        if (depth > kMaxDepth && (event == json::parse_event_t::object_start || event == json::parse_event_t::array_start))
+            throw Error(path + ": JSON nested more than " + std::to_string(kMaxDepth) + " levels deep");
+        return true;
+    };
     try {
-        return json::parse(text.str());
+        return json::parse(text.str(), limitDepth);
     } catch (const json::parse_error& e) {
-        throw Error(path + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + e.what());
+        throw Error(path + ": not valid JSON at byte " + std::to_string(e.byte) + ": " + oneLine(e.what()));
+    } catch (const json::exception& e) {
+        // e.g. out_of_range.406 for a number such as 1e400 that no double holds.
+        throw Error(path + ": not valid JSON: " + oneLine(e.what()));
     }
 }
 

@@ -29,6 +29,10 @@
 
 namespace raypack {
 
+// The largest image width or height a render accepts, from the command line (render --width) or
+// a --from settings file alike.
+inline constexpr uint32_t kMaxImageSide = 16384;
+
 // What reproduces a frame: the scene, the settings and how its BVH was built.
 struct RenderSetup {
     std::string scene;  // file path or generator spec; empty when unknown

@@ -12,6 +12,7 @@
 // met in the node walk becomes Scene::fileCamera.
 #include "scenes/formats.h"
 #include "scenes/textures.h"
+#include "scenes/limits.h"
 
 #include <tiny_gltf.h>
 
@@ -21,12 +22,15 @@
 #include <glm/gtc/type_ptr.hpp>
 
 #include <cmath>
+#include <cctype>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <map>
 #include <sstream>
 #include <tuple>
+#include <sstream>
+#include <vector>
 
 namespace raypack {
 namespace {
@@ -59,6 +63,62 @@ double numberOr(const tinygltf::Value& object, const char* key, int element, dou
         return entry.IsNumber() ? entry.GetNumberAsDouble() : fallback;
     }
     return value.IsNumber() ? value.GetNumberAsDouble() : fallback;
+}
+
+// Every file a glTF names (buffers, images) goes through resolveReferencedFile: tinygltf joins its
+// base folder with the percent-decoded URI and asks whether the file exists, then reads it. The
+// base folder is the scene's, so what follows it is the URI; tinygltf's fallback of the current
+// folder ("./URI") is never taken, because the first lookup either finds the file or throws.
+struct ReferencedFiles {
+    const std::filesystem::path* sceneFile;
+    std::string baseDir;
+};
+
+bool referencedFileExists(const std::string& joined, void* user) {
+    const ReferencedFiles& files = *static_cast<const ReferencedFiles*>(user);
+    const std::string prefix = files.baseDir.back() == '/' ? files.baseDir : files.baseDir + "/";
+    if (joined.compare(0, prefix.size(), prefix) != 0) return false;  // tinygltf's "./" fallback
+    resolveReferencedFile(*files.sceneFile, joined.substr(prefix.size()), "referenced file", maxReferencedFileBytes());
+    return true;
+}
+
+std::string expandNothing(const std::string& path, void*) { return path; }  // no "~" or $VARIABLE expansion
+
+bool readReferencedGltfFile(std::vector<unsigned char>* out, std::string*, const std::string& joined, void* user) {
+    const ReferencedFiles& files = *static_cast<const ReferencedFiles*>(user);
+    const std::string prefix = files.baseDir.back() == '/' ? files.baseDir : files.baseDir + "/";
+    if (joined.compare(0, prefix.size(), prefix) != 0) return false;
+    const std::string name = joined.substr(prefix.size());
+    const std::filesystem::path resolved =
+        resolveReferencedFile(*files.sceneFile, name, "referenced file", maxReferencedFileBytes());
+    const std::string bytes = readReferencedFile(*files.sceneFile, resolved, "referenced file", maxReferencedFileBytes());
+    out->assign(bytes.begin(), bytes.end());
+    return true;
+}
+
+bool writeNothing(std::string*, const std::string&, const std::vector<unsigned char>&, void*) { return false; }
+
+// Required extensions raypack can ignore without changing the geometry it traces. Anything else
+// required (Draco or meshopt compression, quantized attributes) would load as wrong triangles.
+bool ignorableRequiredExtension(const std::string& name) {
+    return name.rfind("KHR_materials_", 0) == 0 || name == "KHR_texture_transform" || name == "KHR_lights_punctual" ||
+           name == "KHR_texture_basisu";
+}
+
+// A URI's %XX escapes decoded (glTF URIs are URI references; "%2F" must not slip past the
+// containment check as a name without a slash).
+std::string percentDecoded(const std::string& uri) {
+    std::string out;
+    const auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; };
+    for (size_t i = 0; i < uri.size(); ++i) {
+        if (uri[i] == '%' && i + 2 < uri.size() && hex(uri[i + 1]) && hex(uri[i + 2])) {
+            out.push_back(char(std::stoi(uri.substr(i + 1, 2), nullptr, 16)));
+            i += 2;
+        } else {
+            out.push_back(uri[i]);
+        }
+    }
+    return out;
 }
 
 glm::dmat4 localTransform(const tinygltf::Node& node) {
@@ -99,7 +159,8 @@ public:
             materials_.push_back(Material{m.name, colour});
         }
         texturing_.resize(model_.materials.size());
-        for (int root : roots) visit(root, glm::dmat4(1.0), 0);
+        checkHierarchy(roots);
+        visitAll(roots);
         if (scene_.triangles.empty()) fail("no TRIANGLES primitives in the scene");
         // Normals only when every primitive had them: a mesh cannot be half smooth-shaded.
         if (!allHaveNormals_) scene_.normals.clear();
@@ -177,7 +238,7 @@ private:
                                                        : "image " + std::to_string(texture.source);
         std::optional<Texture> decoded;
         if (!image.uri.empty()) {
-            decoded = tryLoadTextureImage(path_, image.uri);
+            decoded = tryLoadTextureImage(path_, percentDecoded(image.uri));
         } else if (image.bufferView >= 0) {
             decoded = tryDecodeTextureImage(bufferViewBytes(image.bufferView, name), bufferViewSize(image.bufferView), name, path_);
         } else {
@@ -207,20 +268,144 @@ private:
     }
     size_t bufferViewSize(int index) const { return model_.bufferViews[size_t(index)].byteLength; }
 
-    void visit(int nodeIndex, const glm::dmat4& parent, int depth) {
-        if (nodeIndex < 0 || size_t(nodeIndex) >= model_.nodes.size()) fail("node " + std::to_string(nodeIndex) + " does not exist");
-        // A node hierarchy is a forest; a cycle would recurse forever, so depth is bounded by the
-        // node count.
-        if (size_t(depth) > model_.nodes.size()) fail("the node hierarchy has a cycle");
-        const tinygltf::Node& node = model_.nodes[size_t(nodeIndex)];
-        const glm::dmat4 world = parent * localTransform(node);
-        if (node.camera >= 0 && !scene_.fileCamera) addCamera(node.camera, world);
-        if (node.mesh >= 0) {
-            if (size_t(node.mesh) >= model_.meshes.size()) fail("node " + std::to_string(nodeIndex) + " refers to a missing mesh");
-            for (const tinygltf::Primitive& primitive : model_.meshes[size_t(node.mesh)].primitives)
-                if (primitive.mode == TINYGLTF_MODE_TRIANGLES || primitive.mode == -1) addPrimitive(primitive, world);
+    // The node hierarchy, walked iteratively (a chain of 20,000 nested nodes must not overflow the
+    // stack) in the documented order: depth first, parents before children, children in the order
+    // a node lists them. checkHierarchy has already refused cycles and bounded the instances.
+    void visitAll(const std::vector<int>& roots) {
+        struct Pending {
+            int node;
+            glm::dmat4 parent;
+        };
+        std::vector<Pending> stack;
+        for (auto root = roots.rbegin(); root != roots.rend(); ++root) stack.push_back({*root, glm::dmat4(1.0)});
+        while (!stack.empty()) {
+            const Pending pending = stack.back();
+            stack.pop_back();
+            const int nodeIndex = pending.node;
+            const tinygltf::Node& node = model_.nodes[size_t(nodeIndex)];
+            const glm::dmat4 world = pending.parent * localTransform(node);
+            if (node.camera >= 0 && !scene_.fileCamera) addCamera(node.camera, world);
+            if (node.mesh >= 0)
+                for (const tinygltf::Primitive& primitive : model_.meshes[size_t(node.mesh)].primitives)
+                    if (primitive.mode == TINYGLTF_MODE_TRIANGLES || primitive.mode == -1) addPrimitive(primitive, world);
+            for (auto child = node.children.rbegin(); child != node.children.rend(); ++child)
+                stack.push_back({*child, world});
         }
-        for (int child : node.children) visit(child, world, depth + 1);
+    }
+
+    static uint64_t saturatingAdd(uint64_t a, uint64_t b) { return a > UINT64_MAX - b ? UINT64_MAX : a + b; }
+
+    // Triangles and vertices one instance of a node's mesh adds (from the accessors' counts; their
+    // bounds are checked when they are read).
+    struct MeshSize {
+        uint64_t triangles = 0, vertices = 0;
+    };
+    MeshSize meshSize(int meshIndex) const {
+        MeshSize size;
+        if (meshIndex < 0) return size;
+        for (const tinygltf::Primitive& primitive : model_.meshes[size_t(meshIndex)].primitives) {
+            if (primitive.mode != TINYGLTF_MODE_TRIANGLES && primitive.mode != -1) continue;
+            const auto position = primitive.attributes.find("POSITION");
+            const auto countOf = [&](int accessor) -> uint64_t {
+                return accessor >= 0 && size_t(accessor) < model_.accessors.size() ? model_.accessors[size_t(accessor)].count : 0;
+            };
+            const uint64_t vertices = position == primitive.attributes.end() ? 0 : countOf(position->second);
+            // Saturating: a hostile count must not wrap the sum below the limits.
+            size.vertices = saturatingAdd(size.vertices, vertices);
+            size.triangles = saturatingAdd(size.triangles, (primitive.indices >= 0 ? countOf(primitive.indices) : vertices) / 3);
+        }
+        return size;
+    }
+
+    // Before anything is instanced: every node index exists, the hierarchy has no cycle and is at
+    // most maxGltfNodeDepth() deep, and the number of node instances (paths from a root, which a
+    // node listing the same child twice doubles at every level) and the triangles and vertices they
+    // add are bounded. Iterative, with a colour per node: grey while on the DFS stack, so meeting a
+    // grey node again is a cycle.
+    void checkHierarchy(const std::vector<int>& roots) const {
+        const size_t nodeCount = model_.nodes.size();
+        auto checkNode = [&](int node, const std::string& where) {
+            if (node < 0 || size_t(node) >= nodeCount) fail(where + " refers to node " + std::to_string(node) + ", which does not exist");
+        };
+        for (size_t n = 0; n < nodeCount; ++n) {
+            for (int child : model_.nodes[n].children) checkNode(child, "node " + std::to_string(n));
+            const int mesh = model_.nodes[n].mesh;
+            if (mesh >= 0 && size_t(mesh) >= model_.meshes.size())
+                fail("node " + std::to_string(n) + " refers to a missing mesh");
+        }
+        for (int root : roots) checkNode(root, "the scene");
+        // Topological order of the nodes reachable from the roots (reverse post-order).
+        enum : uint8_t { kWhite, kGrey, kBlack };
+        std::vector<uint8_t> colour(nodeCount, kWhite);
+        std::vector<int> postOrder;
+        struct Frame {
+            int node;
+            size_t nextChild;
+        };
+        std::vector<Frame> stack;
+        for (int root : roots) {
+            if (colour[size_t(root)] != kWhite) continue;
+            colour[size_t(root)] = kGrey;
+            stack.push_back({root, 0});
+            while (!stack.empty()) {
+                Frame& frame = stack.back();
+                const std::vector<int>& children = model_.nodes[size_t(frame.node)].children;
+                if (frame.nextChild == children.size()) {
+                    colour[size_t(frame.node)] = kBlack;
+                    postOrder.push_back(frame.node);
+                    stack.pop_back();
+                    continue;
+                }
+                const int child = children[frame.nextChild++];
+                if (colour[size_t(child)] == kGrey)
+                    fail("the node hierarchy has a cycle (node " + std::to_string(child) + " is its own ancestor)");
+                if (colour[size_t(child)] == kWhite) {
+                    colour[size_t(child)] = kGrey;
+                    stack.push_back({child, 0});
+                }
+            }
+        }
+        // Instances (saturating at the limit) and depth, parents before children.
+        const LoadLimit depthLimit = maxGltfNodeDepth(), instanceLimit = maxGltfInstances();
+        std::vector<uint64_t> instances(nodeCount, 0), depth(nodeCount, 0);
+        for (int root : roots) instances[size_t(root)] = std::min(instances[size_t(root)] + 1, instanceLimit.value + 1);
+        uint64_t totalInstances = 0, triangles = 0, vertices = 0, storedTriangles = 0, storedVertices = 0;
+        std::vector<bool> meshCounted(model_.meshes.size(), false);
+        for (auto it = postOrder.rbegin(); it != postOrder.rend(); ++it) {
+            const size_t n = size_t(*it);
+            if (depth[n] + 1 > depthLimit.value)
+                throwLimitError(path_, "the node hierarchy is nested more than " + std::to_string(depthLimit.value) + " levels deep", depthLimit);
+            totalInstances = std::min(totalInstances + instances[n], instanceLimit.value + 1);
+            if (totalInstances > instanceLimit.value)
+                throwLimitError(path_, "the node hierarchy makes more than " + std::to_string(instanceLimit.value) +
+                                           " node instances (nodes listing a child more than once multiply them)", instanceLimit);
+            const tinygltf::Node& node = model_.nodes[n];
+            const MeshSize size = meshSize(node.mesh);
+            triangles = checkedAdd(triangles, checkedMul(instances[n], size.triangles, path_, "the instanced triangle count"), path_, "the instanced triangle count");
+            vertices = checkedAdd(vertices, checkedMul(instances[n], size.vertices, path_, "the instanced vertex count"), path_, "the instanced vertex count");
+            if (node.mesh >= 0 && !meshCounted[size_t(node.mesh)]) {
+                meshCounted[size_t(node.mesh)] = true;
+                storedTriangles = saturatingAdd(storedTriangles, size.triangles);
+                storedVertices = saturatingAdd(storedVertices, size.vertices);
+            }
+            for (int child : node.children) {
+                instances[size_t(child)] = std::min(instances[size_t(child)] + instances[n], instanceLimit.value + 1);
+                depth[size_t(child)] = std::max(depth[size_t(child)], depth[n] + 1);
+            }
+        }
+        // Instancing may multiply what the file stores by a bounded factor (with a floor of 1M,
+        // so small scenes instance freely): a 1 KB file cannot ask for billions of triangles.
+        const LoadLimit factor = maxInstancedTriangleFactor();
+        constexpr uint64_t kFloor = uint64_t(1) << 20;
+        const auto allowed = [&](uint64_t stored) {
+            const uint64_t scaled = stored > UINT64_MAX / factor.value ? UINT64_MAX : stored * factor.value;
+            return std::max(kFloor, scaled);
+        };
+        if (triangles > allowed(storedTriangles) || vertices > allowed(storedVertices))
+            throwLimitError(path_, "node instancing makes " + std::to_string(triangles) + " triangles and " +
+                                       std::to_string(vertices) + " vertices of " + std::to_string(storedTriangles) +
+                                       " and " + std::to_string(storedVertices) +
+                                       " stored, more than the instancing factor allows (at least 1048576 each)", factor);
     }
 
     // A bounds-checked view of an accessor's elements.
@@ -252,8 +437,12 @@ private:
         // Everything the accessor reads must lie inside its buffer view, and the view inside the buffer.
         if (bufferView.byteOffset > buffer.size() || bufferView.byteLength > buffer.size() - bufferView.byteOffset)
             fail(name + ": buffer view " + std::to_string(accessor.bufferView) + " lies outside its buffer (truncated file?)");
+        // In checked arithmetic: a byteOffset near 2^64 must not wrap past the check (issue 11).
         if (accessor.count > 0) {
-            const uint64_t last = uint64_t(accessor.byteOffset) + uint64_t(stride) * (accessor.count - 1) + elementSize;
+            const std::string what = name + "'s byte range";
+            const uint64_t last = checkedAdd(checkedAdd(uint64_t(accessor.byteOffset),
+                                                        checkedMul(uint64_t(stride), accessor.count - 1, path_, what), path_, what),
+                                             elementSize, path_, what);
             if (accessor.count > bufferView.byteLength || last > bufferView.byteLength)
                 fail(name + " reads " + std::to_string(accessor.count) + " elements, more than its buffer view holds");
         }
@@ -428,14 +617,30 @@ Scene loadGltf(const std::filesystem::path& path, LoadProgress* progress) {
     const std::string baseDir = path.has_parent_path() ? path.parent_path().string() : std::string(".");
     const bool binary = file.size >= 4 && std::memcmp(file.begin(), "glTF", 4) == 0;
     if (file.size > std::numeric_limits<unsigned int>::max()) throwFileError(path, "file larger than 4 GiB");
+    if (binary) {
+        // tinygltf reads a GLB's header without checking its version; version 1 (KHR_binary_glTF)
+        // is a different layout that would parse as garbage.
+        uint32_t version = 0;
+        if (file.size >= 8) std::memcpy(&version, file.begin() + 4, 4);
+        if (version != 2) throwFileError(path, "GLB version " + std::to_string(version) + " is not supported (only glTF 2.0)");
+    }
+    ReferencedFiles referenced{&path, baseDir};
+    tinygltf::FsCallbacks callbacks{};
+    callbacks.FileExists = referencedFileExists;
+    callbacks.ExpandFilePath = expandNothing;
+    callbacks.ReadWholeFile = readReferencedGltfFile;
+    callbacks.WriteWholeFile = writeNothing;
+    callbacks.user_data = &referenced;
+    loader.SetFsCallbacks(callbacks);
     const bool ok = binary ? loader.LoadBinaryFromMemory(&model, &errors, &warnings,
                                                          reinterpret_cast<const unsigned char*>(file.begin()),
                                                          unsigned(file.size), baseDir)
                            : loader.LoadASCIIFromString(&model, &errors, &warnings, file.begin(), unsigned(file.size), baseDir);
     if (progress && progress->cancel) throw LoadCancelled(path.string() + ": loading cancelled");
     if (!ok) {
-        while (!errors.empty() && errors.back() == '\n') errors.pop_back();
-        throwFileError(path, errors.empty() ? "tinygltf could not parse the file" : errors);
+        // tinygltf ends each of its messages with a newline; the error is one line (the first).
+        const std::string first = errors.substr(0, errors.find('\n'));
+        throwFileError(path, first.empty() ? "tinygltf could not parse the file" : first);
     }
     // tinygltf's warnings about external images it could not read are left out: the image is
     // loaded (or reported missing) by loadTextureImage, and only when a material uses it.
@@ -448,6 +653,9 @@ Scene loadGltf(const std::filesystem::path& path, LoadProgress* progress) {
                 aboutAnImage = true;
         if (!aboutAnImage) std::fprintf(stderr, "raypack: warning: %s: %s\n", path.string().c_str(), line.c_str());
     }
+    for (const std::string& extension : model.extensionsRequired)
+        if (!ignorableRequiredExtension(extension))
+            throwFileError(path, "requires the extension " + extension + ", which raypack does not support");
     Scene scene = GltfConverter(model, path).convert();
     scene.sourceBytes = file.size;
     for (const tinygltf::Buffer& buffer : model.buffers)

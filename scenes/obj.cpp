@@ -10,10 +10,13 @@
 // v runs up the image, so v is flipped to the top-down convention of Scene::uvs.
 #include "scenes/formats.h"
 #include "scenes/textures.h"
+#include "scenes/limits.h"
 
 #include <tiny_obj_loader.h>
 
+#include <charconv>
 #include <cmath>
+#include <cfloat>
 #include <cstdio>
 #include <cstring>
 #include <istream>
@@ -105,14 +108,99 @@ size_t lineOfShortFace(const FileBytes& file) {
     return 0;
 }
 
+// MTL libraries through findReferencedFile: inside the OBJ's folder, a regular file (`mtllib
+// /dev/zero` would have tinyobjloader read one endless line), at most maxMtlFileBytes() long.
+class CheckedMaterialReader : public tinyobj::MaterialReader {
+public:
+    explicit CheckedMaterialReader(const std::filesystem::path& objFile) : objFile_(objFile) {}
+    bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials,
+                    std::map<std::string, int>* materialMap, std::string* warnings, std::string* errors) override {
+        const std::optional<std::filesystem::path> found = findReferencedFile(objFile_, name, "mtllib", maxMtlFileBytes());
+        if (!found) {
+            if (warnings) *warnings += "material library " + name + " not found; default material used\n";
+            return false;
+        }
+        std::istringstream text(readReferencedFile(objFile_, *found, "mtllib", maxMtlFileBytes()));
+        tinyobj::LoadMtl(materialMap, materials, &text, warnings, errors);
+        return true;
+    }
+
+private:
+    const std::filesystem::path& objFile_;
+};
+
 [[noreturn]] void failAtLine(const std::filesystem::path& path, size_t line, const std::string& what) {
     throwFileError(path, (line ? "line " + std::to_string(line) + ": " : std::string()) + what);
+}
+
+// tinyobjloader reads what is not a number as 0 ("v inf 0 0", "v a b c"), a missing coordinate as
+// 0 ("v 0 0") and an index past 32 bits as a wrapped one ("f 1 2 99999999999999999999" is -1,
+// the last vertex). So before it runs, every number of the statements raypack uses is checked
+// here: v, vn and vt coordinates parse completely as finite floats (at least 3 for v and vn) and
+// face indices as integers that fit 32 bits. One pass over lines in memory.
+void checkObjNumbers(const FileBytes& file, const std::filesystem::path& path) {
+    size_t line = 0;
+    const char* p = file.begin();
+    const char* end = file.end();
+    auto isSpace = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+    while (p < end) {
+        const char* eol = static_cast<const char*>(std::memchr(p, '\n', size_t(end - p)));
+        if (!eol) eol = end;
+        ++line;
+        const char* q = p;
+        p = eol + 1;
+        while (q < eol && isSpace(*q)) ++q;
+        const char* keyword = q;
+        while (q < eol && !isSpace(*q)) ++q;
+        const std::string_view word(keyword, size_t(q - keyword));
+        const bool isVertex = word == "v", isNormal = word == "vn", isUv = word == "vt", isFace = word == "f";
+        if (!isVertex && !isNormal && !isUv && !isFace) continue;
+        size_t tokens = 0;
+        while (true) {
+            while (q < eol && isSpace(*q)) ++q;
+            if (q == eol || *q == '#') break;
+            const char* start = q;
+            while (q < eol && !isSpace(*q)) ++q;
+            const std::string_view token(start, size_t(q - start));
+            ++tokens;
+            if (isFace) {
+                // i, i/j, i//k or i/j/k: every present component an integer of 32 bits.
+                size_t from = 0;
+                for (int component = 0; from <= token.size(); ++component) {
+                    const size_t slash = std::min(token.find('/', from), token.size());
+                    const std::string_view number = token.substr(from, slash - from);
+                    if (!number.empty() || component == 0) {
+                        int64_t value = 0;
+                        auto [stop, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
+                        if (ec != std::errc() || stop != number.data() + number.size() || value == 0 ||
+                            value > std::numeric_limits<int32_t>::max() || value < -int64_t(std::numeric_limits<int32_t>::max()))
+                            failAtLine(path, line, "face corner \"" + std::string(token) +
+                                                       "\" is not a valid index (a non-zero integer of at most 32 bits)");
+                    }
+                    from = slash + 1;
+                }
+                continue;
+            }
+            std::string_view number = token;
+            if (number.size() > 1 && number[0] == '+') number.remove_prefix(1);  // from_chars takes no '+'
+            double value = 0.0;
+            auto [stop, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
+            if (stop != number.data() + number.size() || (ec != std::errc() && ec != std::errc::result_out_of_range))
+                failAtLine(path, line, "\"" + std::string(token) + "\" is not a number");
+            if (ec != std::errc() || !std::isfinite(value) || std::abs(value) > double(FLT_MAX))
+                failAtLine(path, line, "\"" + std::string(token) + "\" is not a finite number of float range");
+        }
+        if ((isVertex || isNormal) && tokens < 3)
+            failAtLine(path, line, std::string(isVertex ? "vertex" : "normal") + " has " + std::to_string(tokens) +
+                                       " coordinates, expected 3");
+    }
 }
 
 }  // namespace
 
 Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
     const FileBytes file = readWholeFile(path, progress);
+    checkObjNumbers(file, path);
     ProgressBuffer buffer(file, progress, path);
     std::istream stream(&buffer);
 
@@ -121,13 +209,14 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
     std::vector<tinyobj::material_t> objMaterials;
     std::string warnings, errors;
     // MTL files are looked up next to the OBJ, as their names in `mtllib` are relative to it.
-    const std::string baseDir = path.has_parent_path() ? path.parent_path().string() : std::string(".");
-    tinyobj::MaterialFileReader materialReader(baseDir);
+    CheckedMaterialReader materialReader(path);
     const bool ok = tinyobj::LoadObj(&attrib, &shapes, &objMaterials, &warnings, &errors, &stream, &materialReader,
                                      /*triangulate=*/false, /*default_vcols_fallback=*/false);
     if (buffer.cancelled()) throw LoadCancelled(path.string() + ": loading cancelled");
     if (!ok) {
-        while (!errors.empty() && (errors.back() == '\n' || errors.back() == '.')) errors.pop_back();
+        // One line: tinyobjloader ends each of its messages with a newline.
+        errors = errors.substr(0, errors.find('\n'));
+        while (!errors.empty() && errors.back() == '.') errors.pop_back();
         throwFileError(path, errors.empty() ? "tinyobjloader could not parse the file" : errors);
     }
     if (warnings.find("Degenerated face") != std::string::npos)

@@ -248,6 +248,7 @@ public:
         return value;
     }
     void advance(size_t bytes) { p_ += bytes; }
+    void retreat(size_t bytes) { p_ -= bytes; }  // back over bytes just read (the fast path's undo)
     // What is left after the last element: binary bodies should end exactly there.
     size_t trailingBytes() const { return size_t(end_ - p_); }
     [[noreturn]] void fail(const std::string& what) const { throwFileError(*path_, where() + ": " + what); }
@@ -485,6 +486,9 @@ private:
 
     template <typename Reader>
     void skipElement(Reader& reader, const PlyElement& element) {
+        // An element without properties takes no bytes, whatever its count (which may be 2^64-1:
+        // walking it instance by instance would take millennia).
+        if (element.properties.empty()) return;
         for (uint64_t i = 0; i < element.count; ++i) {
             tick(reader, i);
             for (const PlyProperty& p : element.properties) {
@@ -599,10 +603,6 @@ private:
         }
     }
 
-    template <typename Reader>
-    static void rewind(Reader& reader, size_t bytes) {
-        reader.advance(size_t(0) - bytes);  // unsigned wrap-around moves the pointer back
-    }
 
     // The common binary layout, a face element holding only its index list with every face a
     // triangle, in one tight loop. Returns false, having consumed nothing, at the first face that
@@ -627,7 +627,7 @@ private:
                     c >= vertexCount) {
                     // Rewind to the element's start and let the general loop find and report it.
                     const size_t consumed = size_t(f) * faceBytes;
-                    rewind(reader, consumed);
+                    reader.retreat(consumed);
                     scene_.triangles.resize(before);
                     return false;
                 }

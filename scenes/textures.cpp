@@ -1,5 +1,7 @@
 #include "scenes/textures.h"
 
+#include "scenes/limits.h"
+
 #include "scenes/formats.h"
 
 #include <stb/stb_image.h>
@@ -91,16 +93,18 @@ Texture loadTextureImage(const std::filesystem::path& sceneFile, const std::stri
     std::string relative = uri;
     std::replace(relative.begin(), relative.end(), '\\', '/');
     if (relative.empty()) failTexture(sceneFile, "\"\"", "empty file name");
-    const std::filesystem::path folder = sceneFile.has_parent_path() ? sceneFile.parent_path() : ".";
-    const std::filesystem::path file = folder / relative;
-    FileBytes bytes;
+    // Inside the scene's folder, a regular file of bounded size (scenes/limits.h), as every file a
+    // scene names.
+    std::string bytes;
     try {
-        bytes = readWholeFile(file, nullptr);
+        const std::filesystem::path file =
+            resolveReferencedFile(sceneFile, relative, "texture image", maxReferencedFileBytes());
+        bytes = readReferencedFile(sceneFile, file, "texture image", maxReferencedFileBytes());
     } catch (const Error& error) {
         failTexture(sceneFile, uri, error.what());
     }
-    Texture texture = decodeTextureImage(reinterpret_cast<const unsigned char*>(bytes.begin()), bytes.size, uri, sceneFile);
-    texture.fileBytes = bytes.size;
+    Texture texture = decodeTextureImage(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), uri, sceneFile);
+    texture.fileBytes = bytes.size();
     return texture;
 }
 

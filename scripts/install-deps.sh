@@ -8,6 +8,7 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-validationlayers
   libglfw3-dev libimgui-dev xvfb xauth xdotool
   libembree-dev python3 python3-matplotlib ccache
+  clang libclang-rt-14-dev
 )
 missing=()
 for p in "${packages[@]}"; do

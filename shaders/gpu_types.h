@@ -103,12 +103,22 @@ const uint kViewShaded = 0u;
 const uint kViewHeatTraversal = 1u;
 const uint kViewHeatIntersections = 2u;
 
+// The most steps (inner nodes visited plus triangles tested) one ray, or one packet, may take in a
+// pass. Lavapipe (llvmpipe) ends any shader loop silently after 65,535 iterations in all, which
+// made rays through huge leaves miss (issue 11); the kernels stop at this bound instead and say so
+// (kStatusTraversalTruncated), and the BVH builders never make a leaf of more than
+// kMaxLeafPrimitives (renderer/bvh.h) triangles, so a ray can test dozens of full leaves within it.
+const uint kMaxTraversalSteps = 60000u;
+
 // Status word written by the kernels (should stay 0): set when a stack would overflow, which the
 // host's sizing from the tree's depth rules out; checked after every synchronous frame.
 const uint kStatusStackOverflow = 1u;
 // Set when the host compiled a packet as one subgroup (kPacketIsOneSubgroup) but the device split
 // it across subgroups; the packet then traces nothing and render() throws.
 const uint kStatusSubgroupMismatch = 2u;
+// Set when a ray or packet reached kMaxTraversalSteps and stopped: its answer may be wrong, so
+// render() throws instead of returning it.
+const uint kStatusTraversalTruncated = 4u;
 
 RP_END_NAMESPACE
 

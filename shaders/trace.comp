@@ -225,7 +225,14 @@ void tracePacket(inout RayQuery q) {
     // Whether any ray hits the root: a vote with all fields but "active" empty.
     if (packetVote(false, false, false, q.isActive, true, parity).stillActive == 0u) return;
 
+    // Steps (iterations plus triangles of the leaves visited) are the same for every ray of the
+    // packet, so stopping at the budget is uniform, as the votes' barriers need.
+    uint steps = 0u;
     while (true) {
+        if (++steps > kMaxTraversalSteps) {
+            if (gl_LocalInvocationIndex == 0u) atomicOr(status, kStatusTraversalTruncated);
+            break;
+        }
         bool haveNext = false;  // a sibling to visit right after a leaf, instead of a push + pop
         uvec2 next = uvec2(0u);
         bool wantNext = false;
@@ -288,6 +295,7 @@ void tracePacket(inout RayQuery q) {
         }
         if (current.y != 0u) {
             // Leaf: the rays that wanted it test its triangles.
+            steps += current.y;
             if (q.isActive && wantCurrent) {
                 if (kStatistics) q.nodes += 1u;
                 intersectLeaf(q, current.x, current.y);
@@ -316,8 +324,14 @@ void traceSingle(inout RayQuery q) {
     float entry;
     bool done = !(q.isActive && intersectBox(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry));
     uvec2 current = nodeEntry(root);
+    uint steps = 0u;  // inner nodes visited plus triangles tested, bounded by kMaxTraversalSteps
     while (!done) {
         while (!done && current.y == 0u) {
+            if (++steps > kMaxTraversalSteps) {
+                atomicOr(status, kStatusTraversalTruncated);
+                done = true;
+                break;
+            }
             const GpuNode left = nodes[current.x];
             const GpuNode right = nodes[current.x + 1u];
             if (kStatistics) q.nodes += 1u;
@@ -342,6 +356,12 @@ void traceSingle(inout RayQuery q) {
             }
         }
         while (!done && current.y != 0u) {
+            steps += 1u + current.y;
+            if (steps > kMaxTraversalSteps) {
+                atomicOr(status, kStatusTraversalTruncated);
+                done = true;
+                break;
+            }
             if (kStatistics) q.nodes += 1u;
             intersectLeaf(q, current.x, current.y);
             if (!q.isActive || stackSize == 0u) done = true;

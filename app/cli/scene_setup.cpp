@@ -33,8 +33,9 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
     for (BvhBuilder b : kAllBvhBuilders) builders += std::string(builders.empty() ? "" : ", ") + toString(b);
     command
         .add_option("--leaf-size", flags.leafSize,
-                    "BVH leaf threshold: a node with at most N triangles becomes a leaf")
-        ->check(CLI::Range(1u, 1u << 20))
+                    "BVH leaf threshold: a node with at most N triangles becomes a leaf (at most " +
+                        std::to_string(kMaxLeafPrimitives) + ", what a GPU ray can test within its traversal budget)")
+        ->check(CLI::Range(1u, kMaxLeafPrimitives))
         ->capture_default_str();
     command.add_option("--builder", flags.builder, "BVH builder: " + builders)
         ->capture_default_str();

@@ -1,0 +1,77 @@
+// Issue 11, class 7: no GPU kernel returns a wrong answer without saying so. Before the fix a leaf
+// of more than 65,535 triangles (--leaf-size 1048576, or a sliver soup the SAH would not split)
+// made lavapipe end the kernels' loops early and rays silently missed. Now leaves hold at most
+// kMaxLeafPrimitives triangles (a median split where the SAH refuses), every traversal is bounded
+// by gpu::kMaxTraversalSteps, and a ray that reaches the bound makes render() throw.
+#include "test_gpu_common.h"
+
+#include "renderer/error.h"
+
+#include <random>
+
+namespace raypack::test {
+namespace {
+
+// `count` long thin triangles along the cube's diagonal, each jittered a little: every box is
+// nearly the whole cube, so no SAH split beats a leaf, and a ray that hits the cube must test them
+// all.
+Scene diagonalSliverSoup(uint32_t count) {
+    Scene scene;
+    std::mt19937 random(11);
+    std::uniform_real_distribution<float> jitter(-0.02f, 0.02f);
+    for (uint32_t i = 0; i < count; ++i) {
+        const glm::vec3 offset(jitter(random), jitter(random), jitter(random));
+        const uint32_t base = uint32_t(scene.positions.size());
+        scene.positions.push_back(glm::vec3(-1.0f) + offset);
+        scene.positions.push_back(glm::vec3(1.0f) + offset);
+        scene.positions.push_back(glm::vec3(1.0f, 1.0f, 0.96f) + offset);
+        scene.triangles.emplace_back(base, base + 1, base + 2);
+    }
+    return scene;
+}
+
+RenderSettings soupSettings(const Scene& scene, uint32_t side, KernelKind kernel) {
+    RenderSettings settings;
+    settings.width = settings.height = side;
+    settings.camera = frameScene(scene.bounds());
+    settings.kernel = kernel;
+    return settings;
+}
+
+TEST(RobustGpu, SliverSoupLeavesAreSplitAndGpuMatchesCpu) {
+    const Scene scene = diagonalSliverSoup(12000);
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    for (const BvhNode& node : bvh.nodes) EXPECT_LE(node.count, kMaxLeafPrimitives);
+    GpuTracer tracer(validatedContext());
+    tracer.upload(scene, bvh);
+    for (const KernelKind kernel : {KernelKind::Packet, KernelKind::Single}) {
+        const RenderSettings settings = soupSettings(scene, 48, kernel);
+        const FrameRequest request{true, true, false};
+        const Frame gpu = tracer.render(settings, request);
+        const Frame cpu = renderCpu(scene, bvh, settings, request);
+        const HitAgreement h = compareHits(gpu, cpu);
+        EXPECT_EQ(h.agree, h.rays) << (kernel == KernelKind::Packet ? "packet" : "single");
+        EXPECT_EQ(h.shadowAgree, h.shadowRays) << (kernel == KernelKind::Packet ? "packet" : "single");
+    }
+    expectNoValidationMessages();
+}
+
+TEST(RobustGpu, RaysBeyondTheTraversalBudgetAreAnErrorNotAWrongImage) {
+    // 70,000 slivers: a ray through the cube must test all of them, more than the budget.
+    const Scene scene = diagonalSliverSoup(70000);
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    GpuTracer tracer(validatedContext());
+    tracer.upload(scene, bvh);
+    for (const KernelKind kernel : {KernelKind::Packet, KernelKind::Single}) {
+        try {
+            tracer.render(soupSettings(scene, 8, kernel), FrameRequest{true, true, false});
+            ADD_FAILURE() << "render returned a frame although rays ran past the budget";
+        } catch (const Error& e) {
+            EXPECT_NE(std::string(e.what()).find("traversal steps"), std::string::npos) << e.what();
+        }
+    }
+    expectNoValidationMessages();
+}
+
+}  // namespace
+}  // namespace raypack::test
