@@ -78,8 +78,10 @@ bool referencedFileExists(const std::string& joined, void* user) {
     const ReferencedFiles& files = *static_cast<const ReferencedFiles*>(user);
     const std::string prefix = files.baseDir.back() == '/' ? files.baseDir : files.baseDir + "/";
     if (joined.compare(0, prefix.size(), prefix) != 0) return false;  // tinygltf's "./" fallback
-    resolveReferencedFile(*files.sceneFile, joined.substr(prefix.size()), "referenced file", maxReferencedFileBytes());
-    return true;
+    // A file that would lie inside the folder but does not exist is "not found" (tinygltf: an error
+    // for a buffer, a warning for an image, which then draws untextured); any escape throws.
+    return findReferencedFile(*files.sceneFile, joined.substr(prefix.size()), "referenced file", maxReferencedFileBytes())
+        .has_value();
 }
 
 std::string expandNothing(const std::string& path, void*) { return path; }  // no "~" or $VARIABLE expansion
