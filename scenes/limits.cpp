@@ -36,6 +36,15 @@ bool isInside(const std::filesystem::path& inner, const std::filesystem::path& o
     return true;
 }
 
+// A name as an error quotes it: control characters (a URI may hold a newline) as '?', and cut to
+// 80 characters, so that the message stays one readable line (found by fuzz_gltf).
+std::string printable(const std::string& name) {
+    std::string text = name.size() > 80 ? name.substr(0, 77) + "..." : name;
+    for (char& c : text)
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = '?';
+    return text;
+}
+
 }  // namespace
 
 uint64_t checkedAdd(uint64_t a, uint64_t b, const std::filesystem::path& file, const std::string& what) {
@@ -65,13 +74,13 @@ void throwLimitError(const std::filesystem::path& file, const std::string& what,
 std::filesystem::path resolveReferencedFile(const std::filesystem::path& sceneFile, const std::string& name,
                                             const std::string& what, const LoadLimit& maxBytes) {
     if (std::optional<std::filesystem::path> found = findReferencedFile(sceneFile, name, what, maxBytes)) return *found;
-    fail(sceneFile, what + " \"" + name + "\": no such file");
+    fail(sceneFile, what + " \"" + printable(name) + "\": no such file");
 }
 
 std::optional<std::filesystem::path> findReferencedFile(const std::filesystem::path& sceneFile, const std::string& name,
                                                         const std::string& what, const LoadLimit& maxBytes) {
     namespace fs = std::filesystem;
-    const std::string quoted = what + " \"" + name + "\"";
+    const std::string quoted = what + " \"" + printable(name) + "\"";
     if (name.empty()) fail(sceneFile, what + " is empty");
     if (name.find('\0') != std::string::npos) fail(sceneFile, what + " contains a NUL character");
     const fs::path relative(name);
@@ -99,16 +108,16 @@ std::optional<std::filesystem::path> findReferencedFile(const std::filesystem::p
 std::string readReferencedFile(const std::filesystem::path& sceneFile, const std::filesystem::path& resolved,
                                const std::string& what, const LoadLimit& maxBytes) {
     std::ifstream in(resolved, std::ios::binary);
-    if (!in) fail(sceneFile, what + " \"" + resolved.string() + "\": cannot open for reading");
+    if (!in) fail(sceneFile, what + " \"" + printable(resolved.string()) + "\": cannot open for reading");
     std::string bytes;
     char chunk[1 << 16];
     while (in) {
         in.read(chunk, sizeof chunk);
         bytes.append(chunk, size_t(in.gcount()));
         if (bytes.size() > maxBytes.value)
-            throwLimitError(sceneFile, what + " \"" + resolved.string() + "\" is larger than allowed", maxBytes);
+            throwLimitError(sceneFile, what + " \"" + printable(resolved.string()) + "\" is larger than allowed", maxBytes);
     }
-    if (in.bad()) fail(sceneFile, what + " \"" + resolved.string() + "\": read failed");
+    if (in.bad()) fail(sceneFile, what + " \"" + printable(resolved.string()) + "\": read failed");
     return bytes;
 }
 

@@ -508,3 +508,10 @@ TEST(RobustPng, ChunkLongerThanTheFileIsRefusedBeforeDecoding) {
     const std::string message = errorOf([&] { readPng((dir / "long.png").string()); });
     EXPECT_NE(message.find("claims 1174405133 bytes"), std::string::npos) << message;
 }
+
+// Found by fuzz_gltf: a buffer URI holding a newline made the "no such file" error two lines.
+TEST(RobustGltf, UriWithANewlineGivesAOneLineError) {
+    TempDir dir;
+    writeFile(dir / "nl.gltf", gltfJson(R"([{"mesh":0}])", "[0]", "", "tri\\nangle.bin"));
+    expectLoadError(dir / "nl.gltf", "\"tri?angle.bin\": no such file");  // errorOf checks one line
+}
