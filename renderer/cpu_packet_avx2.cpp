@@ -16,8 +16,13 @@
 #include <vector>
 
 #if defined(__x86_64__) || defined(__i386__)
+// GCC's target pragma; clang ignores it and takes its own attribute pragma instead.
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
 #pragma GCC push_options
 #pragma GCC target("avx2")
+#endif
 #define RAYPACK_PACKET_AVX2 1
 #include "renderer/cpu_packet_simd.inl"
 
@@ -33,7 +38,11 @@ void traceShadowPacketAvx2(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
 
 }  // namespace raypack::packet_detail
 
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
 #pragma GCC pop_options
+#endif
 
 #else  // not x86: cpu_packet_tracer.cpp never selects this width (cpuHas), the scalar one runs
 

@@ -33,9 +33,12 @@ PacketShape parsePacket(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"raypack: fly through a triangle scene traced by the Vulkan packet tracer, change the packet\n"
-                 "shape, kernel and BVH live, compare with the CPU reference. With --frames N it runs N frames\n"
-                 "and exits (scripted runs, tests). Needs a display (use xvfb-run without one)."};
+    CLI::App app{"raypack: fly or orbit through a triangle scene, traced interactively on any device (a frame\n"
+                 "budget with reduced resolution while moving, refinement when still), by the Vulkan packet or\n"
+                 "single-ray kernel or the CPU packet or reference tracer; change the packet shape, kernel and\n"
+                 "BVH live, compare with the CPU reference. F1 in the window lists the controls. With --frames N\n"
+                 "it runs N frames and exits (scripted runs, tests). Needs a display (xvfb-run without one),\n"
+                 "except with --offscreen."};
     ui::ViewerOptions options;
     std::string packet, kernel, view, builder, eye, at, up, present = "fifo", tracer;
     std::vector<std::string> script;
@@ -45,7 +48,7 @@ int main(int argc, char** argv) {
     app.add_option("--width", options.width, "window width in pixels")->capture_default_str();
     app.add_option("--height", options.height, "window height in pixels")->capture_default_str();
     app.add_option("--frames", options.frames, "run this many frames and exit (0: until closed)")->capture_default_str();
-    app.add_option("--screenshot", options.screenshot, "after the last frame: the traced image as PNG + JSON sidecar");
+    app.add_option("--screenshot", options.screenshot, "after the last frame: the image as shown (without the panel) as PNG + JSON sidecar");
     app.add_option("--window-screenshot", options.windowScreenshot, "after the last frame: the whole window as PNG");
     app.add_option("--packet", packet, "packet shape WxH of the packet tracer drawing first (default 8x4 for the Vulkan kernel, 16x16 for the CPU packet tracer)");
     app.add_option("--leaf-size", options.bvh.leafSize, "BVH leaf size")->capture_default_str();
@@ -58,7 +61,7 @@ int main(int argc, char** argv) {
         ->check(CLI::PositiveNumber);
     app.add_option("--light-height", options.settings.lightHeight, "light above the camera, times the scene's height")
         ->capture_default_str();
-    app.add_option("--eye", eye, "camera position x,y,z (default: the CLI's framing of the scene)");
+    app.add_option("--eye", eye, "camera position x,y,z (default: raypack-cli's start view of the scene)");
     app.add_option("--at", at, "point looked at x,y,z");
     app.add_option("--up", up, "up vector x,y,z");
     app.add_option("--fov", fov, "vertical field of view in degrees");
@@ -101,7 +104,7 @@ int main(int argc, char** argv) {
                    "builder NAME, shadows on|off, kernel packet|single, tracer NAME, view shaded|nodes|tests, "
                    "open SCENE, wait, screenshot FILE, window-screenshot FILE, move RIGHT,UP,FORWARD (seconds of "
                    "flight), look DX,DY (pixels), bookmark N, save-bookmark N, frame-all, scale S, samples N, "
-                   "budget MS");
+                   "budget MS, side-by-side TRACER|off");
     CLI11_PARSE(app, argc, argv);
 
     try {
