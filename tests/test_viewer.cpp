@@ -561,7 +561,7 @@ TEST_F(ViewerUnderXvfb, AConvergedScreenshotEqualsTheCliRenderWithAsManySamples)
 TEST_F(ViewerUnderXvfb, AReducedResolutionFrameEqualsTheCliRenderAtThatResolutionScaledUp) {
     for (const std::string view : {"shaded", "nodes"}) {
         const std::string shot = (dir_ / ("reduced-" + view + ".png")).string();
-        const CommandRun viewer = runCommand(viewerCommand("--width 200 --height 150 --frames 4 --view " + view +
+        const CommandRun viewer = runCommand(viewerCommand("--width 200 --height 150 --frames 4 --validation --view " + view +
                                                            " --script 1:wait --script 2:scale:4 --script 2:screenshot:" + shot));
         ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
         const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
@@ -582,7 +582,7 @@ TEST_F(ViewerUnderXvfb, AStillViewerStopsTracing) {
     // however many frames follow.
     const std::string summary = (dir_ / "summary.json").string();
     for (const uint32_t frames : {30u, 60u}) {
-        const CommandRun viewer = runCommand(viewerCommand("--width 96 --height 64 --samples 4 --frames " +
+        const CommandRun viewer = runCommand(viewerCommand("--width 96 --height 64 --samples 4 --validation --frames " +
                                                            std::to_string(frames) + " --script 1:wait --summary " + summary));
         ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
         const nlohmann::json s = readJsonFile(summary);
@@ -594,7 +594,7 @@ TEST_F(ViewerUnderXvfb, AStillViewerStopsTracing) {
 
 TEST_F(ViewerUnderXvfb, ScriptedMovesAndARecordedPathReplayFrameForFrame) {
     const std::string first = (dir_ / "first.json").string(), second = (dir_ / "second.json").string();
-    CommandRun viewer = runCommand(viewerCommand("--width 96 --height 64 --frames 12 --script 1:wait --script 3:move:0,0,0.05 "
+    CommandRun viewer = runCommand(viewerCommand("--width 96 --height 64 --frames 12 --validation --script 1:wait --script 3:move:0,0,0.05 "
                                                  "--script 5:look:40,-10 --script 7:move:0.05,0.02,0 --record-path " + first));
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     viewer = runCommand(viewerCommand("--width 96 --height 64 --frames 12 --script 1:wait --play-path " + first +
@@ -638,7 +638,7 @@ TEST_F(ViewerUnderXvfb, OffscreenRunsTheSameFrameLoopWithoutADisplay) {
 
 TEST_F(ViewerUnderXvfb, SideBySideHalvesAreTheTwoTracersImages) {
     const std::string shot = (dir_ / "split.png").string();
-    const CommandRun viewer = runCommand(viewerCommand("--width 161 --height 120 --frames 4 --samples 1 --tracer cpu-packet "
+    const CommandRun viewer = runCommand(viewerCommand("--width 161 --height 120 --frames 4 --samples 1 --validation --tracer cpu-packet "
                                                        "--side-by-side vulkan-single --script 1:wait --screenshot " + shot));
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
