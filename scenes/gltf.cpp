@@ -72,16 +72,20 @@ double numberOr(const tinygltf::Value& object, const char* key, int element, dou
 struct ReferencedFiles {
     const std::filesystem::path* sceneFile;
     std::string baseDir;
+    std::vector<std::string> missing;  // names inside the folder that do not exist
 };
 
 bool referencedFileExists(const std::string& joined, void* user) {
-    const ReferencedFiles& files = *static_cast<const ReferencedFiles*>(user);
+    ReferencedFiles& files = *static_cast<ReferencedFiles*>(user);
     const std::string prefix = files.baseDir.back() == '/' ? files.baseDir : files.baseDir + "/";
     if (joined.compare(0, prefix.size(), prefix) != 0) return false;  // tinygltf's "./" fallback
-    // A file that would lie inside the folder but does not exist is "not found" (tinygltf: an error
-    // for a buffer, a warning for an image, which then draws untextured); any escape throws.
-    return findReferencedFile(*files.sceneFile, joined.substr(prefix.size()), "referenced file", maxReferencedFileBytes())
-        .has_value();
+    // A file that would lie inside the folder but does not exist is "not found" to tinygltf: a
+    // missing image is a warning (the material draws untextured), a missing buffer fails the load,
+    // which loadGltf then reports with resolveReferencedFile's message. Any escape throws here.
+    const std::string name = joined.substr(prefix.size());
+    if (findReferencedFile(*files.sceneFile, name, "referenced file", maxReferencedFileBytes())) return true;
+    files.missing.push_back(name);
+    return false;
 }
 
 std::string expandNothing(const std::string& path, void*) { return path; }  // no "~" or $VARIABLE expansion
@@ -640,6 +644,9 @@ Scene loadGltf(const std::filesystem::path& path, LoadProgress* progress) {
                            : loader.LoadASCIIFromString(&model, &errors, &warnings, file.begin(), unsigned(file.size), baseDir);
     if (progress && progress->cancel) throw LoadCancelled(path.string() + ": loading cancelled");
     if (!ok) {
+        // A missing file fails a load only as a buffer: say so as for every file a scene names.
+        if (!referenced.missing.empty())
+            resolveReferencedFile(path, referenced.missing.front(), "referenced file", maxReferencedFileBytes());
         // tinygltf ends each of its messages with a newline; the error is one line (the first).
         const std::string first = errors.substr(0, errors.find('\n'));
         throwFileError(path, first.empty() ? "tinygltf could not parse the file" : first);
