@@ -1054,10 +1054,16 @@ void drawSideBySideLabels(const Session& s) {
     };
     const std::string a = label(s.panel.tracer, s.panel.settings.packet, t.left);
     const std::string b = label(s.panel.sideBySideTracer, s.panel.sideBySidePacket, t.right);
-    draw->AddRectFilled(ImVec2(left + 4, 4), ImVec2(left + 8 + ImGui::CalcTextSize(a.c_str()).x, 22), IM_COL32(0, 0, 0, 160));
-    draw->AddText(ImVec2(left + 6, 5), IM_COL32(255, 255, 255, 255), a.c_str());
-    draw->AddRectFilled(ImVec2(middle + 4, 4), ImVec2(middle + 8 + ImGui::CalcTextSize(b.c_str()).x, 22), IM_COL32(0, 0, 0, 160));
-    draw->AddText(ImVec2(middle + 6, 5), IM_COL32(255, 255, 255, 255), b.c_str());
+    // Each label is clipped to its own half, so a narrow image does not run one into the other.
+    const float right = left + float(s.panel.settings.width) / scale;
+    const auto drawLabel = [&](float x0, float x1, const std::string& text) {
+        draw->PushClipRect(ImVec2(x0, 0), ImVec2(x1 - 2, 24), true);
+        draw->AddRectFilled(ImVec2(x0 + 4, 4), ImVec2(x0 + 8 + ImGui::CalcTextSize(text.c_str()).x, 22), IM_COL32(0, 0, 0, 160));
+        draw->AddText(ImVec2(x0 + 6, 5), IM_COL32(255, 255, 255, 255), text.c_str());
+        draw->PopClipRect();
+    };
+    drawLabel(left, middle, a);
+    drawLabel(middle, right, b);
 }
 
 // Traces what `plan` asks for into what is shown; returns the tracing seconds.
