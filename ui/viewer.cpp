@@ -93,13 +93,14 @@ glm::vec<N, float> parseFloats(const std::string& text, const std::string& what)
     return v;
 }
 
-// Copies RGBA8 texels into `dst`, swapping R and B when the swapchain wants B8G8R8A8.
-void copyTexels(uint32_t* dst, const std::vector<uint32_t>& src, bool bgra) {
+// Copies `count` 4-byte texels from `src` to `dst` (distinct), swapping bytes 0 and 2 (RGBA8 <->
+// BGRA8) when the swapchain's format is B8G8R8A8.
+void copyTexels(uint32_t* dst, const uint32_t* src, size_t count, bool bgra) {
     if (!bgra) {
-        std::memcpy(dst, src.data(), src.size() * 4);
+        std::memcpy(dst, src, count * 4);
         return;
     }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, src.size(), 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const uint32_t t = src[i];
             dst[i] = (t & 0xFF00FF00u) | ((t & 0xFFu) << 16) | ((t >> 16) & 0xFFu);
@@ -107,9 +108,6 @@ void copyTexels(uint32_t* dst, const std::vector<uint32_t>& src, bool bgra) {
     });
 }
 
-void swapRedBlue(std::vector<uint32_t>& texels) {
-    for (uint32_t& t : texels) t = (t & 0xFF00FF00u) | ((t & 0xFFu) << 16) | ((t >> 16) & 0xFFu);
-}
 
 // A scene spec as the sidecar and the bookmarks keep it: an existing file becomes absolute, so
 // `raypack-cli render --from` works from any folder; a generator spec stays as it is.
@@ -575,8 +573,8 @@ Image shownImageNow(Session& s) {
     const uint32_t width = s.panel.settings.width, height = s.panel.settings.height;
     RAYPACK_CHECK(bytes == VkDeviceSize(width) * height * 4);
     Image image{width, height, std::vector<uint32_t>(size_t(width) * height)};
-    std::memcpy(image.rgba.data(), s.screenshotReadback.mapped, bytes);
-    if (!s.offscreen && s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM) swapRedBlue(image.rgba);
+    copyTexels(image.rgba.data(), static_cast<const uint32_t*>(s.screenshotReadback.mapped), image.rgba.size(),
+               !s.offscreen && s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM);
     return image;
 }
 
@@ -1133,7 +1131,7 @@ void presentShown(Session& s, const FrameTarget& target) {
     if (host && host->width == region.width && host->height == region.height) {
         const VkDeviceSize bytes = VkDeviceSize(host->width) * host->height * 4;
         ensureHostBuffer(s, s.shownImage, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "image shown");
-        copyTexels(static_cast<uint32_t*>(s.shownImage.mapped), host->rgba, target.bgra);
+        copyTexels(static_cast<uint32_t*>(s.shownImage.mapped), host->rgba.data(), host->rgba.size(), target.bgra);
         copyImage(s.window, target, s.shownImage.buffer, region);
     } else if (s.shown == ShownSource::TracerOutput && !compare &&
                s.tracer->outputBytes() == VkDeviceSize(region.width) * region.height * 4) {
