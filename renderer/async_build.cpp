@@ -17,9 +17,9 @@ double secondsSince(std::chrono::steady_clock::time_point start) {
 
 const char* toString(BuildPhase phase) {
     switch (phase) {
-        case BuildPhase::Idle: return "idle";
-        case BuildPhase::Loading: return "loading";
-        case BuildPhase::Building: return "building";
+    case BuildPhase::Idle: return "idle";
+    case BuildPhase::Loading: return "loading";
+    case BuildPhase::Building: return "building";
     }
     return "?";
 }
@@ -60,8 +60,7 @@ uint64_t AsyncSceneBuilder::requestLoad(const std::string& path, const BvhBuildO
     return id;
 }
 
-uint64_t AsyncSceneBuilder::requestRebuild(std::shared_ptr<const Scene> scene,
-                                           const BvhBuildOptions& options) {
+uint64_t AsyncSceneBuilder::requestRebuild(std::shared_ptr<const Scene> scene, const BvhBuildOptions& options) {
     uint64_t id;
     {
         std::lock_guard lock(mutex_);
@@ -83,8 +82,7 @@ std::optional<SceneBuild> AsyncSceneBuilder::takeFinished() {
     std::optional<SceneBuild> taken = std::move(finished_);
     finished_.reset();
     // Once the render thread holds the newest loaded scene, later rebuilds apply to its copy.
-    if (taken && !taken->scenePath.empty() && taken->scenePath == outstandingLoadPath_ &&
-        !waiting_ && !running_)
+    if (taken && !taken->scenePath.empty() && taken->scenePath == outstandingLoadPath_ && !waiting_ && !running_)
         outstandingLoadPath_.clear();
     return taken;
 }
@@ -105,8 +103,7 @@ BuildStatus AsyncSceneBuilder::status() const {
         status.requestId = running_->id;
         status.scenePath = running_->path;
         const uint64_t loadTotal = running_->loadProgress.bytesTotal.load();
-        status.loadFraction =
-            loadTotal ? double(running_->loadProgress.bytesDone.load()) / double(loadTotal) : 0.0;
+        status.loadFraction = loadTotal ? double(running_->loadProgress.bytesDone.load()) / double(loadTotal) : 0.0;
         status.placed = running_->buildProgress.placed.load();
         status.total = running_->buildProgress.total.load();
         status.elapsedSeconds = secondsSince(running_->start);
@@ -178,8 +175,7 @@ void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
 
         std::lock_guard lock(mutex_);
         if (job.buildProgress.cancel) return;
-        finished_ = SceneBuild{request.id, std::move(scene), std::move(bvh), request.path,
-                               loadSeconds, buildSeconds};
+        finished_ = SceneBuild{request.id, std::move(scene), std::move(bvh), request.path, loadSeconds, buildSeconds};
     } catch (const BuildCancelled&) {
         // Superseded by a newer request: nothing to hand back.
     } catch (const std::exception& e) {

@@ -11,8 +11,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <string>
 
 #if defined(__linux__)
@@ -72,8 +72,7 @@ void validateOptions(const BvhBuildOptions& options) {
     if (options.leafSize == 0) throw Error("BVH build: leafSize must be at least 1, got 0");
     if (options.leafSize > kMaxLeafPrimitives)
         throw Error("BVH build: leafSize must be at most " + std::to_string(kMaxLeafPrimitives) +
-                    " (what a GPU ray can test within its traversal budget), got " +
-                    std::to_string(options.leafSize));
+                    " (what a GPU ray can test within its traversal budget), got " + std::to_string(options.leafSize));
     auto checkCost = [](float cost, const char* name) {
         if (!(cost > 0.0f) || !std::isfinite(cost))
             throw Error(std::string("BVH build: ") + name + " must be positive and finite, got " +
@@ -81,10 +80,8 @@ void validateOptions(const BvhBuildOptions& options) {
     };
     checkCost(options.traversalCost, "traversalCost (C_trav)");
     checkCost(options.intersectionCost, "intersectionCost (C_isect)");
-    if (options.builder == BvhBuilder::SahBinned &&
-        (options.binCount < 2 || options.binCount > 256))
-        throw Error("BVH build: binCount must be in 2..256, got " +
-                    std::to_string(options.binCount));
+    if (options.builder == BvhBuilder::SahBinned && (options.binCount < 2 || options.binCount > 256))
+        throw Error("BVH build: binCount must be in 2..256, got " + std::to_string(options.binCount));
 }
 
 Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* progress) {
@@ -128,14 +125,12 @@ Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* prog
 
 }  // namespace bvh_detail
 
-Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options,
-             BuildProgress* progress) {
+Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress) {
     using namespace bvh_detail;
     const auto start = std::chrono::steady_clock::now();
     validateOptions(options);
     if (primitiveBounds.size() >= size_t(UINT32_MAX))
-        throw Error("BVH build: " + std::to_string(primitiveBounds.size()) +
-                    " primitives do not fit 32-bit indices");
+        throw Error("BVH build: " + std::to_string(primitiveBounds.size()) + " primitives do not fit 32-bit indices");
     if (progress) {
         progress->total.store(primitiveBounds.size());
         progress->placed.store(0);
@@ -152,16 +147,11 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
     } else {
         const Aabb rootBox = validateAndBound(primitiveBounds, progress);
         switch (options.builder) {
-            case BvhBuilder::SahExact:
-                bvh = buildSahExact(primitiveBounds, rootBox, options, progress);
-                break;
-            case BvhBuilder::SahBinned:
-                bvh = buildSahBinned(primitiveBounds, rootBox, options, progress);
-                break;
+        case BvhBuilder::SahExact: bvh = buildSahExact(primitiveBounds, rootBox, options, progress); break;
+        case BvhBuilder::SahBinned: bvh = buildSahBinned(primitiveBounds, rootBox, options, progress); break;
         }
     }
-    const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     bvh.options = options;
     bvh.stats = computeBvhStats(bvh, options);
     bvh.stats.buildSeconds = seconds;
@@ -171,8 +161,7 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
 std::vector<Aabb> trianglePrimitiveBounds(const Scene& scene) {
     std::vector<Aabb> bounds(scene.triangleCount());
     for (const glm::uvec3& t : scene.triangles)
-        for (int c = 0; c < 3; ++c)
-            RAYPACK_CHECK_MSG(t[c] < scene.positions.size(), "triangle index out of range");
+        for (int c = 0; c < 3; ++c) RAYPACK_CHECK_MSG(t[c] < scene.positions.size(), "triangle index out of range");
     tbb::parallel_for(tbb::blocked_range<size_t>(0, bounds.size(), 65536),
                       [&](const tbb::blocked_range<size_t>& range) {
                           for (size_t i = range.begin(); i < range.end(); ++i)
@@ -224,17 +213,18 @@ BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options) {
     stats.avgPrimsPerLeaf = double(primSum) / double(stats.leafCount);
     // Sum over inner nodes of C_trav·A(n)/A(root) plus over leaves of C_isect·count·A(n)/A(root).
     // The empty tree costs nothing.
-    stats.sahCost = rootMeasure > 0.0 ? (double(options.traversalCost) * innerMeasureSum +
-                                         double(options.intersectionCost) * leafMeasureSum) /
-                                            rootMeasure
-                                      : 0.0;
+    stats.sahCost =
+        rootMeasure > 0.0
+            ? (double(options.traversalCost) * innerMeasureSum + double(options.intersectionCost) * leafMeasureSum) /
+                  rootMeasure
+            : 0.0;
     return stats;
 }
 
 const char* toString(BvhBuilder builder) {
     switch (builder) {
-        case BvhBuilder::SahExact: return "sah-exact";
-        case BvhBuilder::SahBinned: return "sah-binned";
+    case BvhBuilder::SahExact: return "sah-exact";
+    case BvhBuilder::SahBinned: return "sah-binned";
     }
     return "unknown";
 }

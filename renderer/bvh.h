@@ -86,8 +86,7 @@ struct BuildCancelled {};
 // Throws raypack::Error for options out of range (leafSize 0, a cost not positive and finite, a
 // bin count outside 2..256) and for a primitive box that is empty or not finite; BuildCancelled
 // when progress->cancel is set. Fills Bvh::stats, buildSeconds included.
-Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options,
-             BuildProgress* progress = nullptr);
+Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress = nullptr);
 // The same over a scene's triangles (their boxes in triangle order).
 Bvh buildBvh(const Scene& scene, const BvhBuildOptions& options, BuildProgress* progress = nullptr);
 // One box per triangle, in triangle order (computed in parallel).

@@ -46,9 +46,9 @@ struct SahMeasure {
     }
     double of(const Aabb& box) const {
         switch (kind) {
-            case SahMeasureKind::Area: return halfArea(box);
-            case SahMeasureKind::Length: return extentSum(box);
-            case SahMeasureKind::Count: return box.empty() ? 0.0 : 1.0;
+        case SahMeasureKind::Area: return halfArea(box);
+        case SahMeasureKind::Length: return extentSum(box);
+        case SahMeasureKind::Count: return box.empty() ? 0.0 : 1.0;
         }
         return 0.0;
     }
@@ -57,10 +57,8 @@ struct SahMeasure {
 // SAH cost of splitting a node into children holding `weightedChildMeasures` = A_L·N_L + A_R·N_R
 // (report 2.1, Wald et al. 2007): C_trav + (A_L·N_L + A_R·N_R) / A_parent · C_isect. Both builders
 // and the tests' reference evaluate exactly this expression, so their choices agree to the bit.
-inline double splitCost(double weightedChildMeasures, double parentMeasure,
-                        const BvhBuildOptions& options) {
-    return double(options.traversalCost) +
-           weightedChildMeasures / parentMeasure * double(options.intersectionCost);
+inline double splitCost(double weightedChildMeasures, double parentMeasure, const BvhBuildOptions& options) {
+    return double(options.traversalCost) + weightedChildMeasures / parentMeasure * double(options.intersectionCost);
 }
 inline double leafCost(uint32_t count, const BvhBuildOptions& options) {
     return double(count) * double(options.intersectionCost);
@@ -146,14 +144,12 @@ Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* prog
 
 // Centroids as the builders see them: 0.5·lo + 0.5·hi (no overflow near FLT_MAX), with -0 turned
 // into +0 so that sorting by bit pattern agrees with comparing floats.
-inline glm::vec3 centroidOf(const Aabb& box) {
-    return (0.5f * box.lo + 0.5f * box.hi) + glm::vec3(0.0f);
-}
+inline glm::vec3 centroidOf(const Aabb& box) { return (0.5f * box.lo + 0.5f * box.hi) + glm::vec3(0.0f); }
 
 // The builders. Both return nodes and primIndices; buildBvh fills options and stats.
-Bvh buildSahExact(std::span<const Aabb> primitiveBounds, const Aabb& rootBox,
-                  const BvhBuildOptions& options, BuildProgress* progress);
-Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const Aabb& rootBox,
-                   const BvhBuildOptions& options, BuildProgress* progress);
+Bvh buildSahExact(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
+                  BuildProgress* progress);
+Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
+                   BuildProgress* progress);
 
 }  // namespace raypack::bvh_detail

@@ -63,8 +63,7 @@ struct BinGrid {
 
     explicit BinGrid(uint32_t count) : binCount(count) {
         for (auto& axisBins : bins)
-            for (uint32_t b = 0; b < count; ++b)
-                axisBins[b] = {glm::vec3(FLT_MAX), glm::vec3(-FLT_MAX), 0};
+            for (uint32_t b = 0; b < count; ++b) axisBins[b] = {glm::vec3(FLT_MAX), glm::vec3(-FLT_MAX), 0};
     }
     void add(const std::array<AxisBinning, 3>& binning, const Aabb& box, const glm::vec3& centroid) {
         for (int axis = 0; axis < 3; ++axis) {
@@ -89,8 +88,8 @@ struct BinGrid {
 struct Split {
     bool found = false;
     int axis = 0;
-    AxisBinning binning;       // of `axis`
-    uint32_t lastLeftBin = 0;  // bins 0..lastLeftBin go left
+    AxisBinning binning;                                                // of `axis`
+    uint32_t lastLeftBin = 0;                                           // bins 0..lastLeftBin go left
     double weightedMeasures = std::numeric_limits<double>::infinity();  // A_L·N_L + A_R·N_R
     Aabb leftBox, rightBox;
     uint32_t leftCount = 0;
@@ -98,8 +97,7 @@ struct Split {
 
 class SahBinnedBuilder {
 public:
-    SahBinnedBuilder(std::span<const Aabb> bounds, const BvhBuildOptions& options,
-                     BuildProgress* progress)
+    SahBinnedBuilder(std::span<const Aabb> bounds, const BvhBuildOptions& options, BuildProgress* progress)
         : bounds_(bounds), options_(options), progress_(progress) {}
 
     Bvh build(const Aabb& rootBox) {
@@ -200,8 +198,7 @@ private:
     // primitive index, so the order is total and the tree deterministic) and splits at the middle;
     // returns the first right position and the halves' boxes. When every centroid coincides the
     // order is by index alone: the halves overlap, but each is half as large.
-    uint32_t medianSplit(const Work& work, Aabb& leftBox, Aabb& rightBox, Aabb& leftCentroids,
-                         Aabb& rightCentroids) {
+    uint32_t medianSplit(const Work& work, Aabb& leftBox, Aabb& rightBox, Aabb& leftCentroids, Aabb& rightCentroids) {
         const glm::vec3 extent = work.centroidBox.hi - work.centroidBox.lo;
         const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
         const uint32_t mid = work.begin + (work.end - work.begin) / 2;
@@ -239,8 +236,7 @@ private:
         return binning;
     }
 
-    void fillBins(const std::array<AxisBinning, 3>& binning, uint32_t begin, uint32_t end,
-                  BinGrid& grid) const {
+    void fillBins(const std::array<AxisBinning, 3>& binning, uint32_t begin, uint32_t end, BinGrid& grid) const {
         for (uint32_t chunk = begin; chunk < end; chunk += kCancelCheckInterval) {
             throwIfCancelled(progress_);
             const uint32_t chunkEnd = std::min(end, chunk + kCancelCheckInterval);
@@ -258,8 +254,7 @@ private:
         std::unique_ptr<BinGrid> grid;
         BinFiller(const SahBinnedBuilder& b, const std::array<AxisBinning, 3>& axes, uint32_t count)
             : builder(b), binning(axes), grid(std::make_unique<BinGrid>(count)) {}
-        BinFiller(BinFiller& other, tbb::split)
-            : BinFiller(other.builder, other.binning, other.grid->binCount) {}
+        BinFiller(BinFiller& other, tbb::split) : BinFiller(other.builder, other.binning, other.grid->binCount) {}
         void operator()(const tbb::blocked_range<uint32_t>& range) {
             builder.fillBins(binning, range.begin(), range.end(), *grid);
         }
@@ -278,8 +273,7 @@ private:
         std::unique_ptr<BinGrid> parallelGrid;
         if (total > kParallelNodeMinPrimitives) {
             BinFiller filler(*this, binning, binCount);
-            tbb::parallel_reduce(
-                tbb::blocked_range<uint32_t>(work.begin, work.end, kCancelCheckInterval), filler);
+            tbb::parallel_reduce(tbb::blocked_range<uint32_t>(work.begin, work.end, kCancelCheckInterval), filler);
             throwIfInterrupted(progress_);
             parallelGrid = std::move(filler.grid);
         } else {
@@ -290,7 +284,7 @@ private:
         const SahMeasure measure = SahMeasure::forParent(work.box);
         Split best;
         double leftMeasure[kMaxBins];
-        Bin leftBoxes[kMaxBins];  // only lo and hi used
+        Bin leftBoxes[kMaxBins];                // only lo and hi used
         for (int axis = 0; axis < 3; ++axis) {  // strict < below: ties go to the lower axis
             if (!binning[axis].active) continue;
             const Bin* bins = grid.bins[axis];
@@ -307,10 +301,9 @@ private:
                 rightCount += bins[b].count;
                 const uint32_t leftCount = total - rightCount;
                 if (rightCount == 0 || leftCount == 0) continue;
-                const double weighted = leftMeasure[b - 1] * double(leftCount) +
-                                        measure.of(rightBox) * double(rightCount);
-                if (weighted < best.weightedMeasures ||
-                    (weighted == best.weightedMeasures && axis == best.axis)) {
+                const double weighted =
+                    leftMeasure[b - 1] * double(leftCount) + measure.of(rightBox) * double(rightCount);
+                if (weighted < best.weightedMeasures || (weighted == best.weightedMeasures && axis == best.axis)) {
                     best.weightedMeasures = weighted;
                     best.axis = axis;
                     best.binning = binning[axis];
@@ -330,12 +323,9 @@ private:
     // Stable partition of prims_[begin, end) by bin; returns the first right position and the
     // children's centroid boxes. Chunked, with the chunks' offsets from a prefix sum, so the serial
     // and the parallel path give the same order.
-    uint32_t partition(const Split& split, const Work& work, Aabb& leftCentroids,
-                       Aabb& rightCentroids) {
+    uint32_t partition(const Split& split, const Work& work, Aabb& leftCentroids, Aabb& rightCentroids) {
         const AxisBinning& binning = split.binning;
-        auto goesLeft = [&](uint32_t prim) {
-            return binning.binOf(centroids_[prim][split.axis]) <= split.lastLeftBin;
-        };
+        auto goesLeft = [&](uint32_t prim) { return binning.binOf(centroids_[prim][split.axis]) <= split.lastLeftBin; };
         const uint32_t count = work.end - work.begin;
         if (count <= kParallelNodeMinPrimitives) {
             uint32_t leftEnd = work.begin, spillEnd = work.begin;
@@ -418,8 +408,8 @@ private:
 
 }  // namespace
 
-Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const Aabb& rootBox,
-                   const BvhBuildOptions& options, BuildProgress* progress) {
+Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
+                   BuildProgress* progress) {
     SahBinnedBuilder builder(primitiveBounds, options, progress);
     return builder.build(rootBox);
 }

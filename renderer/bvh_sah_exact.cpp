@@ -87,8 +87,7 @@ struct Split {
 
 class SahExactBuilder {
 public:
-    SahExactBuilder(std::span<const Aabb> bounds, const BvhBuildOptions& options,
-                    BuildProgress* progress)
+    SahExactBuilder(std::span<const Aabb> bounds, const BvhBuildOptions& options, BuildProgress* progress)
         : bounds_(bounds), options_(options), progress_(progress) {}
 
     Bvh build(const Aabb& rootBox) {
@@ -191,8 +190,7 @@ private:
         std::array<Split, 3> perAxis;
         auto sweepAxis = [&](int axis) { perAxis[axis] = sweep(axis, work, measure); };
         if (work.end - work.begin > kParallelNodeMinPrimitives) {
-            tbb::parallel_invoke([&] { sweepAxis(0); }, [&] { sweepAxis(1); },
-                                 [&] { sweepAxis(2); });
+            tbb::parallel_invoke([&] { sweepAxis(0); }, [&] { sweepAxis(1); }, [&] { sweepAxis(2); });
             throwIfInterrupted(progress_);
         } else {
             for (int axis = 0; axis < 3; ++axis) sweepAxis(axis);
@@ -231,8 +229,7 @@ private:
             for (uint32_t i = chunk - 1; i >= chunkBegin; --i) {
                 // Right child list[i..end), left child list[begin..i).
                 box.grow(bounds_[list[i]]);
-                const double weighted =
-                    left[i - 1] * double(i - begin) + measure.of(box) * double(end - i);
+                const double weighted = left[i - 1] * double(i - begin) + measure.of(box) * double(end - i);
                 if (weighted <= best.weightedMeasures) {  // <=: ties go to the lower position
                     best.weightedMeasures = weighted;
                     best.mid = i;
@@ -265,13 +262,14 @@ private:
                 const uint32_t chunkEnd = std::min(work.end, chunk + kCancelCheckInterval);
                 for (uint32_t i = chunk; i < chunkEnd; ++i) {
                     const uint32_t prim = other[i];
-                    if (goesLeft_[prim]) other[leftEnd++] = prim;  // leftEnd <= i: in place
-                    else spill[spillEnd++] = prim;
+                    if (goesLeft_[prim])
+                        other[leftEnd++] = prim;  // leftEnd <= i: in place
+                    else
+                        spill[spillEnd++] = prim;
                 }
             }
             RAYPACK_CHECK(leftEnd == split.mid);
-            std::memcpy(other + leftEnd, spill.data() + work.begin,
-                        (spillEnd - work.begin) * sizeof(uint32_t));
+            std::memcpy(other + leftEnd, spill.data() + work.begin, (spillEnd - work.begin) * sizeof(uint32_t));
         };
         const int otherA = (split.axis + 1) % 3, otherB = (split.axis + 2) % 3;
         if (work.end - work.begin > kParallelNodeMinPrimitives) {
@@ -302,8 +300,8 @@ private:
 
 }  // namespace
 
-Bvh buildSahExact(std::span<const Aabb> primitiveBounds, const Aabb& rootBox,
-                  const BvhBuildOptions& options, BuildProgress* progress) {
+Bvh buildSahExact(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
+                  BuildProgress* progress) {
     SahExactBuilder builder(primitiveBounds, options, progress);
     return builder.build(rootBox);
 }

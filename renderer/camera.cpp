@@ -15,19 +15,16 @@ std::string describe(const glm::vec3& v) {
     return s.str();
 }
 
-bool isFinite(const glm::vec3& v) {
-    return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-}
+bool isFinite(const glm::vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 }  // namespace
 
 GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height, glm::vec2 pixelJitter) {
     if (width == 0 || height == 0)
-        throw Error("camera: the image is empty (" + std::to_string(width) + "x" +
-                    std::to_string(height) + ")");
+        throw Error("camera: the image is empty (" + std::to_string(width) + "x" + std::to_string(height) + ")");
     if (!isFinite(camera.eye) || !isFinite(camera.at) || !isFinite(camera.up))
-        throw Error("camera: eye " + describe(camera.eye) + ", at " + describe(camera.at) +
-                    " or up " + describe(camera.up) + " is not finite");
+        throw Error("camera: eye " + describe(camera.eye) + ", at " + describe(camera.at) + " or up " +
+                    describe(camera.up) + " is not finite");
     if (!(camera.fovYDegrees > 0.0f && camera.fovYDegrees < 180.0f))
         throw Error("camera: vertical field of view " + std::to_string(camera.fovYDegrees) +
                     " degrees is outside (0, 180)");

@@ -26,8 +26,7 @@ struct Camera {
 // down). It is folded into GpuCamera::forward (which then need not be unit length: the ray
 // direction is normalized after the sum), so no kernel needs to know about it; zero leaves the
 // camera bit for bit as without it.
-GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height,
-                        glm::vec2 pixelJitter = glm::vec2(0.0f));
+GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height, glm::vec2 pixelJitter = glm::vec2(0.0f));
 
 // The deterministic default view of a scene: looks at the centre of `bounds` from the direction
 // normalize(0.5, 0.4, 1.0) (front, right, above), up = +y, vertical fov 60 degrees, at the distance

@@ -98,8 +98,7 @@ __attribute__((always_inline)) inline ChildBoxHits intersectChildBoxes(const Chi
         const __m128 loXY = _mm_unpacklo_ps(leftLo, rightLo);
         const __m128 hiXY = _mm_unpacklo_ps(leftHi, rightHi);
         // z: lanes (left.lo.z, right.lo.z, left.hi.z, right.hi.z).
-        const __m128 loHiZ =
-            _mm_movelh_ps(_mm_unpackhi_ps(leftLo, rightLo), _mm_unpackhi_ps(leftHi, rightHi));
+        const __m128 loHiZ = _mm_movelh_ps(_mm_unpackhi_ps(leftLo, rightLo), _mm_unpackhi_ps(leftHi, rightHi));
         // tLo = (lo - org) * invDir, tHi = (hi - org) * invDir.
         const __m128 tLoXY = _mm_mul_ps(_mm_sub_ps(loXY, pair.orgXY), pair.invXY);
         const __m128 tHiXY = _mm_mul_ps(_mm_sub_ps(hiXY, pair.orgXY), pair.invXY);
@@ -130,10 +129,8 @@ __attribute__((always_inline)) inline ChildBoxHits intersectChildBoxes(const Chi
 #endif
     const gpu::TraceRay& ray = *pair.ray;
     ChildBoxHits hits;
-    const bool hitLeft =
-        gpu::intersectBox(ray, children[0].lo, children[0].hi, pair.tmax, hits.tLeft);
-    const bool hitRight =
-        gpu::intersectBox(ray, children[1].lo, children[1].hi, pair.tmax, hits.tRight);
+    const bool hitLeft = gpu::intersectBox(ray, children[0].lo, children[0].hi, pair.tmax, hits.tLeft);
+    const bool hitRight = gpu::intersectBox(ray, children[1].lo, children[1].hi, pair.tmax, hits.tRight);
     hits.mask = (hitLeft ? 1u : 0u) | (hitRight ? 2u : 0u);
     return hits;
 }

@@ -11,8 +11,8 @@
 #endif
 
 #include <algorithm>
-#include <limits>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -28,13 +28,9 @@
 
 namespace raypack::packet_detail {
 
-void tracePrimaryPacketAvx2(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
-    tracePrimary(frame, x0, y0);
-}
+void tracePrimaryPacketAvx2(const PacketFrame& frame, uint32_t x0, uint32_t y0) { tracePrimary(frame, x0, y0); }
 
-void traceShadowPacketAvx2(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
-    traceShadow(frame, x0, y0);
-}
+void traceShadowPacketAvx2(const PacketFrame& frame, uint32_t x0, uint32_t y0) { traceShadow(frame, x0, y0); }
 
 }  // namespace raypack::packet_detail
 

@@ -18,19 +18,19 @@
 namespace raypack::packet_detail {
 
 struct PacketFrame {
-    const BvhNode* nodes = nullptr;            // CpuSceneView::nodes()
-    const glm::vec3* leafVertices = nullptr;   // CpuSceneView::leafVertices
-    const uint32_t* primIndices = nullptr;     // Bvh::primIndices
-    uint32_t stackEntries = 1;                 // CpuSceneView::stackEntries
+    const BvhNode* nodes = nullptr;           // CpuSceneView::nodes()
+    const glm::vec3* leafVertices = nullptr;  // CpuSceneView::leafVertices
+    const uint32_t* primIndices = nullptr;    // Bvh::primIndices
+    uint32_t stackEntries = 1;                // CpuSceneView::stackEntries
     gpu::GpuCamera camera{};
     glm::vec3 eye{0.0f};
     glm::vec3 light{0.0f};
-    uint32_t width = 0;   // image
+    uint32_t width = 0;  // image
     uint32_t height = 0;
-    PacketShape packet;   // W x H rays per packet
-    ClosestHit* hits = nullptr;        // one per pixel: written by the primary pass, read by shadow
-    uint32_t* shadowState = nullptr;   // one per pixel: written by the shadow pass
-    RayCounters* counters = nullptr;   // one per pixel; null: do not count (the faster kernel)
+    PacketShape packet;               // W x H rays per packet
+    ClosestHit* hits = nullptr;       // one per pixel: written by the primary pass, read by shadow
+    uint32_t* shadowState = nullptr;  // one per pixel: written by the shadow pass
+    RayCounters* counters = nullptr;  // one per pixel; null: do not count (the faster kernel)
 };
 
 void tracePrimaryPacketSse41(const PacketFrame& frame, uint32_t x0, uint32_t y0);

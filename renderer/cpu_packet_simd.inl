@@ -61,18 +61,14 @@ struct Simd {
     static RP_SIMD_INLINE F andNot(F a, F b) { return _mm256_andnot_ps(a, b); }  // ~a & b
     static RP_SIMD_INLINE F xorF(F a, F b) { return _mm256_xor_ps(a, b); }
     // mask ? ifTrue : ifFalse, lane by lane (mask lanes all ones or all zeros).
-    static RP_SIMD_INLINE F select(F mask, F ifTrue, F ifFalse) {
-        return _mm256_blendv_ps(ifFalse, ifTrue, mask);
-    }
+    static RP_SIMD_INLINE F select(F mask, F ifTrue, F ifFalse) { return _mm256_blendv_ps(ifFalse, ifTrue, mask); }
     static RP_SIMD_INLINE uint32_t bits(F mask) { return uint32_t(_mm256_movemask_ps(mask)); }
     static RP_SIMD_INLINE F fromBits(uint32_t laneBits) {
         const I bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
         const I set = _mm256_and_si256(_mm256_set1_epi32(int(laneBits)), bit);
         return _mm256_castsi256_ps(_mm256_cmpeq_epi32(set, bit));
     }
-    static RP_SIMD_INLINE F set1Bits(uint32_t v) {
-        return _mm256_castsi256_ps(_mm256_set1_epi32(int(v)));
-    }
+    static RP_SIMD_INLINE F set1Bits(uint32_t v) { return _mm256_castsi256_ps(_mm256_set1_epi32(int(v))); }
     // Unsigned a < b lane by lane, on uint32 values held in float lanes.
     static RP_SIMD_INLINE F ltU32(F a, F b) {
         const I flip = _mm256_set1_epi32(int(0x80000000u));
@@ -87,13 +83,10 @@ struct Simd {
     // The power of two of shaders/intersect.h that brings `largest` to [0.5, 1):
     // 2^clamp(126 - biasedExponent, -126, 126), from its bits.
     static RP_SIMD_INLINE F scaleFor(F largest) {
-        const I biased = _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(largest), 23),
-                                          _mm256_set1_epi32(255));
+        const I biased = _mm256_and_si256(_mm256_srli_epi32(_mm256_castps_si256(largest), 23), _mm256_set1_epi32(255));
         I exponent = _mm256_sub_epi32(_mm256_set1_epi32(126), biased);
-        exponent = _mm256_min_epi32(_mm256_max_epi32(exponent, _mm256_set1_epi32(-126)),
-                                    _mm256_set1_epi32(126));
-        return _mm256_castsi256_ps(
-            _mm256_slli_epi32(_mm256_add_epi32(exponent, _mm256_set1_epi32(127)), 23));
+        exponent = _mm256_min_epi32(_mm256_max_epi32(exponent, _mm256_set1_epi32(-126)), _mm256_set1_epi32(126));
+        return _mm256_castsi256_ps(_mm256_slli_epi32(_mm256_add_epi32(exponent, _mm256_set1_epi32(127)), 23));
     }
 };
 #else
@@ -128,9 +121,7 @@ struct Simd {
     static RP_SIMD_INLINE F orF(F a, F b) { return _mm_or_ps(a, b); }
     static RP_SIMD_INLINE F andNot(F a, F b) { return _mm_andnot_ps(a, b); }  // ~a & b
     static RP_SIMD_INLINE F xorF(F a, F b) { return _mm_xor_ps(a, b); }
-    static RP_SIMD_INLINE F select(F mask, F ifTrue, F ifFalse) {
-        return _mm_blendv_ps(ifFalse, ifTrue, mask);
-    }
+    static RP_SIMD_INLINE F select(F mask, F ifTrue, F ifFalse) { return _mm_blendv_ps(ifFalse, ifTrue, mask); }
     static RP_SIMD_INLINE uint32_t bits(F mask) { return uint32_t(_mm_movemask_ps(mask)); }
     static RP_SIMD_INLINE F fromBits(uint32_t laneBits) {
         const I bit = _mm_setr_epi32(1, 2, 4, 8);
@@ -149,8 +140,7 @@ struct Simd {
         return _mm_castsi128_ps(_mm_xor_si128(equal, _mm_set1_epi32(-1)));
     }
     static RP_SIMD_INLINE F scaleFor(F largest) {
-        const I biased =
-            _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(largest), 23), _mm_set1_epi32(255));
+        const I biased = _mm_and_si128(_mm_srli_epi32(_mm_castps_si128(largest), 23), _mm_set1_epi32(255));
         I exponent = _mm_sub_epi32(_mm_set1_epi32(126), biased);
         exponent = _mm_min_epi32(_mm_max_epi32(exponent, _mm_set1_epi32(-126)), _mm_set1_epi32(126));
         return _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(exponent, _mm_set1_epi32(127)), 23));
@@ -243,8 +233,7 @@ RP_SIMD_INLINE bool intervalMayHit(const PacketInterval& interval, const NodeSla
 
 // Lanes of `group` whose ray may touch `node`'s box for t in [0, tmax]: gpu::intersectBox lane by
 // lane, bit for bit (see cpu_box_pair.h for the operand order).
-RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const NodeSlabs& slabs,
-                                const BvhNode& node) {
+RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const NodeSlabs& slabs, const BvhNode& node) {
     using S = Simd;
     const F invX = S::load(group.invX), invY = S::load(group.invY), invZ = S::load(group.invZ);
     const F tLoX = S::mul(slabs.lo[0], invX), tHiX = S::mul(slabs.hi[0], invX);
@@ -265,8 +254,7 @@ RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const NodeSlabs& slabs,
         for (uint32_t bits = group.parallelBits & group.activeBits; bits; bits &= bits - 1) {
             const int lane = __builtin_ctz(bits);
             float tEntry;
-            if (gpu::intersectBox(group.rays[lane], node.lo, node.hi, group.tmax[lane], tEntry))
-                mask |= 1u << lane;
+            if (gpu::intersectBox(group.rays[lane], node.lo, node.hi, group.tmax[lane], tEntry)) mask |= 1u << lane;
         }
     }
     return mask;
@@ -286,8 +274,7 @@ RP_SIMD_INLINE Permuted permute(const RayGroup& group, const glm::vec3& v) {
     }
     const F x = S::set1(v.x), y = S::set1(v.y), z = S::set1(v.z);
     for (int j = 0; j < 3; ++j)
-        p.k[j] = S::select(S::loadBits(group.axisIs0[j]), x,
-                           S::select(S::loadBits(group.axisIs1[j]), y, z));
+        p.k[j] = S::select(S::loadBits(group.axisIs0[j]), x, S::select(S::loadBits(group.axisIs1[j]), y, z));
     return p;
 }
 
@@ -312,9 +299,8 @@ struct TriangleHits {
 
 // gpu::intersectTriangle (Woop, Benthin, Wald 2013 with raypack's scaling), lane by lane.
 // `a`, `b`, `c`: the vertices minus the packet's origin (computed once for all lanes).
-RP_SIMD_INLINE TriangleHits intersectTriangle(const RayGroup& group, const F shear[3],
-                                             const glm::vec3& a, const glm::vec3& b,
-                                             const glm::vec3& c, F tmax) {
+RP_SIMD_INLINE TriangleHits intersectTriangle(const RayGroup& group, const F shear[3], const glm::vec3& a,
+                                              const glm::vec3& b, const glm::vec3& c, F tmax) {
     using S = Simd;
     // a, b, c in each lane's (kx, ky, kz) order.
     const Permuted pa = permute(group, a), pb = permute(group, b), pc = permute(group, c);
@@ -368,8 +354,7 @@ RP_SIMD_INLINE void countLanes(uint32_t* counts, uint32_t laneBits, uint32_t amo
 // `laneBits`, keeping per lane the least (t, triangle index) (gpu::isCloserHit).
 template <bool kCount>
 RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const BvhNode& leaf,
-                                   const glm::vec3* leafVertices, const uint32_t* primIndices,
-                                   const glm::vec3& org) {
+                                   const glm::vec3* leafVertices, const uint32_t* primIndices, const glm::vec3& org) {
     using S = Simd;
     const F shear[3] = {S::load(group.shearX), S::load(group.shearY), S::load(group.shearZ)};
     const F lanes = S::fromBits(laneBits);
@@ -380,13 +365,11 @@ RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
     const uint32_t end = leaf.index + leaf.count;
     for (uint32_t entry = leaf.index; entry < end; ++entry) {
         const glm::vec3* v = leafVertices + 3 * size_t(entry);
-        const TriangleHits hits =
-            intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
+        const TriangleHits hits = intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
         const F prim = S::set1Bits(primIndices[entry]);
         // isCloserHit(t, prim, bestT, bestPrim): t < bestT || (t == bestT && prim < bestPrim).
-        const F closer = S::andF(
-            S::andF(hits.mask, lanes),
-            S::orF(S::lt(hits.t, tmax), S::andF(S::eq(hits.t, tmax), S::ltU32(prim, bestPrim))));
+        const F closer = S::andF(S::andF(hits.mask, lanes),
+                                 S::orF(S::lt(hits.t, tmax), S::andF(S::eq(hits.t, tmax), S::ltU32(prim, bestPrim))));
         tmax = S::select(closer, hits.t, tmax);
         bestPrim = S::select(closer, prim, bestPrim);
         baryU = S::select(closer, hits.baryU, baryU);
@@ -403,8 +386,7 @@ RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
 // and done. Returns the lanes that became done.
 template <bool kCount>
 RP_SIMD_INLINE uint32_t anyHitLeaf(RayGroup& group, uint32_t laneBits, const BvhNode& leaf,
-                                   const glm::vec3* leafVertices, const uint32_t* primIndices,
-                                   const glm::vec3& org) {
+                                   const glm::vec3* leafVertices, const uint32_t* primIndices, const glm::vec3& org) {
     using S = Simd;
     const F shear[3] = {S::load(group.shearX), S::load(group.shearY), S::load(group.shearZ)};
     const F tmax = S::load(group.tmax);
@@ -417,8 +399,7 @@ RP_SIMD_INLINE uint32_t anyHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
         if (!testing) continue;
         if (kCount) countLanes(group.tests, testing, 1);
         const glm::vec3* v = leafVertices + 3 * size_t(entry);
-        const TriangleHits hits =
-            intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
+        const TriangleHits hits = intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
         open &= ~(S::bits(hits.mask) & testing);
     }
     const uint32_t occluded = laneBits & ~open;
@@ -449,9 +430,8 @@ PacketScratch& threadScratch() {
 
 // Traverses the packet's groups through the tree (renderer/cpu_packet_tracer.h).
 template <bool kShadow, bool kCount>
-void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCount,
-                    const glm::vec3& org, const PacketInterval& interval, const float dirSign[3],
-                    StackItem* stack) {
+void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCount, const glm::vec3& org,
+                    const PacketInterval& interval, const float dirSign[3], StackItem* stack) {
     const BvhNode* nodes = frame.nodes;
     uint32_t activeLanes = 0;
     uint32_t first = groupCount;
@@ -511,9 +491,7 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
             }
             for (uint32_t g = first; g <= last; ++g) {
                 RayGroup& group = groups[g];
-                const uint32_t mask = g == first  ? firstMask
-                                      : g == last ? lastMask
-                                                  : boxMask(group, slabs, node);
+                const uint32_t mask = g == first ? firstMask : g == last ? lastMask : boxMask(group, slabs, node);
                 if (!mask) continue;
                 if (kShadow) {
                     activeLanes -= uint32_t(__builtin_popcount(
@@ -628,14 +606,11 @@ void clearGroup(RayGroup& group) {
 RP_SIMD_INLINE void primaryDirections(const gpu::GpuCamera& cam, F x, F y, F dir[3]) {
     using S = Simd;
     const F half = S::set1(0.5f), one = S::set1(1.0f), two = S::set1(2.0f);
-    const F u = S::mul(S::sub(S::div(S::mul(two, S::add(x, half)), S::set1(cam.right.w)), one),
-                       S::set1(cam.eye.w));
-    const F v = S::mul(S::sub(one, S::div(S::mul(two, S::add(y, half)), S::set1(cam.up.w))),
-                       S::set1(cam.forward.w));
+    const F u = S::mul(S::sub(S::div(S::mul(two, S::add(x, half)), S::set1(cam.right.w)), one), S::set1(cam.eye.w));
+    const F v = S::mul(S::sub(one, S::div(S::mul(two, S::add(y, half)), S::set1(cam.up.w))), S::set1(cam.forward.w));
     F d[3];
     for (int a = 0; a < 3; ++a)
-        d[a] = S::add(S::add(S::set1(cam.forward[a]), S::mul(u, S::set1(cam.right[a]))),
-                      S::mul(v, S::set1(cam.up[a])));
+        d[a] = S::add(S::add(S::set1(cam.forward[a]), S::mul(u, S::set1(cam.right[a]))), S::mul(v, S::set1(cam.up[a])));
     const F length2 = S::add(S::add(S::mul(d[0], d[0]), S::mul(d[1], d[1])), S::mul(d[2], d[2]));
     const F invLength = S::div(one, S::sqrt(length2));
     for (int a = 0; a < 3; ++a) dir[a] = S::mul(d[a], invLength);
@@ -645,8 +620,7 @@ RP_SIMD_INLINE void primaryDirections(const gpu::GpuCamera& cam, F x, F y, F dir
 // caller's): 1/dir (0 on axes with |dir| < kParallelEpsilon), the axis kz of the largest |dir|
 // (ties to the lower axis), kx and ky after it (swapped when dir[kz] < 0) and the shear. Lanes
 // parallel to an axis also get their whole TraceRay, for gpu::intersectBox.
-RP_SIMD_INLINE void setRays(RayGroup& group, uint32_t lanes, const glm::vec3& org,
-                            const F dir[3]) {
+RP_SIMD_INLINE void setRays(RayGroup& group, uint32_t lanes, const glm::vec3& org, const F dir[3]) {
     using S = Simd;
     const F absMask = S::set1Bits(0x7FFFFFFFu);
     const F one = S::set1(1.0f), zero = S::set1(0.0f);
@@ -697,8 +671,7 @@ RP_SIMD_INLINE void setRays(RayGroup& group, uint32_t lanes, const glm::vec3& or
 }
 
 // The lanes' pixel coordinates as floats (exact below 2^24), for the group at (gx, gy).
-RP_SIMD_INLINE void lanePixels(uint32_t x0, uint32_t y0, uint32_t gx, uint32_t gy, float xs[L],
-                               float ys[L]) {
+RP_SIMD_INLINE void lanePixels(uint32_t x0, uint32_t y0, uint32_t gx, uint32_t gy, float xs[L], float ys[L]) {
     for (int lane = 0; lane < L; ++lane) {
         xs[lane] = float(x0 + gx * Simd::kBlockW + uint32_t(lane) % Simd::kBlockW);
         ys[lane] = float(y0 + gy * Simd::kBlockH + uint32_t(lane) / Simd::kBlockW);
@@ -760,8 +733,7 @@ void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     PacketInterval interval;
     float dirSign[3];
     builder.finish(interval, dirSign);
-    traversePacket<false, kCount>(frame, groups, groupCount, frame.eye, interval, dirSign,
-                                  scratch.stack.data());
+    traversePacket<false, kCount>(frame, groups, groupCount, frame.eye, interval, dirSign, scratch.stack.data());
     for (uint32_t g = 0; g < groupCount; ++g) {
         const RayGroup& group = groups[g];
         for (int lane = 0; lane < L; ++lane) {
@@ -834,15 +806,13 @@ void traceShadowPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     PacketInterval interval;
     float dirSign[3];
     builder.finish(interval, dirSign);
-    traversePacket<true, kCount>(frame, groups, groupCount, frame.light, interval, dirSign,
-                                 scratch.stack.data());
+    traversePacket<true, kCount>(frame, groups, groupCount, frame.light, interval, dirSign, scratch.stack.data());
     for (uint32_t g = 0; g < groupCount; ++g) {
         const RayGroup& group = groups[g];
         for (int lane = 0; lane < L; ++lane) {
             const uint32_t pixel = group.pixel[lane];
             if (pixel == kNoHit) continue;
-            frame.shadowState[pixel] =
-                (group.occludedBits & (1u << lane)) ? gpu::kShadowOccluded : gpu::kShadowLit;
+            frame.shadowState[pixel] = (group.occludedBits & (1u << lane)) ? gpu::kShadowOccluded : gpu::kShadowLit;
             if (kCount) {
                 frame.counters[pixel].shadowNodes = group.nodes[lane];
                 frame.counters[pixel].shadowTests = group.tests[lane];

@@ -19,20 +19,18 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 bool cpuHas(CpuSimd simd) {
     switch (simd) {
-        case CpuSimd::Scalar: return true;
+    case CpuSimd::Scalar: return true;
 #if defined(__x86_64__) || defined(__i386__)
-        case CpuSimd::Sse41: return __builtin_cpu_supports("sse4.1");
-        // libgcc's check includes the OS saving the AVX state (XGETBV).
-        case CpuSimd::Avx2: return __builtin_cpu_supports("avx2");
+    case CpuSimd::Sse41: return __builtin_cpu_supports("sse4.1");
+    // libgcc's check includes the OS saving the AVX state (XGETBV).
+    case CpuSimd::Avx2: return __builtin_cpu_supports("avx2");
 #else
-        case CpuSimd::Sse41:
-        case CpuSimd::Avx2: return false;
+    case CpuSimd::Sse41:
+    case CpuSimd::Avx2: return false;
 #endif
     }
     return false;
@@ -41,8 +39,7 @@ bool cpuHas(CpuSimd simd) {
 using PacketFunction = void (*)(const packet_detail::PacketFrame&, uint32_t, uint32_t);
 
 // The scalar fallback: the packet's pixels one by one through the CPU reference's traversal.
-void tracePrimaryScalar(const CpuSceneView& view, const packet_detail::PacketFrame& frame,
-                        uint32_t x0, uint32_t y0) {
+void tracePrimaryScalar(const CpuSceneView& view, const packet_detail::PacketFrame& frame, uint32_t x0, uint32_t y0) {
     const uint32_t x1 = std::min(frame.width, x0 + frame.packet.width);
     const uint32_t y1 = std::min(frame.height, y0 + frame.packet.height);
     for (uint32_t y = y0; y < y1; ++y) {
@@ -59,8 +56,7 @@ void tracePrimaryScalar(const CpuSceneView& view, const packet_detail::PacketFra
     }
 }
 
-void traceShadowScalar(const CpuSceneView& view, const packet_detail::PacketFrame& frame,
-                       uint32_t x0, uint32_t y0) {
+void traceShadowScalar(const CpuSceneView& view, const packet_detail::PacketFrame& frame, uint32_t x0, uint32_t y0) {
     const uint32_t x1 = std::min(frame.width, x0 + frame.packet.width);
     const uint32_t y1 = std::min(frame.height, y0 + frame.packet.height);
     for (uint32_t y = y0; y < y1; ++y) {
@@ -85,9 +81,9 @@ void traceShadowScalar(const CpuSceneView& view, const packet_detail::PacketFram
 
 const char* toString(CpuSimd simd) {
     switch (simd) {
-        case CpuSimd::Scalar: return "scalar";
-        case CpuSimd::Sse41: return "sse";
-        case CpuSimd::Avx2: return "avx2";
+    case CpuSimd::Scalar: return "scalar";
+    case CpuSimd::Sse41: return "sse";
+    case CpuSimd::Avx2: return "avx2";
     }
     return "?";
 }
@@ -116,13 +112,12 @@ CpuSimd cpuSimdSelected() {
     return simd;
 }
 
-Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings,
-                       const FrameRequest& request) {
+Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings, const FrameRequest& request) {
     return renderCpuPackets(view, settings, request, cpuSimdSelected());
 }
 
-Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings,
-                       const FrameRequest& request, CpuSimd simd) {
+Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings, const FrameRequest& request,
+                       CpuSimd simd) {
     const Clock::time_point frameStart = Clock::now();
     RAYPACK_CHECK_MSG(view.scene && view.bvh, "a CpuSceneView made by makeCpuSceneView");
     if (!cpuHas(simd)) throw Error(std::string("CPU packet tracer: this CPU lacks ") + toString(simd));
@@ -143,8 +138,7 @@ Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings,
     std::vector<uint32_t> shadowState(pixels, gpu::kShadowNone);
     // Counting costs a pass over the packet's groups per node, so the kernel counts only when
     // asked to (the reference always counts).
-    const bool count =
-        request.counters || settings.collectCounters || settings.view != ViewMode::Shaded;
+    const bool count = request.counters || settings.collectCounters || settings.view != ViewMode::Shaded;
 
     packet_detail::PacketFrame packetFrame;
     packetFrame.nodes = view.nodes();
@@ -176,24 +170,23 @@ Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings,
     const uint32_t packetCount = packetsX * packetsY;
     // One packet per task, handed out dynamically (TBB's work stealing, no fixed split): packets
     // of a busy part of the image take longer, and no core idles while others still have some.
-    const auto forEachPacket = [&](PacketFunction kernel,
-                                   void (*scalar)(const CpuSceneView&,
-                                                  const packet_detail::PacketFrame&, uint32_t,
-                                                  uint32_t)) {
-        tbb::parallel_for(
-            tbb::blocked_range<uint32_t>(0, packetCount, 1),
-            [&](const tbb::blocked_range<uint32_t>& range) {
-                for (uint32_t p = range.begin(); p != range.end(); ++p) {
-                    const uint32_t x0 = (p % packetsX) * settings.packet.width;
-                    const uint32_t y0 = (p / packetsX) * settings.packet.height;
-                    if (kernel)
-                        kernel(packetFrame, x0, y0);
-                    else
-                        scalar(view, packetFrame, x0, y0);
-                }
-            },
-            tbb::simple_partitioner());
-    };
+    const auto forEachPacket =
+        [&](PacketFunction kernel,
+            void (*scalar)(const CpuSceneView&, const packet_detail::PacketFrame&, uint32_t, uint32_t)) {
+            tbb::parallel_for(
+                tbb::blocked_range<uint32_t>(0, packetCount, 1),
+                [&](const tbb::blocked_range<uint32_t>& range) {
+                    for (uint32_t p = range.begin(); p != range.end(); ++p) {
+                        const uint32_t x0 = (p % packetsX) * settings.packet.width;
+                        const uint32_t y0 = (p / packetsX) * settings.packet.height;
+                        if (kernel)
+                            kernel(packetFrame, x0, y0);
+                        else
+                            scalar(view, packetFrame, x0, y0);
+                    }
+                },
+                tbb::simple_partitioner());
+        };
 
     Clock::time_point passStart = Clock::now();
     forEachPacket(primary, tracePrimaryScalar);

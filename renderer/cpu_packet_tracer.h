@@ -53,11 +53,10 @@ inline constexpr PacketShape kDefaultCpuPacket{16, 16};
 // cut, their missing rays are padding lanes). Packets are image tiles handed out dynamically to
 // the threads of the caller's TBB arena. Throws raypack::Error for a degenerate camera or an
 // empty image.
-Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings,
-                       const FrameRequest& request = {});
+Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings, const FrameRequest& request = {});
 // The same with the SIMD width given (tests force each width; throws raypack::Error when this CPU
 // lacks it).
-Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings,
-                       const FrameRequest& request, CpuSimd simd);
+Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings, const FrameRequest& request,
+                       CpuSimd simd);
 
 }  // namespace raypack

@@ -22,9 +22,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 // A node waiting on the stack, with the entry distance its box had when it was pushed.
 struct StackEntry {
@@ -127,9 +125,8 @@ struct SceneTriangles {
 // other is pushed with its entry distance; one hit, that one is next. Returns false when neither
 // is hit. Branches, not selects: a predicted branch lets the core fetch the next node before the
 // box test has finished; a branch-free select makes every step wait for it (measured slower).
-__attribute__((always_inline)) inline bool descend(const ChildBoxHits& hits, uint32_t left,
-                                                   StackEntry* stack, uint32_t& top,
-                                                   uint32_t stackEntries, uint32_t& nodeIndex) {
+__attribute__((always_inline)) inline bool descend(const ChildBoxHits& hits, uint32_t left, StackEntry* stack,
+                                                   uint32_t& top, uint32_t stackEntries, uint32_t& nodeIndex) {
     const uint32_t right = left + 1;
     if (hits.mask == 3u) {
         RAYPACK_CHECK_MSG(top < stackEntries, "traversal stack deeper than the tree");
@@ -149,9 +146,8 @@ __attribute__((always_inline)) inline bool descend(const ChildBoxHits& hits, uin
 
 // Ordered closest-hit traversal. `stack` holds at least the tree's depth + 1 entries.
 template <class Triangles>
-ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray,
-                      float tmax, StackEntry* stack, uint32_t stackEntries,
-                      TraversalCounts& counts) {
+ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray, float tmax,
+                      StackEntry* stack, uint32_t stackEntries, TraversalCounts& counts) {
     ClosestHit best;
     float bestT = tmax;
     float tRoot;
@@ -207,8 +203,8 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
 
 // Any-hit traversal for shadow rays: stops at the first triangle other than skipPrim.
 template <class Triangles>
-bool anyHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray, float tmax,
-            uint32_t skipPrim, StackEntry* stack, uint32_t stackEntries, TraversalCounts& counts) {
+bool anyHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray, float tmax, uint32_t skipPrim,
+            StackEntry* stack, uint32_t stackEntries, TraversalCounts& counts) {
     float tRoot;
     if (!gpu::intersectBox(ray, nodes[0].lo, nodes[0].hi, tmax, tRoot)) return false;
     const ChildBoxRay boxRay = makeChildBoxRay(ray, tmax);
@@ -291,14 +287,11 @@ private:
 
 uint32_t depthFromStatsOrWalk(const Bvh& bvh) {
     // The builder's statistics are trusted only when present and plausible; otherwise walk.
-    if (bvh.stats.nodeCount == bvh.nodes.size() && bvh.stats.nodeCount > 0)
-        return bvh.stats.maxLeafDepth;
+    if (bvh.stats.nodeCount == bvh.nodes.size() && bvh.stats.nodeCount > 0) return bvh.stats.maxLeafDepth;
     return treeDepth(bvh);
 }
 
-void checkRay(glm::vec3 dir) {
-    RAYPACK_CHECK_MSG(dir != glm::vec3(0.0f), "a ray direction must not be zero");
-}
+void checkRay(glm::vec3 dir) { RAYPACK_CHECK_MSG(dir != glm::vec3(0.0f), "a ray direction must not be zero"); }
 
 }  // namespace
 
@@ -309,16 +302,13 @@ CpuSceneView makeCpuSceneView(const Scene& scene, const Bvh& bvh) {
     view.stackEntries = treeDepth(bvh) + 1;
     const size_t entries = bvh.primIndices.size();
     view.leafVertices.resize(3 * entries);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, entries, 4096),
-                      [&](const tbb::blocked_range<size_t>& range) {
-                          for (size_t i = range.begin(); i != range.end(); ++i) {
-                              const uint32_t prim = bvh.primIndices[i];
-                              RAYPACK_CHECK_MSG(prim < scene.triangles.size(),
-                                                "the Bvh was built for another scene");
-                              for (int c = 0; c < 3; ++c)
-                                  view.leafVertices[3 * i + c] = scene.vertex(prim, c);
-                          }
-                      });
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, entries, 4096), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            const uint32_t prim = bvh.primIndices[i];
+            RAYPACK_CHECK_MSG(prim < scene.triangles.size(), "the Bvh was built for another scene");
+            for (int c = 0; c < 3; ++c) view.leafVertices[3 * i + c] = scene.vertex(prim, c);
+        }
+    });
     view.nodeStorage.resize(bvh.nodes.size() / 2 + 1);
     std::copy(bvh.nodes.begin(), bvh.nodes.end(), &view.nodeStorage.front().nodes[1]);
     view.bounds.lo = bvh.nodes[0].lo;
@@ -332,26 +322,26 @@ ClosestHit traceClosestHit(const CpuSceneView& view, glm::vec3 origin, glm::vec3
     SmallStack stack(view.stackEntries);
     TraversalCounts local;
     const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
-    const ClosestHit hit = closestHit(view.nodes(), triangles, gpu::makeTraceRay(origin, dir), tmax,
-                                      stack.data(), stack.size(), local);
+    const ClosestHit hit =
+        closestHit(view.nodes(), triangles, gpu::makeTraceRay(origin, dir), tmax, stack.data(), stack.size(), local);
     if (counts) *counts = local;
     return hit;
 }
 
-bool traceOccluded(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax,
-                   uint32_t skipPrim, TraversalCounts* counts) {
+bool traceOccluded(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax, uint32_t skipPrim,
+                   TraversalCounts* counts) {
     checkRay(dir);
     SmallStack stack(view.stackEntries);
     TraversalCounts local;
     const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
-    const bool occluded = anyHit(view.nodes(), triangles, gpu::makeTraceRay(origin, dir), tmax,
-                                 skipPrim, stack.data(), stack.size(), local);
+    const bool occluded = anyHit(view.nodes(), triangles, gpu::makeTraceRay(origin, dir), tmax, skipPrim, stack.data(),
+                                 stack.size(), local);
     if (counts) *counts = local;
     return occluded;
 }
 
-bool traceShadowOccluded(const CpuSceneView& view, glm::vec3 light, glm::vec3 hitPoint,
-                         uint32_t hitPrim, TraversalCounts* counts) {
+bool traceShadowOccluded(const CpuSceneView& view, glm::vec3 light, glm::vec3 hitPoint, uint32_t hitPrim,
+                         TraversalCounts* counts) {
     const gpu::ShadowRay shadow = gpu::makeShadowRay(light, hitPoint, hitPrim);
     if (gpu::isDegenerateShadowRay(shadow)) {
         if (counts) *counts = {};
@@ -360,14 +350,14 @@ bool traceShadowOccluded(const CpuSceneView& view, glm::vec3 light, glm::vec3 hi
     return traceOccluded(view, shadow.org, shadow.dir, shadow.tmax, shadow.skipPrim, counts);
 }
 
-HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir,
-                       float tmax, RayCounters* counters) {
+HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax,
+                       RayCounters* counters) {
     checkRay(dir);
     SmallStack stack(depthFromStatsOrWalk(bvh) + 1);
     TraversalCounts counts;
     const SceneTriangles triangles{&scene, bvh.primIndices.data()};
-    const ClosestHit hit = closestHit(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir),
-                                      tmax, stack.data(), stack.size(), counts);
+    const ClosestHit hit = closestHit(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir), tmax, stack.data(),
+                                      stack.size(), counts);
     if (counters) {
         counters->primaryNodes += counts.nodes;
         counters->primaryTests += counts.tests;
@@ -386,14 +376,14 @@ HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm
     return record;
 }
 
-bool traceOccluded(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax,
-                   uint32_t skipPrim, RayCounters* counters) {
+bool traceOccluded(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax, uint32_t skipPrim,
+                   RayCounters* counters) {
     checkRay(dir);
     SmallStack stack(depthFromStatsOrWalk(bvh) + 1);
     TraversalCounts counts;
     const SceneTriangles triangles{&scene, bvh.primIndices.data()};
-    const bool occluded = anyHit(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir), tmax,
-                                 skipPrim, stack.data(), stack.size(), counts);
+    const bool occluded = anyHit(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir), tmax, skipPrim,
+                                 stack.data(), stack.size(), counts);
     if (counters) {
         counters->shadowNodes += counts.nodes;
         counters->shadowTests += counts.tests;
@@ -456,17 +446,14 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
                         const glm::vec3 v2 = scene.positions[tri.z];
                         glm::vec3 normal = gpu::geometricNormal(v0, v1, v2, dir);
                         if (scene.hasNormals())
-                            normal = gpu::interpolatedNormal(
-                                scene.normals[tri.x], scene.normals[tri.y], scene.normals[tri.z],
-                                hit.bary, normal, dir);
-                        const glm::vec3 diffuse =
-                            diffuseAt(scene, hit.prim, hit.bary, dir, hit.t, pixelSpread);
+                            normal = gpu::interpolatedNormal(scene.normals[tri.x], scene.normals[tri.y],
+                                                             scene.normals[tri.z], hit.bary, normal, dir);
+                        const glm::vec3 diffuse = diffuseAt(scene, hit.prim, hit.bary, dir, hit.t, pixelSpread);
                         const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
                         const glm::vec3 toLight = light - point;
-                        const bool lit = shadowState[pixel] != gpu::kShadowOccluded &&
-                                         toLight != glm::vec3(0.0f);
-                        color = gpu::shadePhong(phong, diffuse, normal, -dir,
-                                                lit ? glm::normalize(toLight) : normal, lit);
+                        const bool lit = shadowState[pixel] != gpu::kShadowOccluded && toLight != glm::vec3(0.0f);
+                        color =
+                            gpu::shadePhong(phong, diffuse, normal, -dir, lit ? glm::normalize(toLight) : normal, lit);
                     }
                     frame.rgba[pixel] = gpu::packRgba8(glm::vec4(color, 1.0f));
                 }
@@ -475,8 +462,7 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
         tbb::simple_partitioner());
 }
 
-Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
-                const FrameRequest& request) {
+Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings, const FrameRequest& request) {
     const Clock::time_point frameStart = Clock::now();
     RAYPACK_CHECK_MSG(view.scene && view.bvh, "a CpuSceneView made by makeCpuSceneView");
     const Scene& scene = *view.scene;
@@ -511,8 +497,8 @@ Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
                 const size_t pixel = size_t(y) * width + x;
                 const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
                 TraversalCounts counts;
-                hits[pixel] = closestHit(nodes, triangles, gpu::makeTraceRay(eye, dir),
-                                         kRayTmaxInfinite, stack.data(), stackEntries, counts);
+                hits[pixel] = closestHit(nodes, triangles, gpu::makeTraceRay(eye, dir), kRayTmaxInfinite, stack.data(),
+                                         stackEntries, counts);
                 counters[pixel].primaryNodes = counts.nodes;
                 counters[pixel].primaryTests = counts.tests;
             });
@@ -537,8 +523,7 @@ Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
                     bool occluded = false;
                     TraversalCounts counts;
                     if (!gpu::isDegenerateShadowRay(shadow))
-                        occluded = anyHit(nodes, triangles,
-                                          gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
+                        occluded = anyHit(nodes, triangles, gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
                                           shadow.skipPrim, stack.data(), stackEntries, counts);
                     shadowState[pixel] = occluded ? gpu::kShadowOccluded : gpu::kShadowLit;
                     counters[pixel].shadowNodes = counts.nodes;
@@ -558,8 +543,7 @@ Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
     return frame;
 }
 
-Frame renderCpu(const Scene& scene, const Bvh& bvh, const RenderSettings& settings,
-                const FrameRequest& request) {
+Frame renderCpu(const Scene& scene, const Bvh& bvh, const RenderSettings& settings, const FrameRequest& request) {
     const Clock::time_point start = Clock::now();
     const CpuSceneView view = makeCpuSceneView(scene, bvh);
     Frame frame = renderCpu(view, settings, request);

@@ -56,8 +56,8 @@ constexpr float kRayTmaxInfinite = FLT_MAX;
 // The closest hit of one ray, with what shading needs.
 struct ClosestHit {
     float t = std::numeric_limits<float>::infinity();  // +inf on a miss
-    uint32_t prim = 0xFFFFFFFFu;  // triangle index in file order, gpu::kNoHit on a miss
-    glm::vec2 bary{0.0f};         // barycentric weights of the triangle's vertices 1 and 2
+    uint32_t prim = 0xFFFFFFFFu;                       // triangle index in file order, gpu::kNoHit on a miss
+    glm::vec2 bary{0.0f};                              // barycentric weights of the triangle's vertices 1 and 2
     bool hit() const { return prim != 0xFFFFFFFFu; }
 };
 
@@ -69,15 +69,15 @@ struct TraversalCounts {
 
 // Closest hit along origin + t * dir for t in [0, tmax]; dir must be non-zero, need not be unit.
 // Ties in t go to the lower triangle index (gpu::isCloserHit).
-ClosestHit traceClosestHit(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir,
-                           float tmax = kRayTmaxInfinite, TraversalCounts* counts = nullptr);
+ClosestHit traceClosestHit(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax = kRayTmaxInfinite,
+                           TraversalCounts* counts = nullptr);
 // Whether any triangle other than `skipPrim` lies on origin + t * dir for t in [0, tmax]; stops at
 // the first one found.
 bool traceOccluded(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax,
                    uint32_t skipPrim = 0xFFFFFFFFu, TraversalCounts* counts = nullptr);
 // The shadow ray of a hit (gpu::makeShadowRay): true when the light does not reach the hit point.
-bool traceShadowOccluded(const CpuSceneView& view, glm::vec3 light, glm::vec3 hitPoint,
-                         uint32_t hitPrim, TraversalCounts* counts = nullptr);
+bool traceShadowOccluded(const CpuSceneView& view, glm::vec3 light, glm::vec3 hitPoint, uint32_t hitPrim,
+                         TraversalCounts* counts = nullptr);
 
 // Single rays straight on Scene + Bvh, for tests and tools (no gathering, no allocation unless
 // the tree is deeper than 255 levels). traceClosest fills record.shadow = kShadowNone and adds its
@@ -101,9 +101,7 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
 // arena decides the thread count). Timings: primarySeconds, shadowSeconds, shadeSeconds per pass,
 // totalSeconds for the call (including building the view in the Scene + Bvh overload).
 // Throws raypack::Error for a degenerate camera or an empty image.
-Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings,
-                const FrameRequest& request = {});
-Frame renderCpu(const Scene& scene, const Bvh& bvh, const RenderSettings& settings,
-                const FrameRequest& request = {});
+Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings, const FrameRequest& request = {});
+Frame renderCpu(const Scene& scene, const Bvh& bvh, const RenderSettings& settings, const FrameRequest& request = {});
 
 }  // namespace raypack

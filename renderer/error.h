@@ -17,14 +17,12 @@ public:
 };
 
 [[noreturn]] inline void checkFailed(const char* expr, const char* file, int line, const char* msg) {
-    std::fprintf(stderr, "raypack: internal check failed: %s (%s:%d)%s%s\n", expr, file, line,
-                 msg ? ": " : "", msg ? msg : "");
+    std::fprintf(stderr, "raypack: internal check failed: %s (%s:%d)%s%s\n", expr, file, line, msg ? ": " : "",
+                 msg ? msg : "");
     std::abort();
 }
 
 }  // namespace raypack
 
-#define RAYPACK_CHECK(expr) \
-    ((expr) ? (void)0 : ::raypack::checkFailed(#expr, __FILE__, __LINE__, nullptr))
-#define RAYPACK_CHECK_MSG(expr, msg) \
-    ((expr) ? (void)0 : ::raypack::checkFailed(#expr, __FILE__, __LINE__, (msg)))
+#define RAYPACK_CHECK(expr) ((expr) ? (void)0 : ::raypack::checkFailed(#expr, __FILE__, __LINE__, nullptr))
+#define RAYPACK_CHECK_MSG(expr, msg) ((expr) ? (void)0 : ::raypack::checkFailed(#expr, __FILE__, __LINE__, (msg)))

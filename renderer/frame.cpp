@@ -21,8 +21,8 @@ CounterSummary summarizeCounters(const Frame& frame) {
         primaryTests += c.primaryTests;
         shadowNodes += c.shadowNodes;
         shadowTests += c.shadowTests;
-        const bool traced = haveHits ? frame.hits[i].shadow != gpu::kShadowNone
-                                     : (c.shadowNodes != 0 || c.shadowTests != 0);
+        const bool traced =
+            haveHits ? frame.hits[i].shadow != gpu::kShadowNone : (c.shadowNodes != 0 || c.shadowTests != 0);
         if (traced) ++shadowRays;
     }
     summary.shadowRays = shadowRays;

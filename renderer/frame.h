@@ -39,12 +39,12 @@ struct Frame {
 
 // Averages over a frame's counters, as the report's Table 2 gives them.
 struct CounterSummary {
-    uint64_t primaryRays = 0;     // N_Q of primary rays (one per pixel)
-    uint64_t shadowRays = 0;      // N_Q of shadow rays (pixels whose primary ray hit, shadows on)
-    double primaryNodes = 0.0;    // average N_TR per primary ray
-    double primaryTests = 0.0;    // average N_IT per primary ray
-    double shadowNodes = 0.0;     // average N_TR per shadow ray
-    double shadowTests = 0.0;     // average N_IT per shadow ray
+    uint64_t primaryRays = 0;   // N_Q of primary rays (one per pixel)
+    uint64_t shadowRays = 0;    // N_Q of shadow rays (pixels whose primary ray hit, shadows on)
+    double primaryNodes = 0.0;  // average N_TR per primary ray
+    double primaryTests = 0.0;  // average N_IT per primary ray
+    double shadowNodes = 0.0;   // average N_TR per shadow ray
+    double shadowTests = 0.0;   // average N_IT per shadow ray
 };
 
 // shadowRays counts pixels whose HitRecord::shadow is lit or occluded when hits are given,

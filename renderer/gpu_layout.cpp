@@ -23,9 +23,8 @@ glm::vec4 withBits(const glm::vec3& xyz, uint32_t bits) { return {xyz, uintAsFlo
 
 size_t GpuLayout::bytes() const {
     return nodes.size() * sizeof(gpu::GpuNode) + triangles.size() * sizeof(gpu::GpuTriangle) +
-           normals.size() * sizeof(gpu::GpuTriangleNormals) +
-           materials.size() * sizeof(gpu::GpuMaterial) + uvs.size() * sizeof(gpu::GpuTriangleUvs) +
-           colors.size() * sizeof(gpu::GpuTriangleColors) + textureBytes();
+           normals.size() * sizeof(gpu::GpuTriangleNormals) + materials.size() * sizeof(gpu::GpuMaterial) +
+           uvs.size() * sizeof(gpu::GpuTriangleUvs) + colors.size() * sizeof(gpu::GpuTriangleColors) + textureBytes();
 }
 
 size_t GpuLayout::textureBytes() const {
@@ -70,8 +69,7 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
             layout.nodes[index] = {withBits(node.lo, placed), withBits(node.hi, node.count)};
             if (node.count == 0) {
                 // Only an empty scene has an empty leaf: give it a box no ray can hit.
-                layout.nodes[index] = {withBits(glm::vec3(FLT_MAX), placed),
-                                       withBits(glm::vec3(-FLT_MAX), 0u)};
+                layout.nodes[index] = {withBits(glm::vec3(FLT_MAX), placed), withBits(glm::vec3(-FLT_MAX), 0u)};
             }
             leaves.push_back({index, placed});
             placed += node.count;
@@ -92,8 +90,7 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
     if (normals) layout.normals.resize(placed);
     if (uvs) layout.uvs.resize(placed);
     if (colors) layout.colors.resize(placed);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024),
-                      [&](const tbb::blocked_range<size_t>& range) {
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t l = range.begin(); l != range.end(); ++l) {
             const BvhNode& node = bvh.nodes[leaves[l].node];
             for (uint32_t k = 0; k < node.count; ++k) {
@@ -102,20 +99,18 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
                 RAYPACK_CHECK(tri < scene.triangles.size());
                 const glm::uvec3 v = scene.triangles[tri];
                 const uint32_t material = materials ? scene.triangleMaterial[tri] : 0u;
-                layout.triangles[slot] = {withBits(scene.positions[v.x], tri),
-                                          withBits(scene.positions[v.y], material),
+                layout.triangles[slot] = {withBits(scene.positions[v.x], tri), withBits(scene.positions[v.y], material),
                                           glm::vec4(scene.positions[v.z], 0.0f)};
                 layout.leafToFile[slot] = tri;
                 if (normals)
-                    layout.normals[slot] = {glm::vec4(scene.normals[v.x], 0.0f),
-                                            glm::vec4(scene.normals[v.y], 0.0f),
+                    layout.normals[slot] = {glm::vec4(scene.normals[v.x], 0.0f), glm::vec4(scene.normals[v.y], 0.0f),
                                             glm::vec4(scene.normals[v.z], 0.0f)};
                 if (uvs)
                     layout.uvs[slot] = {glm::vec4(scene.uvs[v.x], scene.uvs[v.y]),
                                         glm::vec4(scene.uvs[v.z], 0.0f, 0.0f)};
                 if (colors)
-                    layout.colors[slot] = {glm::uvec4(scene.vertexColors[v.x], scene.vertexColors[v.y],
-                                                      scene.vertexColors[v.z], 0u)};
+                    layout.colors[slot] = {
+                        glm::uvec4(scene.vertexColors[v.x], scene.vertexColors[v.y], scene.vertexColors[v.z], 0u)};
             }
         }
     });

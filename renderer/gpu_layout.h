@@ -12,16 +12,16 @@
 namespace raypack {
 
 struct GpuLayout {
-    std::vector<gpu::GpuNode> nodes;                // same order and shape as Bvh::nodes
-    std::vector<gpu::GpuTriangle> triangles;        // leaf order: leaf ranges index this directly
-    std::vector<gpu::GpuTriangleNormals> normals;   // leaf order, empty when the scene has none
-    std::vector<gpu::GpuMaterial> materials;        // per material, empty when none
-    std::vector<gpu::GpuTriangleUvs> uvs;           // leaf order, empty when the scene has no UVs
-    std::vector<gpu::GpuTriangleColors> colors;     // leaf order, empty without vertex colours
-    std::vector<gpu::GpuTexture> textures;          // per Scene::textures entry
-    std::vector<uint32_t> texels;                   // every texture's texels, one after another
-    std::vector<uint32_t> leafToFile;               // leaf-order triangle -> file-order triangle
-    uint32_t maxDepth = 0;                          // deepest node below the root (root = 0)
+    std::vector<gpu::GpuNode> nodes;               // same order and shape as Bvh::nodes
+    std::vector<gpu::GpuTriangle> triangles;       // leaf order: leaf ranges index this directly
+    std::vector<gpu::GpuTriangleNormals> normals;  // leaf order, empty when the scene has none
+    std::vector<gpu::GpuMaterial> materials;       // per material, empty when none
+    std::vector<gpu::GpuTriangleUvs> uvs;          // leaf order, empty when the scene has no UVs
+    std::vector<gpu::GpuTriangleColors> colors;    // leaf order, empty without vertex colours
+    std::vector<gpu::GpuTexture> textures;         // per Scene::textures entry
+    std::vector<uint32_t> texels;                  // every texture's texels, one after another
+    std::vector<uint32_t> leafToFile;              // leaf-order triangle -> file-order triangle
+    uint32_t maxDepth = 0;                         // deepest node below the root (root = 0)
 
     size_t bytes() const;         // everything above
     size_t textureBytes() const;  // textures and texels (included in bytes())

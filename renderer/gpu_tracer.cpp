@@ -19,9 +19,7 @@ namespace raypack {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 // Timestamp slots: frames the viewer may have in flight before it reads one back.
 constexpr uint32_t kQuerySlots = 4;
@@ -68,9 +66,7 @@ struct PipelineKey {
     bool statistics;
     uint32_t view;
     uint32_t stackEntries;
-    auto tie() const {
-        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries);
-    }
+    auto tie() const { return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries); }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
 
@@ -87,12 +83,9 @@ bool packetIsOneSubgroup(const vk::DeviceInfo& device, uint32_t width, uint32_t 
 
 uint32_t viewConstant(ViewMode view) {
     switch (view) {
-    case ViewMode::HeatTraversal:
-        return gpu::kViewHeatTraversal;
-    case ViewMode::HeatIntersections:
-        return gpu::kViewHeatIntersections;
-    default:
-        return gpu::kViewShaded;
+    case ViewMode::HeatTraversal: return gpu::kViewHeatTraversal;
+    case ViewMode::HeatIntersections: return gpu::kViewHeatIntersections;
+    default: return gpu::kViewShaded;
     }
 }
 
@@ -109,7 +102,7 @@ struct GpuTracer::State {
     VkPipelineCache pipelineCache = VK_NULL_HANDLE;
     std::map<PipelineKey, VkPipeline> pipelines;
     VkQueryPool queries = VK_NULL_HANDLE;
-    uint32_t frameCounter = 0;     // frames recorded, selects the timestamp slot
+    uint32_t frameCounter = 0;                   // frames recorded, selects the timestamp slot
     std::array<bool, kQuerySlots> slotShadow{};  // whether the slot's frame had a shadow pass
     std::array<uint64_t, kQuerySlots> slotFrame{};
     VkCommandBuffer syncCommands = VK_NULL_HANDLE;
@@ -145,13 +138,11 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
 
         std::array<VkDescriptorSetLayoutBinding, kBindingCount> bindings{};
         for (uint32_t b = 0; b < kBindingCount; ++b)
-            bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT,
-                           nullptr};
+            bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
         VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
         setInfo.bindingCount = kBindingCount;
         setInfo.pBindings = bindings.data();
-        vk::check(vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &s.setLayout),
-                  "vkCreateDescriptorSetLayout");
+        vk::check(vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &s.setLayout), "vkCreateDescriptorSetLayout");
 
         VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::GpuFrameParams)};
         VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
@@ -159,8 +150,7 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
         layoutInfo.pSetLayouts = &s.setLayout;
         layoutInfo.pushConstantRangeCount = 1;
         layoutInfo.pPushConstantRanges = &push;
-        vk::check(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &s.pipelineLayout),
-                  "vkCreatePipelineLayout");
+        vk::check(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &s.pipelineLayout), "vkCreatePipelineLayout");
 
         VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBindingCount};
         VkDescriptorPoolCreateInfo descriptorPoolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
@@ -173,39 +163,34 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
         allocate.descriptorPool = s.descriptorPool;
         allocate.descriptorSetCount = 1;
         allocate.pSetLayouts = &s.setLayout;
-        vk::check(vkAllocateDescriptorSets(device, &allocate, &s.descriptorSet),
-                  "vkAllocateDescriptorSets");
+        vk::check(vkAllocateDescriptorSets(device, &allocate, &s.descriptorSet), "vkAllocateDescriptorSets");
 
         s.module = vk::createShaderModule(context, trace_spv, sizeof(trace_spv), "trace.comp");
         VkPipelineCacheCreateInfo cacheInfo{VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO};
-        vk::check(vkCreatePipelineCache(device, &cacheInfo, nullptr, &s.pipelineCache),
-                  "vkCreatePipelineCache");
+        vk::check(vkCreatePipelineCache(device, &cacheInfo, nullptr, &s.pipelineCache), "vkCreatePipelineCache");
 
         if (context.info.timestamps) {
             VkQueryPoolCreateInfo queryInfo{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
             queryInfo.queryType = VK_QUERY_TYPE_TIMESTAMP;
             queryInfo.queryCount = kQuerySlots * kQueriesPerFrame;
-            vk::check(vkCreateQueryPool(device, &queryInfo, nullptr, &s.queries),
-                      "vkCreateQueryPool");
+            vk::check(vkCreateQueryPool(device, &queryInfo, nullptr, &s.queries), "vkCreateQueryPool");
         }
 
         VkCommandBufferAllocateInfo commandInfo{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
         commandInfo.commandPool = s.pool;
         commandInfo.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
         commandInfo.commandBufferCount = 1;
-        vk::check(vkAllocateCommandBuffers(device, &commandInfo, &s.syncCommands),
-                  "vkAllocateCommandBuffers");
+        vk::check(vkAllocateCommandBuffers(device, &commandInfo, &s.syncCommands), "vkAllocateCommandBuffers");
         VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
         vk::check(vkCreateFence(device, &fenceInfo, nullptr, &s.syncFence), "vkCreateFence");
 
         // Bound where the scene has no normals, materials, UVs or colours: the kernels never read
         // it then.
-        s.dummy = vk::createBuffer(context, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                   VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "an unused binding");
-        s.status = vk::createBuffer(
-            context, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-            VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-            "the status word");
+        s.dummy = vk::createBuffer(context, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT,
+                                   "an unused binding");
+        s.status = vk::createBuffer(context, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                    "the status word");
     } catch (...) {
         destroyState(s);
         throw;
@@ -222,9 +207,8 @@ void destroyState(GpuTracer::State& s) {
     if (device) vkDeviceWaitIdle(device);
     for (auto& [key, pipeline] : s.pipelines) vkDestroyPipeline(device, pipeline, nullptr);
     s.pipelines.clear();
-    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors,
-                          &s.textures, &s.texels, &s.dummy,
-                          &s.primaryHits, &s.output, &s.hits, &s.counters, &s.status, &s.readback})
+    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors, &s.textures, &s.texels,
+                          &s.dummy, &s.primaryHits, &s.output, &s.hits, &s.counters, &s.status, &s.readback})
         vk::destroyBuffer(s.ctx, *b);
     if (s.syncFence) vkDestroyFence(device, s.syncFence, nullptr);
     if (s.queries) vkDestroyQueryPool(device, s.queries, nullptr);
@@ -254,20 +238,17 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     const uint32_t entries = layout.maxDepth + 1;
     const uint64_t packetStackBytes = uint64_t(entries) * 8u;
     if (packetStackBytes + kVoteBytes > s.ctx.info.maxSharedMemoryBytes)
-        throw Error("GPU: the BVH is " + std::to_string(layout.maxDepth) +
-                    " levels deep; its packet stack needs " + std::to_string(packetStackBytes) +
-                    " bytes of shared memory but " + s.ctx.info.name + " has " +
+        throw Error("GPU: the BVH is " + std::to_string(layout.maxDepth) + " levels deep; its packet stack needs " +
+                    std::to_string(packetStackBytes) + " bytes of shared memory but " + s.ctx.info.name + " has " +
                     std::to_string(s.ctx.info.maxSharedMemoryBytes) +
                     " (build with a larger leaf size or use the CPU tracer)");
 
     vkQueueWaitIdle(s.ctx.queue);
-    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors,
-                          &s.textures, &s.texels})
+    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors, &s.textures, &s.texels})
         vk::destroyBuffer(s.ctx, *b);
     s.hasScene = false;
 
-    const VkBufferUsageFlags usage =
-        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     auto make = [&](vk::Buffer& buffer, const void* data, size_t bytes, const char* what) {
         // A storage buffer binds at most maxStorageBufferRange bytes (the texels of large
         // textures are the likeliest to exceed it).
@@ -279,28 +260,24 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
         vk::uploadToBuffer(s.ctx, s.pool, buffer, data, bytes);
     };
     make(s.nodes, layout.nodes.data(), layout.nodes.size() * sizeof(gpu::GpuNode), "BVH nodes");
-    make(s.triangles, layout.triangles.data(), layout.triangles.size() * sizeof(gpu::GpuTriangle),
-         "triangles");
+    make(s.triangles, layout.triangles.data(), layout.triangles.size() * sizeof(gpu::GpuTriangle), "triangles");
     s.hasNormals = !layout.normals.empty();
     s.hasMaterials = !layout.materials.empty();
     if (s.hasNormals)
-        make(s.normals, layout.normals.data(),
-             layout.normals.size() * sizeof(gpu::GpuTriangleNormals), "vertex normals");
+        make(s.normals, layout.normals.data(), layout.normals.size() * sizeof(gpu::GpuTriangleNormals),
+             "vertex normals");
     if (s.hasMaterials)
-        make(s.materials, layout.materials.data(),
-             layout.materials.size() * sizeof(gpu::GpuMaterial), "materials");
+        make(s.materials, layout.materials.data(), layout.materials.size() * sizeof(gpu::GpuMaterial), "materials");
     // UVs come with textures (Scene::uvs): the UVs, the texture table and the texels together.
     s.hasUvs = !layout.uvs.empty() && !layout.texels.empty();
     s.hasColors = !layout.colors.empty();
     if (s.hasUvs) {
         make(s.uvs, layout.uvs.data(), layout.uvs.size() * sizeof(gpu::GpuTriangleUvs), "UVs");
-        make(s.textures, layout.textures.data(), layout.textures.size() * sizeof(gpu::GpuTexture),
-             "the texture table");
+        make(s.textures, layout.textures.data(), layout.textures.size() * sizeof(gpu::GpuTexture), "the texture table");
         make(s.texels, layout.texels.data(), layout.texels.size() * sizeof(uint32_t), "texels");
     }
     if (s.hasColors)
-        make(s.colors, layout.colors.data(), layout.colors.size() * sizeof(gpu::GpuTriangleColors),
-             "vertex colours");
+        make(s.colors, layout.colors.data(), layout.colors.size() * sizeof(gpu::GpuTriangleColors), "vertex colours");
     s.stackEntries = entries;
     s.sceneBounds = scene.bounds();
     s.hasScene = true;
@@ -312,9 +289,7 @@ bool GpuTracer::hasScene() const { return state_->hasScene; }
 uint32_t GpuTracer::stackEntries() const { return state_->stackEntries; }
 const vk::DeviceInfo& GpuTracer::device() const { return state_->ctx.info; }
 VkBuffer GpuTracer::outputBuffer() const { return state_->output.buffer; }
-VkDeviceSize GpuTracer::outputBytes() const {
-    return VkDeviceSize(state_->width) * state_->height * 4u;
-}
+VkDeviceSize GpuTracer::outputBytes() const { return VkDeviceSize(state_->width) * state_->height * 4u; }
 
 uint32_t GpuTracer::sharedMemoryBytes(PacketShape shape) const {
     (void)shape;  // the vote's shared sums do not grow with the packet
@@ -324,15 +299,19 @@ uint32_t GpuTracer::sharedMemoryBytes(PacketShape shape) const {
 namespace {
 
 void writeDescriptors(GpuTracer::State& s) {
-    const vk::Buffer* buffers[kBindingCount] = {
-        &s.nodes,       &s.triangles, s.hasNormals ? &s.normals : &s.dummy,
-        s.hasMaterials ? &s.materials : &s.dummy,
-        &s.primaryHits, &s.output,    &s.hits,
-        &s.counters,    &s.status,
-        s.hasUvs ? &s.uvs : &s.dummy,
-        s.hasColors ? &s.colors : &s.dummy,
-        s.hasUvs ? &s.textures : &s.dummy,
-        s.hasUvs ? &s.texels : &s.dummy};
+    const vk::Buffer* buffers[kBindingCount] = {&s.nodes,
+                                                &s.triangles,
+                                                s.hasNormals ? &s.normals : &s.dummy,
+                                                s.hasMaterials ? &s.materials : &s.dummy,
+                                                &s.primaryHits,
+                                                &s.output,
+                                                &s.hits,
+                                                &s.counters,
+                                                &s.status,
+                                                s.hasUvs ? &s.uvs : &s.dummy,
+                                                s.hasColors ? &s.colors : &s.dummy,
+                                                s.hasUvs ? &s.textures : &s.dummy,
+                                                s.hasUvs ? &s.texels : &s.dummy};
     std::array<VkDescriptorBufferInfo, kBindingCount> infos{};
     std::array<VkWriteDescriptorSet, kBindingCount> writes{};
     for (uint32_t b = 0; b < kBindingCount; ++b) {
@@ -351,20 +330,17 @@ void writeDescriptors(GpuTracer::State& s) {
 void ensureFrameBuffers(GpuTracer::State& s, uint32_t width, uint32_t height) {
     if (s.width == width && s.height == height) return;
     vkQueueWaitIdle(s.ctx.queue);
-    for (vk::Buffer* b : {&s.primaryHits, &s.output, &s.hits, &s.counters, &s.readback})
-        vk::destroyBuffer(s.ctx, *b);
+    for (vk::Buffer* b : {&s.primaryHits, &s.output, &s.hits, &s.counters, &s.readback}) vk::destroyBuffer(s.ctx, *b);
     s.width = s.height = 0;
     const VkDeviceSize pixels = VkDeviceSize(width) * height;
-    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT |
-                                     VK_BUFFER_USAGE_TRANSFER_SRC_BIT |
-                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    const VkBufferUsageFlags usage =
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
-    s.primaryHits = vk::createBuffer(s.ctx, pixels * sizeof(gpu::GpuPrimaryHit), usage, local,
-                                     "the primary hits of a frame");
+    s.primaryHits =
+        vk::createBuffer(s.ctx, pixels * sizeof(gpu::GpuPrimaryHit), usage, local, "the primary hits of a frame");
     s.output = vk::createBuffer(s.ctx, pixels * 4u, usage, local, "the output image");
     s.hits = vk::createBuffer(s.ctx, pixels * sizeof(HitRecord), usage, local, "the hit records");
-    s.counters = vk::createBuffer(s.ctx, pixels * sizeof(RayCounters), usage, local,
-                                  "the ray counters");
+    s.counters = vk::createBuffer(s.ctx, pixels * sizeof(RayCounters), usage, local, "the ray counters");
     s.width = width;
     s.height = height;
     if (s.hasScene) writeDescriptors(s);
@@ -374,37 +350,31 @@ void ensureReadback(GpuTracer::State& s, VkDeviceSize bytes) {
     if (s.readback.buffer && s.readback.size >= bytes) return;
     vk::destroyBuffer(s.ctx, s.readback);
     // Cached host memory reads back fast; fall back to plain host-visible memory.
-    const VkMemoryPropertyFlags coherent =
-        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    const VkMemoryPropertyFlags coherent = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
     try {
         s.readback = vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                      coherent | VK_MEMORY_PROPERTY_HOST_CACHED_BIT,
-                                      "the read-back buffer");
+                                      coherent | VK_MEMORY_PROPERTY_HOST_CACHED_BIT, "the read-back buffer");
     } catch (const Error&) {
-        s.readback = vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, coherent,
-                                      "the read-back buffer");
+        s.readback = vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, coherent, "the read-back buffer");
     }
 }
 
 VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     if (auto found = s.pipelines.find(key); found != s.pipelines.end()) return found->second;
     const bool packet = key.kernel == KernelKind::Packet;
-    const SpecializationData data{key.packetWidth,
-                                  key.packetHeight,
-                                  packet ? gpu::kKernelPacket : gpu::kKernelSingle,
-                                  key.pass,
-                                  key.statistics ? VK_TRUE : VK_FALSE,
-                                  key.view,
-                                  packet ? key.stackEntries : 1u,
-                                  packet ? 1u : key.stackEntries,
-                                  packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth,
-                                                                key.packetHeight)
-                                      ? VK_TRUE
-                                      : VK_FALSE};
+    const SpecializationData data{
+        key.packetWidth,
+        key.packetHeight,
+        packet ? gpu::kKernelPacket : gpu::kKernelSingle,
+        key.pass,
+        key.statistics ? VK_TRUE : VK_FALSE,
+        key.view,
+        packet ? key.stackEntries : 1u,
+        packet ? 1u : key.stackEntries,
+        packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE};
     std::array<VkSpecializationMapEntry, 9> entries{};
     for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {i, i * 4u, 4u};
-    VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data,
-                                        &data};
+    VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
     VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
     info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -413,13 +383,11 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     info.stage.pSpecializationInfo = &specialization;
     info.layout = s.pipelineLayout;
     VkPipeline pipeline = VK_NULL_HANDLE;
-    const VkResult result =
-        vkCreateComputePipelines(s.ctx.device, s.pipelineCache, 1, &info, nullptr, &pipeline);
+    const VkResult result = vkCreateComputePipelines(s.ctx.device, s.pipelineCache, 1, &info, nullptr, &pipeline);
     if (result < 0)
-        throw Error(std::string("GPU: could not build the ") + toString(key.kernel) +
-                    " kernel for packet " + std::to_string(key.packetWidth) + "x" +
-                    std::to_string(key.packetHeight) + " on " + s.ctx.info.name + ": " +
-                    vk::resultName(result));
+        throw Error(std::string("GPU: could not build the ") + toString(key.kernel) + " kernel for packet " +
+                    std::to_string(key.packetWidth) + "x" + std::to_string(key.packetHeight) + " on " +
+                    s.ctx.info.name + ": " + vk::resultName(result));
     s.pipelines.emplace(key, pipeline);
     return pipeline;
 }
@@ -432,26 +400,22 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
     const vk::DeviceInfo& d = s.ctx.info;
     const PacketShape shape = settings.packet;
     const std::string name = std::to_string(shape.width) + "x" + std::to_string(shape.height);
-    if (shape.width == 0 || shape.height == 0)
-        throw Error("GPU: packet " + name + " is empty");
+    if (shape.width == 0 || shape.height == 0) throw Error("GPU: packet " + name + " is empty");
     if (shape.rays() > d.maxWorkgroupInvocations || shape.width > d.maxWorkgroupSize[0] ||
         shape.height > d.maxWorkgroupSize[1])
         throw Error("GPU: packet " + name + " exceeds " + d.name + "'s workgroup limit (" +
                     std::to_string(d.maxWorkgroupInvocations) + " invocations, " +
-                    std::to_string(d.maxWorkgroupSize[0]) + "x" +
-                    std::to_string(d.maxWorkgroupSize[1]) + ")");
+                    std::to_string(d.maxWorkgroupSize[0]) + "x" + std::to_string(d.maxWorkgroupSize[1]) + ")");
     const uint64_t shared = uint64_t(s.stackEntries) * 8u + kVoteBytes;
     if (settings.kernel == KernelKind::Packet && shared > d.maxSharedMemoryBytes)
-        throw Error("GPU: packet " + name + " with a stack of " +
-                    std::to_string(s.stackEntries) + " entries needs " + std::to_string(shared) +
-                    " bytes of shared memory; " + d.name + " has " +
+        throw Error("GPU: packet " + name + " with a stack of " + std::to_string(s.stackEntries) + " entries needs " +
+                    std::to_string(shared) + " bytes of shared memory; " + d.name + " has " +
                     std::to_string(d.maxSharedMemoryBytes));
     const uint64_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint64_t groupsY = (settings.height + shape.height - 1) / shape.height;
     if (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1])
-        throw Error("GPU: " + std::to_string(settings.width) + "x" +
-                    std::to_string(settings.height) + " in packets of " + name + " needs " +
-                    std::to_string(groupsX) + "x" + std::to_string(groupsY) +
+        throw Error("GPU: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
+                    " in packets of " + name + " needs " + std::to_string(groupsX) + "x" + std::to_string(groupsY) +
                     " workgroups, more than " + d.name + " dispatches");
 }
 
@@ -462,17 +426,15 @@ gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings&
     *light = lightPosition(settings.camera, s.sceneBounds, settings.lightHeight);
     p.light = glm::vec4(*light, 0.0f);
     p.background = glm::vec4(settings.background, settings.heatFullScale);
-    p.phong = glm::vec4(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular,
-                        settings.phong.shininess);
+    p.phong =
+        glm::vec4(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular, settings.phong.shininess);
     const uint32_t packetsPerRow = (settings.width + settings.packet.width - 1) / settings.packet.width;
-    p.frame = glm::uvec4(settings.width, settings.height,
-                         (writeHits ? gpu::kFrameWriteHits : 0u) |
-                             (options.bgra ? gpu::kFrameBgra : 0u) |
-                             (s.hasNormals ? gpu::kFrameHasNormals : 0u) |
-                             (s.hasMaterials ? gpu::kFrameHasMaterials : 0u) |
-                             (s.hasUvs ? gpu::kFrameHasUvs : 0u) |
-                             (s.hasColors ? gpu::kFrameHasColors : 0u),
-                         packetsPerRow);
+    p.frame =
+        glm::uvec4(settings.width, settings.height,
+                   (writeHits ? gpu::kFrameWriteHits : 0u) | (options.bgra ? gpu::kFrameBgra : 0u) |
+                       (s.hasNormals ? gpu::kFrameHasNormals : 0u) | (s.hasMaterials ? gpu::kFrameHasMaterials : 0u) |
+                       (s.hasUvs ? gpu::kFrameHasUvs : 0u) | (s.hasColors ? gpu::kFrameHasColors : 0u),
+                   packetsPerRow);
     return p;
 }
 
@@ -500,8 +462,7 @@ void submitSyncCommandsAndWait(GpuTracer::State& s) {
     submit.commandBufferCount = 1;
     submit.pCommandBuffers = &s.syncCommands;
     vk::check(vkQueueSubmit(s.ctx.queue, 1, &submit, s.syncFence), "vkQueueSubmit");
-    vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX),
-              "vkWaitForFences");
+    vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
 }
 
 // Host timing of the passes (GpuTracer::setHostTimedPasses): `split` submits what was recorded so
@@ -532,37 +493,30 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     vkCmdFillBuffer(cmd, s.status.buffer, 0, VK_WHOLE_SIZE, 0u);
     if (s.queries) vkCmdResetQueryPool(cmd, s.queries, firstQuery, kQueriesPerFrame);
     memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
-                  VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
-                  VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                  VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1,
-                            &s.descriptorSet, 0, nullptr);
-    vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params,
-                       &params);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1, &s.descriptorSet, 0, nullptr);
+    vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel, shape.width, shape.height, 0u, statistics, view,
-                    s.stackEntries};
+    PipelineKey key{settings.kernel, shape.width, shape.height, 0u, statistics, view, s.stackEntries};
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
-    if (s.queries)
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery);
+    if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery);
     const Clock::time_point primaryStart = hostClock ? hostClock->split() : Clock::time_point{};
     // A split re-opened the command buffer: bind again what the dispatches use.
     auto bindState = [&] {
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1,
-                                &s.descriptorSet, 0, nullptr);
-        vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params,
-                           &params);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1, &s.descriptorSet, 0,
+                                nullptr);
+        vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
     };
     if (hostClock) bindState();
     vkCmdDispatch(cmd, groupsX, groupsY, 1);
-    if (s.queries)
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 1);
+    if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 1);
     Clock::time_point shadowStart{};
     if (hostClock) {
         shadowStart = hostClock->split();
@@ -571,21 +525,15 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
 
     if (settings.shadows) {
         memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+                      VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         key.pass = gpu::kPassShadowShade;
         if (hostClock) bindState();
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
-        if (s.queries)
-            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries,
-                                firstQuery + 2);
+        if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 2);
         vkCmdDispatch(cmd, groupsX, groupsY, 1);
-        if (s.queries)
-            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries,
-                                firstQuery + 3);
+        if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 3);
         if (hostClock)
-            hostClock->shadowSeconds =
-                std::chrono::duration<double>(hostClock->split() - shadowStart).count();
+            hostClock->shadowSeconds = std::chrono::duration<double>(hostClock->split() - shadowStart).count();
     } else if (s.queries) {
         // Keep the slot's four queries written so that availability reads stay simple.
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 2);
@@ -603,9 +551,8 @@ std::optional<FrameTimings> slotTimings(GpuTracer::State& s, uint32_t slot, bool
     uint64_t values[kQueriesPerFrame * 2] = {};
     VkQueryResultFlags flags = VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WITH_AVAILABILITY_BIT;
     if (wait) flags |= VK_QUERY_RESULT_WAIT_BIT;
-    const VkResult result =
-        vkGetQueryPoolResults(s.ctx.device, s.queries, slot * kQueriesPerFrame, kQueriesPerFrame,
-                              sizeof values, values, 2 * sizeof(uint64_t), flags);
+    const VkResult result = vkGetQueryPoolResults(s.ctx.device, s.queries, slot * kQueriesPerFrame, kQueriesPerFrame,
+                                                  sizeof values, values, 2 * sizeof(uint64_t), flags);
     if (result != VK_SUCCESS) return std::nullopt;
     for (uint32_t q = 0; q < kQueriesPerFrame; ++q)
         if (values[2 * q + 1] == 0) return std::nullopt;
@@ -618,8 +565,7 @@ std::optional<FrameTimings> slotTimings(GpuTracer::State& s, uint32_t slot, bool
 
 }  // namespace
 
-void GpuTracer::recordFrame(VkCommandBuffer cmd, const RenderSettings& settings,
-                            const GpuRecordOptions& options) {
+void GpuTracer::recordFrame(VkCommandBuffer cmd, const RenderSettings& settings, const GpuRecordOptions& options) {
     recordPasses(*state_, cmd, settings, options, false, false);
 }
 
@@ -663,8 +609,8 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
             return now;
         };
     }
-    const glm::vec3 light = recordPasses(s, s.syncCommands, settings, {}, request.hits,
-                                         request.counters, s.hostTimedPasses ? &hostClock : nullptr);
+    const glm::vec3 light = recordPasses(s, s.syncCommands, settings, {}, request.hits, request.counters,
+                                         s.hostTimedPasses ? &hostClock : nullptr);
     const uint32_t slot = (s.frameCounter - 1) % kQuerySlots;
     VkDeviceSize offset = 0;
     auto copy = [&](const vk::Buffer& from, VkDeviceSize bytes) {
@@ -682,8 +628,7 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
 
     const uint32_t status = *static_cast<const uint32_t*>(s.status.mapped);
     if (status & gpu::kStatusSubgroupMismatch)
-        throw Error("GPU: " + s.ctx.info.name + " split a packet of " +
-                    std::to_string(settings.packet.width) + "x" +
+        throw Error("GPU: " + s.ctx.info.name + " split a packet of " + std::to_string(settings.packet.width) + "x" +
                     std::to_string(settings.packet.height) +
                     " rays across subgroups although it fits one subgroup of " +
                     std::to_string(s.ctx.info.subgroupSize) + "; use another packet shape");

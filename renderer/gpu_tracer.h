@@ -62,8 +62,7 @@ public:
     // VK_ACCESS_TRANSFER_READ_BIT): copy it into the swapchain image with
     // vkCmdCopyBufferToImage (tightly packed, width x height texels, row 0 at the top).
     // A change of image size re-creates the frame buffers after vkQueueWaitIdle.
-    void recordFrame(VkCommandBuffer cmd, const RenderSettings& settings,
-                     const GpuRecordOptions& options = {});
+    void recordFrame(VkCommandBuffer cmd, const RenderSettings& settings, const GpuRecordOptions& options = {});
     VkBuffer outputBuffer() const;
     VkDeviceSize outputBytes() const;
 

@@ -15,8 +15,7 @@ namespace {
 // The file is little-endian; on a big-endian host each 32-bit word is swapped.
 uint32_t toLittleEndian(uint32_t word) {
     if constexpr (std::endian::native == std::endian::little) return word;
-    return ((word & 0xFFu) << 24) | ((word & 0xFF00u) << 8) | ((word >> 8) & 0xFF00u) |
-           (word >> 24);
+    return ((word & 0xFFu) << 24) | ((word & 0xFF00u) << 8) | ((word >> 8) & 0xFF00u) | (word >> 24);
 }
 
 void putWord(unsigned char* out, uint32_t word) {
@@ -59,9 +58,8 @@ HitRecord decodeRecord(const unsigned char* in) {
 void writeHits(const std::string& path, const HitsFile& hits) {
     const uint64_t pixels = uint64_t(hits.width) * hits.height;
     if (hits.records.size() != pixels)
-        throw Error("cannot write hits file " + path + ": " + std::to_string(hits.records.size()) +
-                    " records for a " + std::to_string(hits.width) + "x" +
-                    std::to_string(hits.height) + " image");
+        throw Error("cannot write hits file " + path + ": " + std::to_string(hits.records.size()) + " records for a " +
+                    std::to_string(hits.width) + "x" + std::to_string(hits.height) + " image");
     std::ofstream out(path, std::ios::binary | std::ios::trunc);
     if (!out) throw Error("cannot write hits file " + path + ": " + std::strerror(errno));
 
@@ -80,10 +78,8 @@ void writeHits(const std::string& path, const HitsFile& hits) {
     std::vector<unsigned char> block(kBlockRecords * kHitsRecordBytes);
     for (size_t first = 0; first < hits.records.size(); first += kBlockRecords) {
         const size_t count = std::min(kBlockRecords, hits.records.size() - first);
-        for (size_t i = 0; i < count; ++i)
-            encodeRecord(block.data() + i * kHitsRecordBytes, hits.records[first + i]);
-        out.write(reinterpret_cast<const char*>(block.data()),
-                  std::streamsize(count * kHitsRecordBytes));
+        for (size_t i = 0; i < count; ++i) encodeRecord(block.data() + i * kHitsRecordBytes, hits.records[first + i]);
+        out.write(reinterpret_cast<const char*>(block.data()), std::streamsize(count * kHitsRecordBytes));
     }
     out.flush();
     if (!out) throw Error("cannot write hits file " + path + ": write failed");
@@ -116,8 +112,7 @@ HitsFile readHits(const std::string& path) {
     hits.width = getWord(header + 8);
     hits.height = getWord(header + 12);
     hits.light = glm::vec3(getFloat(header + 16), getFloat(header + 20), getFloat(header + 24));
-    if (getWord(header + 28) != 0)
-        throw Error("hits file " + path + ": the header's reserved word (byte 28) is not 0");
+    if (getWord(header + 28) != 0) throw Error("hits file " + path + ": the header's reserved word (byte 28) is not 0");
 
     const uint64_t pixels = uint64_t(hits.width) * hits.height;
     // width * height fits in 64 bits, but times 40 it wraps for absurd headers: check that first,
@@ -126,9 +121,8 @@ HitsFile readHits(const std::string& path) {
     if (pixels > (std::numeric_limits<uint64_t>::max() - kHitsHeaderBytes) / kHitsRecordBytes ||
         uint64_t(fileBytes) != expected)
         throw Error("hits file " + path + " has " + std::to_string(fileBytes) + " bytes, but a " +
-                    std::to_string(hits.width) + "x" + std::to_string(hits.height) +
-                    " image needs 32 + " + std::to_string(pixels) + " * 40 = " +
-                    std::to_string(expected));
+                    std::to_string(hits.width) + "x" + std::to_string(hits.height) + " image needs 32 + " +
+                    std::to_string(pixels) + " * 40 = " + std::to_string(expected));
 
     hits.records.resize(pixels);
     constexpr size_t kBlockRecords = 4096;
@@ -143,13 +137,12 @@ HitsFile readHits(const std::string& path) {
             const HitRecord r = decodeRecord(block.data() + i * kHitsRecordBytes);
             const uint64_t offset = kHitsHeaderBytes + (first + i) * kHitsRecordBytes;
             if (r.shadow > gpu::kShadowNone)
-                throw Error("hits file " + path + ": record " + std::to_string(first + i) +
-                            " (byte " + std::to_string(offset + 32) + ") has shadow state " +
-                            std::to_string(r.shadow) + ", expected 0, 1 or 2");
+                throw Error("hits file " + path + ": record " + std::to_string(first + i) + " (byte " +
+                            std::to_string(offset + 32) + ") has shadow state " + std::to_string(r.shadow) +
+                            ", expected 0, 1 or 2");
             if (r.reserved != 0)
-                throw Error("hits file " + path + ": record " + std::to_string(first + i) +
-                            " (byte " + std::to_string(offset + 36) +
-                            ") has a non-zero reserved word");
+                throw Error("hits file " + path + ": record " + std::to_string(first + i) + " (byte " +
+                            std::to_string(offset + 36) + ") has a non-zero reserved word");
             hits.records[first + i] = r;
         }
     }

@@ -25,16 +25,12 @@ uint32_t channel(uint32_t pixel, int c) { return (pixel >> (8 * c)) & 0xFFu; }
 
 }  // namespace
 
-void writePng(const std::string& path, uint32_t width, uint32_t height,
-              const std::vector<uint32_t>& rgba) {
-    if (width == 0 || height == 0)
-        throw Error("cannot write " + path + ": the image is empty");
+void writePng(const std::string& path, uint32_t width, uint32_t height, const std::vector<uint32_t>& rgba) {
+    if (width == 0 || height == 0) throw Error("cannot write " + path + ": the image is empty");
     if (rgba.size() != size_t(width) * height)
-        throw Error("cannot write " + path + ": " + std::to_string(rgba.size()) +
-                    " pixels for a " + std::to_string(width) + "x" + std::to_string(height) +
-                    " image");
-    if (width > uint32_t(std::numeric_limits<int>::max() / 4) ||
-        height > uint32_t(std::numeric_limits<int>::max()))
+        throw Error("cannot write " + path + ": " + std::to_string(rgba.size()) + " pixels for a " +
+                    std::to_string(width) + "x" + std::to_string(height) + " image");
+    if (width > uint32_t(std::numeric_limits<int>::max() / 4) || height > uint32_t(std::numeric_limits<int>::max()))
         throw Error("cannot write " + path + ": the image is too large for PNG writing");
     // Bytes in memory are R, G, B, A on a little-endian host; make that explicit for any host.
     std::vector<unsigned char> bytes(rgba.size() * 4);
@@ -49,12 +45,10 @@ ImageFormat imageFormatFor(const std::string& path) {
     for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (extension == ".png") return ImageFormat::Png;
     if (extension == ".jpg" || extension == ".jpeg") return ImageFormat::Jpeg;
-    throw Error(path + ": unknown image format \"" + extension +
-                "\" (the file name must end in .png, .jpg or .jpeg)");
+    throw Error(path + ": unknown image format \"" + extension + "\" (the file name must end in .png, .jpg or .jpeg)");
 }
 
-void writeImage(const std::string& path, uint32_t width, uint32_t height,
-                const std::vector<uint32_t>& rgba) {
+void writeImage(const std::string& path, uint32_t width, uint32_t height, const std::vector<uint32_t>& rgba) {
     if (imageFormatFor(path) == ImageFormat::Png) return writePng(path, width, height, rgba);
     if (width == 0 || height == 0 || rgba.size() != size_t(width) * height)
         throw Error("cannot write " + path + ": the image is empty or inconsistent");
@@ -80,9 +74,7 @@ void checkOutputPath(const std::string& flag, const std::string& path) {
     if (::access(folder.c_str(), W_OK) != 0) throw Error(what + "the folder " + folder.string() + " is not writable");
 }
 
-void writePng(const std::string& path, const Image& image) {
-    writePng(path, image.width, image.height, image.rgba);
-}
+void writePng(const std::string& path, const Image& image) { writePng(path, image.width, image.height, image.rgba); }
 
 namespace {
 
@@ -110,7 +102,8 @@ Image readPng(const std::string& path) {
         throw Error("cannot read image " + path + ": not a regular file");
     constexpr uintmax_t kMaxFileBytes = uintmax_t(1) << 30;
     if (size > kMaxFileBytes)
-        throw Error("cannot read image " + path + ": " + std::to_string(size) + " bytes, more than a PNG raypack reads (1 GiB)");
+        throw Error("cannot read image " + path + ": " + std::to_string(size) +
+                    " bytes, more than a PNG raypack reads (1 GiB)");
     std::vector<unsigned char> bytes(static_cast<size_t>(size));
     in.read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()));
     if (size_t(in.gcount()) != bytes.size()) throw Error("cannot read image " + path + ": read failed");
@@ -132,8 +125,8 @@ Image readPng(const std::string& path) {
         throw Error("cannot read image " + path + ": the PNG header says " + std::to_string(headerWidth) + "x" +
                     std::to_string(headerHeight));
     if (uint64_t(headerWidth) * headerHeight > limit || headerWidth > (1u << 24) || headerHeight > (1u << 24))
-        throw Error("cannot read image " + path + ": " + std::to_string(headerWidth) + "x" + std::to_string(headerHeight) +
-                    " pixels, more than the limit of " + std::to_string(limit) +
+        throw Error("cannot read image " + path + ": " + std::to_string(headerWidth) + "x" +
+                    std::to_string(headerHeight) + " pixels, more than the limit of " + std::to_string(limit) +
                     " (set RAYPACK_MAX_IMAGE_PIXELS to raise it)");
 
     // Every chunk must lie inside the file: stb grows its IDAT buffer to a chunk's declared length
@@ -164,8 +157,7 @@ Image readPng(const std::string& path) {
     image.rgba.resize(size_t(width) * size_t(height));
     for (size_t i = 0; i < image.rgba.size(); ++i) {
         const unsigned char* p = data + 4 * i;
-        image.rgba[i] = uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 |
-                        uint32_t(p[3]) << 24;
+        image.rgba[i] = uint32_t(p[0]) | uint32_t(p[1]) << 8 | uint32_t(p[2]) << 16 | uint32_t(p[3]) << 24;
     }
     stbi_image_free(data);
     return image;
@@ -174,9 +166,8 @@ Image readPng(const std::string& path) {
 ImageDiff diffImages(const Image& a, const Image& b, uint8_t threshold, const std::string& nameA,
                      const std::string& nameB) {
     if (a.width != b.width || a.height != b.height)
-        throw Error("cannot compare " + nameA + " (" + std::to_string(a.width) + "x" +
-                    std::to_string(a.height) + ") with " + nameB + " (" +
-                    std::to_string(b.width) + "x" + std::to_string(b.height) +
+        throw Error("cannot compare " + nameA + " (" + std::to_string(a.width) + "x" + std::to_string(a.height) +
+                    ") with " + nameB + " (" + std::to_string(b.width) + "x" + std::to_string(b.height) +
                     "): sizes differ");
     RAYPACK_CHECK(a.rgba.size() == size_t(a.width) * a.height);
     RAYPACK_CHECK(b.rgba.size() == size_t(b.width) * b.height);
@@ -200,8 +191,8 @@ ImageDiff diffImages(const Image& a, const Image& b, uint8_t threshold, const st
             diff.difference.rgba[i] = 0xFF0000FFu;  // opaque red
         } else {
             // Context: a's luminance at a third of its brightness.
-            const uint32_t grey = (channel(a.rgba[i], 0) * 77 + channel(a.rgba[i], 1) * 150 +
-                                   channel(a.rgba[i], 2) * 29) >> 8;
+            const uint32_t grey =
+                (channel(a.rgba[i], 0) * 77 + channel(a.rgba[i], 1) * 150 + channel(a.rgba[i], 2) * 29) >> 8;
             const uint32_t dim = grey / 3;
             diff.difference.rgba[i] = dim | dim << 8 | dim << 16 | 0xFF000000u;
         }

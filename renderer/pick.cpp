@@ -4,8 +4,8 @@
 
 namespace raypack {
 
-std::optional<PickHit> pickPixel(const Scene& scene, const Bvh& bvh, const Camera& camera,
-                                 uint32_t width, uint32_t height, uint32_t x, uint32_t y) {
+std::optional<PickHit> pickPixel(const Scene& scene, const Bvh& bvh, const Camera& camera, uint32_t width,
+                                 uint32_t height, uint32_t x, uint32_t y) {
     if (x >= width || y >= height) return std::nullopt;
     const GpuCamera gpuCamera = makeGpuCamera(camera, width, height);
     const glm::vec3 origin = gpu::cameraEye(gpuCamera);

@@ -21,7 +21,7 @@ struct PickHit {
 // Pixel (x, y) of a width x height image of `camera`, row 0 at the top; nullopt when the ray
 // misses the scene or the pixel lies outside the image. Throws raypack::Error for a degenerate
 // camera (makeGpuCamera).
-std::optional<PickHit> pickPixel(const Scene& scene, const Bvh& bvh, const Camera& camera,
-                                 uint32_t width, uint32_t height, uint32_t x, uint32_t y);
+std::optional<PickHit> pickPixel(const Scene& scene, const Bvh& bvh, const Camera& camera, uint32_t width,
+                                 uint32_t height, uint32_t x, uint32_t y);
 
 }  // namespace raypack

@@ -30,8 +30,7 @@ glm::vec2 samplePatternOffset(uint32_t index, uint32_t samples) {
     if (samples == 0 || samples > kMaxSamplesPerPixel)
         throw Error("samples per pixel: " + std::to_string(samples) + " is outside 1.." +
                     std::to_string(kMaxSamplesPerPixel));
-    if (index >= samples)
-        throw Error("sample " + std::to_string(index) + " of " + std::to_string(samples));
+    if (index >= samples) throw Error("sample " + std::to_string(index) + " of " + std::to_string(samples));
     if (samples == 1) return glm::vec2(0.0f);
     return glm::vec2(radicalInverse(index + 1, 2), radicalInverse(index + 1, 3)) - 0.5f;
 }
@@ -111,8 +110,7 @@ uint32_t lerpTexel(uint32_t a, uint32_t b, uint32_t w) {
 }  // namespace
 
 Image scaleImage(const Image& source, uint32_t width, uint32_t height, ScaleFilter filter) {
-    RAYPACK_CHECK(source.width > 0 && source.height > 0 &&
-                  source.rgba.size() == size_t(source.width) * source.height);
+    RAYPACK_CHECK(source.width > 0 && source.height > 0 && source.rgba.size() == size_t(source.width) * source.height);
     if (source.width == width && source.height == height) return source;
     Image out{width, height, std::vector<uint32_t>(size_t(width) * height)};
     if (filter == ScaleFilter::Nearest) {

@@ -54,16 +54,16 @@ struct Material {
 };
 
 struct Scene {
-    std::string source;                 // file path or generator description
-    std::vector<glm::vec3> positions;   // vertex positions
-    std::vector<glm::uvec3> triangles;  // vertex indices, one entry per triangle, file order
-    std::vector<glm::vec3> normals;     // per vertex (same indexing as positions), or empty
-    std::vector<Material> materials;    // or empty: then every triangle uses the default material
+    std::string source;                      // file path or generator description
+    std::vector<glm::vec3> positions;        // vertex positions
+    std::vector<glm::uvec3> triangles;       // vertex indices, one entry per triangle, file order
+    std::vector<glm::vec3> normals;          // per vertex (same indexing as positions), or empty
+    std::vector<Material> materials;         // or empty: then every triangle uses the default material
     std::vector<uint32_t> triangleMaterial;  // per triangle index into materials, or empty
-    std::vector<glm::vec2> uvs;         // per vertex, or empty: present when textures is not empty
-    std::vector<uint32_t> vertexColors; // per vertex RGBA8 (R low byte), or empty
-    std::vector<Texture> textures;      // those the materials use, or empty
-    std::optional<Camera> fileCamera;   // the file's own camera (glTF), when it has one
+    std::vector<glm::vec2> uvs;              // per vertex, or empty: present when textures is not empty
+    std::vector<uint32_t> vertexColors;      // per vertex RGBA8 (R low byte), or empty
+    std::vector<Texture> textures;           // those the materials use, or empty
+    std::optional<Camera> fileCamera;        // the file's own camera (glTF), when it has one
     // Bytes of every file loading read: the scene file, glTF buffers and texture images (0 for a
     // generated scene); what load speeds (MB/s) are measured in.
     uint64_t sourceBytes = 0;
@@ -108,8 +108,7 @@ struct Scene {
         return positions.size() * sizeof(glm::vec3) + triangles.size() * sizeof(glm::uvec3) +
                normals.size() * sizeof(glm::vec3) + triangleMaterial.size() * sizeof(uint32_t) +
                materials.size() * sizeof(Material) + uvs.size() * sizeof(glm::vec2) +
-               vertexColors.size() * sizeof(uint32_t) + textures.size() * sizeof(Texture) +
-               textureBytes();
+               vertexColors.size() * sizeof(uint32_t) + textures.size() * sizeof(Texture) + textureBytes();
     }
 };
 

@@ -45,8 +45,7 @@ void readFloat(const json& object, const char* key, const std::string& path, flo
 void readUint(const json& object, const char* key, const std::string& path, uint32_t& out) {
     const json* value = find(object, key);
     if (!value) return;
-    if (!value->is_number_integer() || value->get<int64_t>() < 0 ||
-        value->get<int64_t>() > int64_t(UINT32_MAX))
+    if (!value->is_number_integer() || value->get<int64_t>() < 0 || value->get<int64_t>() > int64_t(UINT32_MAX))
         badKey(path + key, "must be a non-negative integer, got " + shortDump(*value));
     out = uint32_t(value->get<int64_t>());
 }
@@ -86,8 +85,7 @@ std::string readString(const json& object, const char* key, const std::string& p
 
 void requireObject(const json& json, const char* what) {
     if (!json.is_object())
-        throw Error(std::string("settings JSON: the ") + what + " must be a JSON object, got " +
-                    json.type_name());
+        throw Error(std::string("settings JSON: the ") + what + " must be a JSON object, got " + json.type_name());
 }
 
 // The builder whose toString is `name`.
@@ -111,9 +109,9 @@ const char* jsonName(KernelKind kind) { return kind == KernelKind::Packet ? "pac
 
 const char* jsonName(ViewMode mode) {
     switch (mode) {
-        case ViewMode::Shaded: return "shaded";
-        case ViewMode::HeatTraversal: return "nodes";
-        case ViewMode::HeatIntersections: return "tests";
+    case ViewMode::Shaded: return "shaded";
+    case ViewMode::HeatTraversal: return "nodes";
+    case ViewMode::HeatIntersections: return "tests";
     }
     return "shaded";
 }
@@ -210,14 +208,12 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
     if (const json* packet = readObject(j, "packet", "")) {
         readUint(*packet, "width", "packet.", s.packet.width);
         readUint(*packet, "height", "packet.", s.packet.height);
-        if (s.packet.width == 0 || s.packet.height == 0)
-            badKey("packet", "width and height must both be at least 1");
+        if (s.packet.width == 0 || s.packet.height == 0) badKey("packet", "width and height must both be at least 1");
     }
     readBool(j, "collect_counters", "", s.collectCounters);
     if (const std::string view = readString(j, "view", ""); !view.empty()) {
         const auto parsed = parseViewMode(view);
-        if (!parsed)
-            badKey("view", "must be \"shaded\", \"nodes\" or \"tests\", got \"" + view + "\"");
+        if (!parsed) badKey("view", "must be \"shaded\", \"nodes\" or \"tests\", got \"" + view + "\"");
         s.view = *parsed;
     }
     return s;
@@ -267,7 +263,8 @@ nlohmann::json readJsonFile(const std::string& path) {
     // and 200,000 levels would overflow the stack of anything that walks the value recursively.
     constexpr int kMaxDepth = 64;
     const json::parser_callback_t limitDepth = [&](int depth, json::parse_event_t event, json&) {
-        if (depth > kMaxDepth && (event == json::parse_event_t::object_start || event == json::parse_event_t::array_start))
+        if (depth > kMaxDepth &&
+            (event == json::parse_event_t::object_start || event == json::parse_event_t::array_start))
             throw Error(path + ": JSON nested more than " + std::to_string(kMaxDepth) + " levels deep");
         return true;
     };

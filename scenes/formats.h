@@ -32,8 +32,7 @@ FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progres
 
 // Reports that the parser has consumed `parsedBytes` of a file of `fileSize` bytes (the second half
 // of LoadProgress) and throws LoadCancelled when cancel is set.
-void reportParsed(LoadProgress* progress, const std::filesystem::path& path, uint64_t fileSize,
-                  uint64_t parsedBytes);
+void reportParsed(LoadProgress* progress, const std::filesystem::path& path, uint64_t fileSize, uint64_t parsedBytes);
 
 // Asks the kernel to back [data, data + bytes) with huge pages before it is first written. On a
 // virtual machine every 4 KiB page fault is expensive, and loading a 13M-triangle PLY writes about

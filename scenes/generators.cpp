@@ -6,8 +6,8 @@
 #include "scenes/load.h"
 #include "shaders/texture.h"
 
-#include <glm/gtc/constants.hpp>
 #include <tbb/parallel_sort.h>
+#include <glm/gtc/constants.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -151,8 +151,8 @@ void addFlake(SceneBuilder& builder, const glm::vec3& center, float radius, cons
         const bool upper = k >= 6;
         const float azimuth = upper ? pi / 6.0f + float(k - 6) * 2.0f * pi / 3.0f : float(k) * pi / 3.0f;
         const float elevation = upper ? 50.0f * pi / 180.0f : 0.0f;
-        const glm::vec3 direction = glm::normalize(std::cos(elevation) * (std::cos(azimuth) * u + std::sin(azimuth) * v) +
-                                                   std::sin(elevation) * up);
+        const glm::vec3 direction = glm::normalize(
+            std::cos(elevation) * (std::cos(azimuth) * u + std::sin(azimuth) * v) + std::sin(elevation) * up);
         addFlake(builder, center + distance * direction, childRadius, direction, level + 1, maxLevel, stacksPerLevel);
     }
 }
@@ -163,7 +163,8 @@ uint64_t flakeSphereCount(uint32_t depth) {
     return count;
 }
 
-void addTorus(SceneBuilder& builder, const glm::vec3& center, float major, float minor, uint32_t around, uint32_t tube) {
+void addTorus(SceneBuilder& builder, const glm::vec3& center, float major, float minor, uint32_t around,
+              uint32_t tube) {
     const float pi = glm::pi<float>();
     const uint32_t first = uint32_t(builder.scene().positions.size());
     for (uint32_t i = 0; i < around; ++i) {
@@ -240,7 +241,8 @@ void addLathe(SceneBuilder& builder, const glm::vec3& base, float bottomRadius, 
 }  // namespace
 
 Scene makeTerrain(uint32_t targetTriangles) {
-    if (targetTriangles < 2) throw Error("gen:terrain needs at least 2 triangles, got " + std::to_string(targetTriangles));
+    if (targetTriangles < 2)
+        throw Error("gen:terrain needs at least 2 triangles, got " + std::to_string(targetTriangles));
     const uint64_t cells = targetTriangles / 2;
     const uint64_t n = std::max<uint64_t>(1, uint64_t(std::sqrt(double(cells))));
     const uint64_t m = cells / n;
@@ -338,8 +340,8 @@ Scene subdivideOnce(const Scene& in) {
             // The midpoint's UV and colour are the ends' average, what the unsplit triangle gave it.
             if (in.hasUvs()) out.uvs.push_back(0.5f * (in.uvs[a] + in.uvs[b]));
             if (in.hasVertexColors())
-                out.vertexColors.push_back(gpu::packRgba8(0.5f * (gpu::unpackRgba8(in.vertexColors[a]) +
-                                                                  gpu::unpackRgba8(in.vertexColors[b]))));
+                out.vertexColors.push_back(gpu::packRgba8(
+                    0.5f * (gpu::unpackRgba8(in.vertexColors[a]) + gpu::unpackRgba8(in.vertexColors[b]))));
         }
         midpoint[edges[i].slot] = uint32_t(out.positions.size() - 1);
     }
@@ -367,7 +369,8 @@ Scene subdivide(const Scene& scene, uint32_t levels) {
     for (uint32_t l = 0; l < levels; ++l) {
         triangles *= 4;
         if (triangles > std::numeric_limits<uint32_t>::max())
-            throw Error("subdiv:" + std::to_string(levels) + ": " + scene.source + " would have more than 2^32 - 1 triangles");
+            throw Error("subdiv:" + std::to_string(levels) + ": " + scene.source +
+                        " would have more than 2^32 - 1 triangles");
     }
     Scene result = scene;
     for (uint32_t l = 0; l < levels; ++l) result = subdivideOnce(result);
@@ -409,12 +412,14 @@ Scene makeDefaultScene() {
     std::vector<uint32_t> grid;
     for (int j = 0; j <= squares; ++j)
         for (int i = 0; i <= squares; ++i)
-            grid.push_back(builder.vertex(glm::vec3(-0.5f * size + step * float(i), 0.0f, -0.5f * size + step * float(j)),
-                                          glm::vec3(0, 1, 0)));
+            grid.push_back(builder.vertex(
+                glm::vec3(-0.5f * size + step * float(i), 0.0f, -0.5f * size + step * float(j)), glm::vec3(0, 1, 0)));
     for (int j = 0; j < squares; ++j)
         for (int i = 0; i < squares; ++i) {
-            if ((i + j) % 2 == 0) builder.material("ground_light", 225, 222, 214);
-            else builder.material("ground_dark", 96, 100, 110);
+            if ((i + j) % 2 == 0)
+                builder.material("ground_light", 225, 222, 214);
+            else
+                builder.material("ground_dark", 96, 100, 110);
             const uint32_t a = grid[size_t(j * (squares + 1) + i)], b = a + 1;
             const uint32_t c = a + uint32_t(squares + 1), d = c + 1;
             builder.triangle(a, c, d);

@@ -11,8 +11,8 @@
 // decoded, and UVs are kept only when some triangle's material has a texture. The first camera
 // met in the node walk becomes Scene::fileCamera.
 #include "scenes/formats.h"
-#include "scenes/textures.h"
 #include "scenes/limits.h"
+#include "scenes/textures.h"
 
 #include <tiny_gltf.h>
 
@@ -21,15 +21,14 @@
 #include <glm/gtc/quaternion.hpp>
 #include <glm/gtc/type_ptr.hpp>
 
-#include <cmath>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <map>
 #include <sstream>
 #include <tuple>
-#include <sstream>
 #include <vector>
 
 namespace raypack {
@@ -48,9 +47,9 @@ bool keepEncodedImage(tinygltf::Image* image, const int, std::string*, std::stri
 
 TextureWrap wrapOf(int gltfWrap) {
     switch (gltfWrap) {
-        case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE: return TextureWrap::Clamp;
-        case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT: return TextureWrap::Mirror;
-        default: return TextureWrap::Repeat;
+    case TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE: return TextureWrap::Clamp;
+    case TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT: return TextureWrap::Mirror;
+    default: return TextureWrap::Repeat;
     }
 }
 
@@ -97,7 +96,8 @@ bool readReferencedGltfFile(std::vector<unsigned char>* out, std::string*, const
     const std::string name = joined.substr(prefix.size());
     const std::filesystem::path resolved =
         resolveReferencedFile(*files.sceneFile, name, "referenced file", maxReferencedFileBytes());
-    const std::string bytes = readReferencedFile(*files.sceneFile, resolved, "referenced file", maxReferencedFileBytes());
+    const std::string bytes =
+        readReferencedFile(*files.sceneFile, resolved, "referenced file", maxReferencedFileBytes());
     out->assign(bytes.begin(), bytes.end());
     return true;
 }
@@ -134,7 +134,8 @@ glm::dmat4 localTransform(const tinygltf::Node& node) {
         t = glm::translate(glm::dmat4(1.0), glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
     if (node.rotation.size() == 4)  // glTF stores (x, y, z, w); glm's constructor takes (w, x, y, z)
         r = glm::mat4_cast(glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]));
-    if (node.scale.size() == 3) s = glm::scale(glm::dmat4(1.0), glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
+    if (node.scale.size() == 3)
+        s = glm::scale(glm::dmat4(1.0), glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
     return t * r * s;
 }
 
@@ -147,7 +148,8 @@ public:
         std::vector<int> roots;
         if (!model_.scenes.empty()) {
             const int which = model_.defaultScene >= 0 ? model_.defaultScene : 0;
-            if (size_t(which) >= model_.scenes.size()) fail("default scene " + std::to_string(which) + " does not exist");
+            if (size_t(which) >= model_.scenes.size())
+                fail("default scene " + std::to_string(which) + " does not exist");
             roots = model_.scenes[size_t(which)].nodes;
         } else {
             // No scene: every node that is nobody's child is a root.
@@ -209,11 +211,13 @@ private:
         const tinygltf::Texture& texture = model_.textures[size_t(info.index)];
         if (texture.source < 0) return t;  // no image (an extension's source only): untextured
         if (size_t(texture.source) >= model_.images.size())
-            fail("texture " + std::to_string(info.index) + " refers to missing image " + std::to_string(texture.source));
+            fail("texture " + std::to_string(info.index) + " refers to missing image " +
+                 std::to_string(texture.source));
         TextureWrap wrapU = TextureWrap::Repeat, wrapV = TextureWrap::Repeat;
         if (texture.sampler >= 0) {
             if (size_t(texture.sampler) >= model_.samplers.size())
-                fail("texture " + std::to_string(info.index) + " refers to missing sampler " + std::to_string(texture.sampler));
+                fail("texture " + std::to_string(info.index) + " refers to missing sampler " +
+                     std::to_string(texture.sampler));
             wrapU = wrapOf(model_.samplers[size_t(texture.sampler)].wrapS);
             wrapV = wrapOf(model_.samplers[size_t(texture.sampler)].wrapT);
         }
@@ -227,8 +231,8 @@ private:
             const float sx = float(numberOr(x, "scale", 0, 1.0)), sy = float(numberOr(x, "scale", 1, 1.0));
             const float c = std::cos(rotation), s = std::sin(rotation);
             // Column-major: columns are the images of u, v and the translation.
-            t.uvTransform = glm::mat3(glm::vec3(c * sx, -s * sx, 0.0f), glm::vec3(s * sy, c * sy, 0.0f),
-                                      glm::vec3(ox, oy, 1.0f));
+            t.uvTransform =
+                glm::mat3(glm::vec3(c * sx, -s * sx, 0.0f), glm::vec3(s * sy, c * sy, 0.0f), glm::vec3(ox, oy, 1.0f));
             if (x.IsObject() && x.Has("texCoord") && x.Get("texCoord").IsNumber())
                 t.texCoord = int(x.Get("texCoord").GetNumberAsDouble());
         }
@@ -240,13 +244,15 @@ private:
         }
         const tinygltf::Image& image = model_.images[size_t(texture.source)];
         const std::string name = !image.uri.empty() ? image.uri
-                                 : !image.name.empty() ? "image " + std::to_string(texture.source) + " (" + image.name + ")"
-                                                       : "image " + std::to_string(texture.source);
+                                 : !image.name.empty()
+                                     ? "image " + std::to_string(texture.source) + " (" + image.name + ")"
+                                     : "image " + std::to_string(texture.source);
         std::optional<Texture> decoded;
         if (!image.uri.empty()) {
             decoded = tryLoadTextureImage(path_, percentDecoded(image.uri));
         } else if (image.bufferView >= 0) {
-            decoded = tryDecodeTextureImage(bufferViewBytes(image.bufferView, name), bufferViewSize(image.bufferView), name, path_);
+            decoded = tryDecodeTextureImage(bufferViewBytes(image.bufferView, name), bufferViewSize(image.bufferView),
+                                            name, path_);
         } else {
             decoded = tryDecodeTextureImage(image.image.data(), image.image.size(), name, path_);
         }
@@ -264,9 +270,11 @@ private:
 
     // The bytes of an image's buffer view, checked to lie inside its buffer.
     const unsigned char* bufferViewBytes(int index, const std::string& what) const {
-        if (index < 0 || size_t(index) >= model_.bufferViews.size()) fail(what + ": buffer view " + std::to_string(index) + " does not exist");
+        if (index < 0 || size_t(index) >= model_.bufferViews.size())
+            fail(what + ": buffer view " + std::to_string(index) + " does not exist");
         const tinygltf::BufferView& view = model_.bufferViews[size_t(index)];
-        if (view.buffer < 0 || size_t(view.buffer) >= model_.buffers.size()) fail(what + ": its buffer view refers to a missing buffer");
+        if (view.buffer < 0 || size_t(view.buffer) >= model_.buffers.size())
+            fail(what + ": its buffer view refers to a missing buffer");
         const std::vector<unsigned char>& buffer = model_.buffers[size_t(view.buffer)].data;
         if (view.byteOffset > buffer.size() || view.byteLength > buffer.size() - view.byteOffset)
             fail(what + ": buffer view " + std::to_string(index) + " lies outside its buffer (truncated file?)");
@@ -293,7 +301,8 @@ private:
             if (node.camera >= 0 && !scene_.fileCamera) addCamera(node.camera, world);
             if (node.mesh >= 0)
                 for (const tinygltf::Primitive& primitive : model_.meshes[size_t(node.mesh)].primitives)
-                    if (primitive.mode == TINYGLTF_MODE_TRIANGLES || primitive.mode == -1) addPrimitive(primitive, world);
+                    if (primitive.mode == TINYGLTF_MODE_TRIANGLES || primitive.mode == -1)
+                        addPrimitive(primitive, world);
             for (auto child = node.children.rbegin(); child != node.children.rend(); ++child)
                 stack.push_back({*child, world});
         }
@@ -313,12 +322,15 @@ private:
             if (primitive.mode != TINYGLTF_MODE_TRIANGLES && primitive.mode != -1) continue;
             const auto position = primitive.attributes.find("POSITION");
             const auto countOf = [&](int accessor) -> uint64_t {
-                return accessor >= 0 && size_t(accessor) < model_.accessors.size() ? model_.accessors[size_t(accessor)].count : 0;
+                return accessor >= 0 && size_t(accessor) < model_.accessors.size()
+                           ? model_.accessors[size_t(accessor)].count
+                           : 0;
             };
             const uint64_t vertices = position == primitive.attributes.end() ? 0 : countOf(position->second);
             // Saturating: a hostile count must not wrap the sum below the limits.
             size.vertices = saturatingAdd(size.vertices, vertices);
-            size.triangles = saturatingAdd(size.triangles, (primitive.indices >= 0 ? countOf(primitive.indices) : vertices) / 3);
+            size.triangles =
+                saturatingAdd(size.triangles, (primitive.indices >= 0 ? countOf(primitive.indices) : vertices) / 3);
         }
         return size;
     }
@@ -331,7 +343,8 @@ private:
     void checkHierarchy(const std::vector<int>& roots) const {
         const size_t nodeCount = model_.nodes.size();
         auto checkNode = [&](int node, const std::string& where) {
-            if (node < 0 || size_t(node) >= nodeCount) fail(where + " refers to node " + std::to_string(node) + ", which does not exist");
+            if (node < 0 || size_t(node) >= nodeCount)
+                fail(where + " refers to node " + std::to_string(node) + ", which does not exist");
         };
         for (size_t n = 0; n < nodeCount; ++n) {
             for (int child : model_.nodes[n].children) checkNode(child, "node " + std::to_string(n));
@@ -380,15 +393,24 @@ private:
         for (auto it = postOrder.rbegin(); it != postOrder.rend(); ++it) {
             const size_t n = size_t(*it);
             if (depth[n] + 1 > depthLimit.value)
-                throwLimitError(path_, "the node hierarchy is nested more than " + std::to_string(depthLimit.value) + " levels deep", depthLimit);
+                throwLimitError(
+                    path_,
+                    "the node hierarchy is nested more than " + std::to_string(depthLimit.value) + " levels deep",
+                    depthLimit);
             totalInstances = std::min(totalInstances + instances[n], instanceLimit.value + 1);
             if (totalInstances > instanceLimit.value)
-                throwLimitError(path_, "the node hierarchy makes more than " + std::to_string(instanceLimit.value) +
-                                           " node instances (nodes listing a child more than once multiply them)", instanceLimit);
+                throwLimitError(path_,
+                                "the node hierarchy makes more than " + std::to_string(instanceLimit.value) +
+                                    " node instances (nodes listing a child more than once multiply them)",
+                                instanceLimit);
             const tinygltf::Node& node = model_.nodes[n];
             const MeshSize size = meshSize(node.mesh);
-            triangles = checkedAdd(triangles, checkedMul(instances[n], size.triangles, path_, "the instanced triangle count"), path_, "the instanced triangle count");
-            vertices = checkedAdd(vertices, checkedMul(instances[n], size.vertices, path_, "the instanced vertex count"), path_, "the instanced vertex count");
+            triangles =
+                checkedAdd(triangles, checkedMul(instances[n], size.triangles, path_, "the instanced triangle count"),
+                           path_, "the instanced triangle count");
+            vertices =
+                checkedAdd(vertices, checkedMul(instances[n], size.vertices, path_, "the instanced vertex count"),
+                           path_, "the instanced vertex count");
             if (node.mesh >= 0 && !meshCounted[size_t(node.mesh)]) {
                 meshCounted[size_t(node.mesh)] = true;
                 storedTriangles = saturatingAdd(storedTriangles, size.triangles);
@@ -408,10 +430,12 @@ private:
             return std::max(kFloor, scaled);
         };
         if (triangles > allowed(storedTriangles) || vertices > allowed(storedVertices))
-            throwLimitError(path_, "node instancing makes " + std::to_string(triangles) + " triangles and " +
-                                       std::to_string(vertices) + " vertices of " + std::to_string(storedTriangles) +
-                                       " and " + std::to_string(storedVertices) +
-                                       " stored, more than the instancing factor allows (at least 1048576 each)", factor);
+            throwLimitError(path_,
+                            "node instancing makes " + std::to_string(triangles) + " triangles and " +
+                                std::to_string(vertices) + " vertices of " + std::to_string(storedTriangles) + " and " +
+                                std::to_string(storedVertices) +
+                                " stored, more than the instancing factor allows (at least 1048576 each)",
+                            factor);
     }
 
     // A bounds-checked view of an accessor's elements.
@@ -442,13 +466,15 @@ private:
         const size_t elementSize = size_t(components) * size_t(componentSize);
         // Everything the accessor reads must lie inside its buffer view, and the view inside the buffer.
         if (bufferView.byteOffset > buffer.size() || bufferView.byteLength > buffer.size() - bufferView.byteOffset)
-            fail(name + ": buffer view " + std::to_string(accessor.bufferView) + " lies outside its buffer (truncated file?)");
+            fail(name + ": buffer view " + std::to_string(accessor.bufferView) +
+                 " lies outside its buffer (truncated file?)");
         // In checked arithmetic: a byteOffset near 2^64 must not wrap past the check (issue 11).
         if (accessor.count > 0) {
             const std::string what = name + "'s byte range";
-            const uint64_t last = checkedAdd(checkedAdd(uint64_t(accessor.byteOffset),
-                                                        checkedMul(uint64_t(stride), accessor.count - 1, path_, what), path_, what),
-                                             elementSize, path_, what);
+            const uint64_t last =
+                checkedAdd(checkedAdd(uint64_t(accessor.byteOffset),
+                                      checkedMul(uint64_t(stride), accessor.count - 1, path_, what), path_, what),
+                           elementSize, path_, what);
             if (accessor.count > bufferView.byteLength || last > bufferView.byteLength)
                 fail(name + " reads " + std::to_string(accessor.count) + " elements, more than its buffer view holds");
         }
@@ -463,7 +489,8 @@ private:
     // A glTF camera looks down its node's -z with +y up (glTF 2.0, 3.10.1). Orthographic cameras
     // and perspective ones without a field of view are skipped.
     void addCamera(int cameraIndex, const glm::dmat4& world) {
-        if (size_t(cameraIndex) >= model_.cameras.size()) fail("a node refers to missing camera " + std::to_string(cameraIndex));
+        if (size_t(cameraIndex) >= model_.cameras.size())
+            fail("a node refers to missing camera " + std::to_string(cameraIndex));
         const tinygltf::Camera& camera = model_.cameras[size_t(cameraIndex)];
         if (camera.type != "perspective") return;
         const double yfov = camera.perspective.yfov;
@@ -486,15 +513,15 @@ private:
         const unsigned char* p = v.data + i * v.stride;
         glm::vec2 uv(0.0f);
         switch (v.componentType) {
-            case TINYGLTF_COMPONENT_TYPE_FLOAT: std::memcpy(&uv, p, sizeof uv); break;
-            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: uv = glm::vec2(p[0], p[1]) / 255.0f; break;
-            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-                uint16_t value[2];
-                std::memcpy(value, p, sizeof value);
-                uv = glm::vec2(value[0], value[1]) / 65535.0f;
-                break;
-            }
-            default: fail("TEXCOORD accessor is not float, or normalized unsigned byte or short");
+        case TINYGLTF_COMPONENT_TYPE_FLOAT: std::memcpy(&uv, p, sizeof uv); break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: uv = glm::vec2(p[0], p[1]) / 255.0f; break;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            uint16_t value[2];
+            std::memcpy(value, p, sizeof value);
+            uv = glm::vec2(value[0], value[1]) / 65535.0f;
+            break;
+        }
+        default: fail("TEXCOORD accessor is not float, or normalized unsigned byte or short");
         }
         return std::isfinite(uv.x) && std::isfinite(uv.y) ? uv : glm::vec2(0.0f);
     }
@@ -509,18 +536,18 @@ private:
     uint32_t readIndex(const AccessorView& v, size_t i) const {
         const unsigned char* p = v.data + i * v.stride;
         switch (v.componentType) {
-            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return *p;
-            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
-                uint16_t value;
-                std::memcpy(&value, p, 2);
-                return value;
-            }
-            case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
-                uint32_t value;
-                std::memcpy(&value, p, 4);
-                return value;
-            }
-            default: fail("index accessor is not 8, 16 or 32-bit unsigned");
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return *p;
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+            uint16_t value;
+            std::memcpy(&value, p, 2);
+            return value;
+        }
+        case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+            uint32_t value;
+            std::memcpy(&value, p, 4);
+            return value;
+        }
+        default: fail("index accessor is not 8, 16 or 32-bit unsigned");
         }
     }
 
@@ -593,7 +620,8 @@ private:
                 addTriangle(readIndex(indices, i), readIndex(indices, i + 1), readIndex(indices, i + 2));
         } else {
             // Non-indexed: consecutive vertex triples.
-            if (positions.count % 3 != 0) fail("a non-indexed TRIANGLES primitive's vertex count is not a multiple of 3");
+            if (positions.count % 3 != 0)
+                fail("a non-indexed TRIANGLES primitive's vertex count is not a multiple of 3");
             for (size_t i = 0; i + 2 < positions.count; i += 3)
                 addTriangle(uint32_t(i), uint32_t(i + 1), uint32_t(i + 2));
         }
@@ -604,8 +632,8 @@ private:
     const tinygltf::Model& model_;
     const std::filesystem::path& path_;
     std::vector<Material> materials_;
-    std::vector<MaterialTexturing> texturing_;                          // per material
-    std::map<std::tuple<int, int, int>, uint32_t> textureOfImage_;    // (image, wrap u, wrap v)
+    std::vector<MaterialTexturing> texturing_;                      // per material
+    std::map<std::tuple<int, int, int>, uint32_t> textureOfImage_;  // (image, wrap u, wrap v)
     Scene scene_;
     bool allHaveNormals_ = true;
     bool usesMaterials_ = false;
@@ -628,7 +656,8 @@ Scene loadGltf(const std::filesystem::path& path, LoadProgress* progress) {
         // is a different layout that would parse as garbage.
         uint32_t version = 0;
         if (file.size >= 8) std::memcpy(&version, file.begin() + 4, 4);
-        if (version != 2) throwFileError(path, "GLB version " + std::to_string(version) + " is not supported (only glTF 2.0)");
+        if (version != 2)
+            throwFileError(path, "GLB version " + std::to_string(version) + " is not supported (only glTF 2.0)");
     }
     ReferencedFiles referenced{&path, baseDir};
     tinygltf::FsCallbacks callbacks{};
@@ -638,10 +667,11 @@ Scene loadGltf(const std::filesystem::path& path, LoadProgress* progress) {
     callbacks.WriteWholeFile = writeNothing;
     callbacks.user_data = &referenced;
     loader.SetFsCallbacks(callbacks);
-    const bool ok = binary ? loader.LoadBinaryFromMemory(&model, &errors, &warnings,
-                                                         reinterpret_cast<const unsigned char*>(file.begin()),
-                                                         unsigned(file.size), baseDir)
-                           : loader.LoadASCIIFromString(&model, &errors, &warnings, file.begin(), unsigned(file.size), baseDir);
+    const bool ok =
+        binary ? loader.LoadBinaryFromMemory(&model, &errors, &warnings,
+                                             reinterpret_cast<const unsigned char*>(file.begin()), unsigned(file.size),
+                                             baseDir)
+               : loader.LoadASCIIFromString(&model, &errors, &warnings, file.begin(), unsigned(file.size), baseDir);
     if (progress && progress->cancel) throw LoadCancelled(path.string() + ": loading cancelled");
     if (!ok) {
         // A missing file fails a load only as a buffer: say so as for every file a scene names.

@@ -115,7 +115,8 @@ std::string readReferencedFile(const std::filesystem::path& sceneFile, const std
         in.read(chunk, sizeof chunk);
         bytes.append(chunk, size_t(in.gcount()));
         if (bytes.size() > maxBytes.value)
-            throwLimitError(sceneFile, what + " \"" + printable(resolved.string()) + "\" is larger than allowed", maxBytes);
+            throwLimitError(sceneFile, what + " \"" + printable(resolved.string()) + "\" is larger than allowed",
+                            maxBytes);
     }
     if (in.bad()) fail(sceneFile, what + " \"" + printable(resolved.string()) + "\": read failed");
     return bytes;

@@ -22,12 +22,12 @@ struct LoadLimit {
     const char* variable;  // e.g. "RAYPACK_MAX_GLTF_DEPTH"
     uint64_t value;
 };
-LoadLimit maxGltfNodeDepth();         // RAYPACK_MAX_GLTF_DEPTH, default 1024 levels of nesting
-LoadLimit maxGltfInstances();         // RAYPACK_MAX_GLTF_INSTANCES, default 1,000,000 node instances
+LoadLimit maxGltfNodeDepth();            // RAYPACK_MAX_GLTF_DEPTH, default 1024 levels of nesting
+LoadLimit maxGltfInstances();            // RAYPACK_MAX_GLTF_INSTANCES, default 1,000,000 node instances
 LoadLimit maxInstancedTriangleFactor();  // RAYPACK_MAX_INSTANCING_FACTOR, default 1024: triangles
                                          // after instancing per triangle stored in the file
-LoadLimit maxReferencedFileBytes();   // RAYPACK_MAX_REFERENCED_FILE_BYTES, default 4 GiB per file
-LoadLimit maxMtlFileBytes();          // RAYPACK_MAX_MTL_BYTES, default 64 MiB per MTL library
+LoadLimit maxReferencedFileBytes();      // RAYPACK_MAX_REFERENCED_FILE_BYTES, default 4 GiB per file
+LoadLimit maxMtlFileBytes();             // RAYPACK_MAX_MTL_BYTES, default 64 MiB per MTL library
 
 // "FILE: WHAT (limit LIMIT, set VARIABLE to raise it)" as a raypack::Error.
 [[noreturn]] void throwLimitError(const std::filesystem::path& file, const std::string& what, const LoadLimit& limit);

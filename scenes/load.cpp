@@ -6,10 +6,10 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cstdlib>
 #include <fstream>
 #include <string_view>
 #include <system_error>
-#include <cstdlib>
 
 #ifdef __linux__
 #include <sys/mman.h>
@@ -67,7 +67,8 @@ FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progres
         if (progress && progress->cancel) throw LoadCancelled(path.string() + ": loading cancelled");
         const size_t chunk = std::min(kChunk, file.size - done);
         stream.read(file.data.get() + done, std::streamsize(chunk));
-        if (size_t(stream.gcount()) != chunk) throwFileError(path, "read failed at byte offset " + std::to_string(done));
+        if (size_t(stream.gcount()) != chunk)
+            throwFileError(path, "read failed at byte offset " + std::to_string(done));
         done += chunk;
         if (progress) progress->bytesDone = done;
     }
@@ -87,9 +88,9 @@ Scene loadScene(const std::filesystem::path& path, LoadProgress* progress) {
     if (extension == ".ply") return loadPly(path, progress);
     if (extension == ".obj") return loadObj(path, progress);
     if (extension == ".gltf" || extension == ".glb") return loadGltf(path, progress);
-    throwFileError(path, extension.empty() ? "no file extension; expected .obj, .ply, .gltf or .glb"
-                                           : "unknown scene format \"" + extension +
-                                                 "\"; expected .obj, .ply, .gltf or .glb");
+    throwFileError(path, extension.empty()
+                             ? "no file extension; expected .obj, .ply, .gltf or .glb"
+                             : "unknown scene format \"" + extension + "\"; expected .obj, .ply, .gltf or .glb");
 }
 
 const char* sceneSpecHelp() {
@@ -100,7 +101,9 @@ const char* sceneSpecHelp() {
         "  gen:terrain:N        a height-field terrain of about N triangles (at most N)\n"
         "  gen:sphereflake:N    a sphere flake of tessellated spheres, about N triangles (at most N)\n"
         "  gen:deep:N           N nested triangles whose SAH tree is a spine of depth about N\n"
-        "                       (N from 1 to " + std::to_string(kDeepSceneMaxTriangles) + ")\n"
+        "                       (N from 1 to " +
+        std::to_string(kDeepSceneMaxTriangles) +
+        ")\n"
         "  subdiv:L:SCENE       SCENE (a path or spec) with every triangle split in four, L times\n"
         "N may end in k (thousand) or M (million): gen:terrain:2M is 2,000,000 triangles.";
     return help.c_str();
@@ -111,8 +114,10 @@ namespace {
 // A positive count with an optional k (1e3) or M (1e6) suffix.
 uint64_t parseCount(std::string_view text, const std::string& spec) {
     uint64_t multiplier = 1;
-    if (!text.empty() && (text.back() == 'k' || text.back() == 'K')) multiplier = 1000, text.remove_suffix(1);
-    else if (!text.empty() && (text.back() == 'm' || text.back() == 'M')) multiplier = 1000000, text.remove_suffix(1);
+    if (!text.empty() && (text.back() == 'k' || text.back() == 'K'))
+        multiplier = 1000, text.remove_suffix(1);
+    else if (!text.empty() && (text.back() == 'm' || text.back() == 'M'))
+        multiplier = 1000000, text.remove_suffix(1);
     uint64_t value = 0;
     auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
     if (ec != std::errc() || end != text.data() + text.size() || text.empty())

@@ -9,14 +9,14 @@
 // only when a material used by a face has a map_Kd texture that loads (scenes/textures.h); OBJ's
 // v runs up the image, so v is flipped to the top-down convention of Scene::uvs.
 #include "scenes/formats.h"
-#include "scenes/textures.h"
 #include "scenes/limits.h"
+#include "scenes/textures.h"
 
 #include <tiny_obj_loader.h>
 
+#include <cfloat>
 #include <charconv>
 #include <cmath>
-#include <cfloat>
 #include <cstdio>
 #include <cstring>
 #include <istream>
@@ -115,7 +115,8 @@ public:
     explicit CheckedMaterialReader(const std::filesystem::path& objFile) : objFile_(objFile) {}
     bool operator()(const std::string& name, std::vector<tinyobj::material_t>* materials,
                     std::map<std::string, int>* materialMap, std::string* warnings, std::string* errors) override {
-        const std::optional<std::filesystem::path> found = findReferencedFile(objFile_, name, "mtllib", maxMtlFileBytes());
+        const std::optional<std::filesystem::path> found =
+            findReferencedFile(objFile_, name, "mtllib", maxMtlFileBytes());
         if (!found) {
             if (warnings) *warnings += "material library " + name + " not found; default material used\n";
             return false;
@@ -173,9 +174,11 @@ void checkObjNumbers(const FileBytes& file, const std::filesystem::path& path) {
                         int64_t value = 0;
                         auto [stop, ec] = std::from_chars(number.data(), number.data() + number.size(), value);
                         if (ec != std::errc() || stop != number.data() + number.size() || value == 0 ||
-                            value > std::numeric_limits<int32_t>::max() || value < -int64_t(std::numeric_limits<int32_t>::max()))
-                            failAtLine(path, line, "face corner \"" + std::string(token) +
-                                                       "\" is not a valid index (a non-zero integer of at most 32 bits)");
+                            value > std::numeric_limits<int32_t>::max() ||
+                            value < -int64_t(std::numeric_limits<int32_t>::max()))
+                            failAtLine(path, line,
+                                       "face corner \"" + std::string(token) +
+                                           "\" is not a valid index (a non-zero integer of at most 32 bits)");
                     }
                     from = slash + 1;
                 }
@@ -191,8 +194,9 @@ void checkObjNumbers(const FileBytes& file, const std::filesystem::path& path) {
                 failAtLine(path, line, "\"" + std::string(token) + "\" is not a finite number of float range");
         }
         if ((isVertex || isNormal) && tokens < 3)
-            failAtLine(path, line, std::string(isVertex ? "vertex" : "normal") + " has " + std::to_string(tokens) +
-                                       " coordinates, expected 3");
+            failAtLine(path, line,
+                       std::string(isVertex ? "vertex" : "normal") + " has " + std::to_string(tokens) +
+                           " coordinates, expected 3");
     }
 }
 
@@ -240,7 +244,8 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
         throwFileError(path, "more vertices than 32-bit indices can address");
     for (size_t i = 0; i < attrib.vertices.size(); ++i)
         if (!std::isfinite(attrib.vertices[i]))
-            failAtLine(path, lineOfStatement(file, "v", i / 3), "vertex " + std::to_string(i / 3 + 1) + " is not finite");
+            failAtLine(path, lineOfStatement(file, "v", i / 3),
+                       "vertex " + std::to_string(i / 3 + 1) + " is not finite");
 
     // Faces in file order; normals are kept only when every corner of every face has one.
     size_t faceCount = 0, cornerCount = 0;
@@ -260,7 +265,8 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
     if (everyCornerHasNormal)
         for (size_t i = 0; i < attrib.normals.size(); ++i)
             if (!std::isfinite(attrib.normals[i]))
-                failAtLine(path, lineOfStatement(file, "vn", i / 3), "normal " + std::to_string(i / 3 + 1) + " is not finite");
+                failAtLine(path, lineOfStatement(file, "vn", i / 3),
+                           "normal " + std::to_string(i / 3 + 1) + " is not finite");
 
     Scene scene;
     scene.source = path.string();
@@ -307,13 +313,15 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
     const bool keepUvs = !scene.textures.empty();
     for (size_t i = 0; keepUvs && i < attrib.texcoords.size(); ++i)
         if (!std::isfinite(attrib.texcoords[i]))
-            failAtLine(path, lineOfStatement(file, "vt", i / 2), "texture coordinate " + std::to_string(i / 2 + 1) + " is not finite");
+            failAtLine(path, lineOfStatement(file, "vt", i / 2),
+                       "texture coordinate " + std::to_string(i / 2 + 1) + " is not finite");
     const bool unweld = everyCornerHasNormal || keepUvs;
 
     if (!unweld) {
         scene.positions.resize(positionCount);
         for (size_t v = 0; v < positionCount; ++v)
-            scene.positions[v] = glm::vec3(attrib.vertices[3 * v], attrib.vertices[3 * v + 1], attrib.vertices[3 * v + 2]);
+            scene.positions[v] =
+                glm::vec3(attrib.vertices[3 * v], attrib.vertices[3 * v + 1], attrib.vertices[3 * v + 2]);
     }
     // (position, normal, UV) -> vertex, when un-welding by normals or UVs (an absent one is -1).
     struct Corner {
@@ -334,7 +342,8 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
         auto [it, inserted] = vertexOfCorner.try_emplace(key, uint32_t(scene.positions.size()));
         if (inserted) {
             const size_t v = size_t(index.vertex_index);
-            scene.positions.emplace_back(attrib.vertices[3 * v], attrib.vertices[3 * v + 1], attrib.vertices[3 * v + 2]);
+            scene.positions.emplace_back(attrib.vertices[3 * v], attrib.vertices[3 * v + 1],
+                                         attrib.vertices[3 * v + 2]);
             if (everyCornerHasNormal) {
                 const size_t n = size_t(index.normal_index);
                 scene.normals.emplace_back(attrib.normals[3 * n], attrib.normals[3 * n + 1], attrib.normals[3 * n + 2]);
@@ -368,16 +377,19 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
                                    ", but the file has " + std::to_string(normalCount) + " normals");
                 if (keepUvs && index.texcoord_index >= 0 && size_t(index.texcoord_index) >= uvCount)
                     failAtLine(path, lineOfStatement(file, "f", faceIndex),
-                               "face refers to texture coordinate " + std::to_string(int64_t(index.texcoord_index) + 1) +
-                                   ", but the file has " + std::to_string(uvCount));
+                               "face refers to texture coordinate " +
+                                   std::to_string(int64_t(index.texcoord_index) + 1) + ", but the file has " +
+                                   std::to_string(uvCount));
                 polygon.push_back(vertexOf(index));
             }
             corner += n;
             uint32_t material = defaultMaterial;
             if (anyMaterial) {
                 const int id = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
-                if (id >= 0 && size_t(id) < objMaterials.size()) material = uint32_t(id);
-                else usedDefaultMaterial = true;
+                if (id >= 0 && size_t(id) < objMaterials.size())
+                    material = uint32_t(id);
+                else
+                    usedDefaultMaterial = true;
             }
             for (size_t k = 2; k < n; ++k) {
                 scene.triangles.emplace_back(polygon[0], polygon[k - 1], polygon[k]);

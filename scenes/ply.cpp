@@ -33,14 +33,14 @@ enum class PlyType : uint8_t { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float3
 
 size_t typeSize(PlyType type) {
     switch (type) {
-        case PlyType::Int8:
-        case PlyType::UInt8: return 1;
-        case PlyType::Int16:
-        case PlyType::UInt16: return 2;
-        case PlyType::Int32:
-        case PlyType::UInt32:
-        case PlyType::Float32: return 4;
-        case PlyType::Float64: return 8;
+    case PlyType::Int8:
+    case PlyType::UInt8: return 1;
+    case PlyType::Int16:
+    case PlyType::UInt16: return 2;
+    case PlyType::Int32:
+    case PlyType::UInt32:
+    case PlyType::Float32: return 4;
+    case PlyType::Float64: return 8;
     }
     return 0;
 }
@@ -75,8 +75,7 @@ struct PlyElement {
     // one separator per value. Used to reject counts the file cannot hold before allocating.
     uint64_t minBytes(bool ascii) const {
         uint64_t bytes = 0;
-        for (const PlyProperty& p : properties)
-            bytes += ascii ? 2 : typeSize(p.isList ? p.countType : p.type);
+        for (const PlyProperty& p : properties) bytes += ascii ? 2 : typeSize(p.isList ? p.countType : p.type);
         return bytes;
     }
 };
@@ -138,8 +137,8 @@ PlyHeader parseHeader(const FileBytes& file, const std::filesystem::path& path) 
             // raypack's own comment carrying a material name (written by savePly).
             if (words.size() >= 6 && words[1] == "raypack_material") {
                 uint64_t r, g, b;
-                if (parseU64(words[2], r) && parseU64(words[3], g) && parseU64(words[4], b) &&
-                    r < 256 && g < 256 && b < 256) {
+                if (parseU64(words[2], r) && parseU64(words[3], g) && parseU64(words[4], b) && r < 256 && g < 256 &&
+                    b < 256) {
                     const size_t nameStart = size_t(words[5].data() - text.data());
                     header.materialNames[packRgb(uint8_t(r), uint8_t(g), uint8_t(b))] =
                         std::string(text.substr(nameStart));
@@ -147,10 +146,14 @@ PlyHeader parseHeader(const FileBytes& file, const std::filesystem::path& path) 
             }
         } else if (keyword == "format") {
             if (words.size() != 3) fail(line, "malformed format line");
-            if (words[1] == "ascii") header.format = PlyFormat::Ascii;
-            else if (words[1] == "binary_little_endian") header.format = PlyFormat::BinaryLittleEndian;
-            else if (words[1] == "binary_big_endian") header.format = PlyFormat::BinaryBigEndian;
-            else fail(line, "unknown PLY format \"" + std::string(words[1]) + "\"");
+            if (words[1] == "ascii")
+                header.format = PlyFormat::Ascii;
+            else if (words[1] == "binary_little_endian")
+                header.format = PlyFormat::BinaryLittleEndian;
+            else if (words[1] == "binary_big_endian")
+                header.format = PlyFormat::BinaryBigEndian;
+            else
+                fail(line, "unknown PLY format \"" + std::string(words[1]) + "\"");
             if (words[2] != "1.0" && words[2] != "1") fail(line, "unsupported PLY version " + std::string(words[2]));
             sawFormat = true;
         } else if (keyword == "element") {
@@ -206,21 +209,21 @@ public:
 
     double readFloat(PlyType type) {
         switch (type) {
-            case PlyType::Float32: return double(load<float, uint32_t>());
-            case PlyType::Float64: return load<double, uint64_t>();
-            default: return double(readInt(type));
+        case PlyType::Float32: return double(load<float, uint32_t>());
+        case PlyType::Float64: return load<double, uint64_t>();
+        default: return double(readInt(type));
         }
     }
     int64_t readInt(PlyType type) {
         switch (type) {
-            case PlyType::Int8: return load<int8_t, uint8_t>();
-            case PlyType::UInt8: return load<uint8_t, uint8_t>();
-            case PlyType::Int16: return load<int16_t, uint16_t>();
-            case PlyType::UInt16: return load<uint16_t, uint16_t>();
-            case PlyType::Int32: return load<int32_t, uint32_t>();
-            case PlyType::UInt32: return load<uint32_t, uint32_t>();
-            case PlyType::Float32: return checkedInteger(double(load<float, uint32_t>()));
-            case PlyType::Float64: return checkedInteger(load<double, uint64_t>());
+        case PlyType::Int8: return load<int8_t, uint8_t>();
+        case PlyType::UInt8: return load<uint8_t, uint8_t>();
+        case PlyType::Int16: return load<int16_t, uint16_t>();
+        case PlyType::UInt16: return load<uint16_t, uint16_t>();
+        case PlyType::Int32: return load<int32_t, uint32_t>();
+        case PlyType::UInt32: return load<uint32_t, uint32_t>();
+        case PlyType::Float32: return checkedInteger(double(load<float, uint32_t>()));
+        case PlyType::Float64: return checkedInteger(load<double, uint64_t>());
         }
         return 0;
     }
@@ -230,16 +233,15 @@ public:
         p_ += bytes;
     }
     // True when `count` values of `type` still fit in the file: checked before allocating for a list.
-    bool canHold(uint64_t count, PlyType type) const {
-        return count <= uint64_t(end_ - p_) / typeSize(type);
-    }
+    bool canHold(uint64_t count, PlyType type) const { return count <= uint64_t(end_ - p_) / typeSize(type); }
     std::string where() const { return "byte offset " + std::to_string(p_ - begin_); }
     size_t offset() const { return size_t(p_ - begin_); }
     // Unchecked typed load for the fast paths, which check the whole element's size first.
     template <typename T>
     T loadUnchecked(size_t at) const {
-        using Bits = std::conditional_t<sizeof(T) == 1, uint8_t, std::conditional_t<sizeof(T) == 2, uint16_t,
-                     std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
+        using Bits = std::conditional_t<
+            sizeof(T) == 1, uint8_t,
+            std::conditional_t<sizeof(T) == 2, uint16_t, std::conditional_t<sizeof(T) == 4, uint32_t, uint64_t>>>;
         Bits bits;
         std::memcpy(&bits, p_ + at, sizeof(Bits));
         if constexpr (kSwap && sizeof(Bits) > 1) bits = byteSwap(bits);
@@ -267,9 +269,12 @@ private:
     }
     template <typename Bits>
     static Bits byteSwap(Bits bits) {
-        if constexpr (sizeof(Bits) == 2) return Bits(__builtin_bswap16(bits));
-        else if constexpr (sizeof(Bits) == 4) return Bits(__builtin_bswap32(bits));
-        else return Bits(__builtin_bswap64(bits));
+        if constexpr (sizeof(Bits) == 2)
+            return Bits(__builtin_bswap16(bits));
+        else if constexpr (sizeof(Bits) == 4)
+            return Bits(__builtin_bswap32(bits));
+        else
+            return Bits(__builtin_bswap64(bits));
     }
     int64_t checkedInteger(double value) const {
         if (!(std::abs(value) < 9.0e18) || value != std::floor(value)) fail("expected an integer value");
@@ -382,21 +387,21 @@ public:
         locateElements();
         checkCountsFitFile();
         switch (header_.format) {
-            case PlyFormat::Ascii: {
-                AsciiReader reader(file_, header_.bodyOffset, header_.bodyLine, path_);
-                readBody(reader);
-                break;
-            }
-            case PlyFormat::BinaryLittleEndian: {
-                BinaryReader<std::endian::native != std::endian::little> reader(file_, header_.bodyOffset, path_);
-                readBody(reader);
-                break;
-            }
-            case PlyFormat::BinaryBigEndian: {
-                BinaryReader<std::endian::native != std::endian::big> reader(file_, header_.bodyOffset, path_);
-                readBody(reader);
-                break;
-            }
+        case PlyFormat::Ascii: {
+            AsciiReader reader(file_, header_.bodyOffset, header_.bodyLine, path_);
+            readBody(reader);
+            break;
+        }
+        case PlyFormat::BinaryLittleEndian: {
+            BinaryReader<std::endian::native != std::endian::little> reader(file_, header_.bodyOffset, path_);
+            readBody(reader);
+            break;
+        }
+        case PlyFormat::BinaryBigEndian: {
+            BinaryReader<std::endian::native != std::endian::big> reader(file_, header_.bodyOffset, path_);
+            readBody(reader);
+            break;
+        }
         }
         if (scene_.triangles.empty()) throwFileError(path_, "PLY file has no triangles");
         scene_.source = path_.string();
@@ -413,11 +418,16 @@ private:
                 for (size_t i = 0; i < element.properties.size(); ++i) {
                     const PlyProperty& p = element.properties[i];
                     if (p.isList) continue;
-                    int* slot = p.name == "x" ? &vertex_.x : p.name == "y" ? &vertex_.y : p.name == "z" ? &vertex_.z
-                              : p.name == "nx" ? &vertex_.nx : p.name == "ny" ? &vertex_.ny : p.name == "nz" ? &vertex_.nz
-                              : (p.name == "red" || p.name == "diffuse_red") ? &vertex_.red
-                              : (p.name == "green" || p.name == "diffuse_green") ? &vertex_.green
-                              : (p.name == "blue" || p.name == "diffuse_blue") ? &vertex_.blue : nullptr;
+                    int* slot = p.name == "x"                                      ? &vertex_.x
+                                : p.name == "y"                                    ? &vertex_.y
+                                : p.name == "z"                                    ? &vertex_.z
+                                : p.name == "nx"                                   ? &vertex_.nx
+                                : p.name == "ny"                                   ? &vertex_.ny
+                                : p.name == "nz"                                   ? &vertex_.nz
+                                : (p.name == "red" || p.name == "diffuse_red")     ? &vertex_.red
+                                : (p.name == "green" || p.name == "diffuse_green") ? &vertex_.green
+                                : (p.name == "blue" || p.name == "diffuse_blue")   ? &vertex_.blue
+                                                                                   : nullptr;
                     if (slot) *slot = int(i);
                 }
                 if (vertex_.x < 0 || vertex_.y < 0 || vertex_.z < 0)
@@ -436,8 +446,7 @@ private:
                         if (p.name == "blue") face_.blue = int(i);
                     }
                 }
-                if (face_.indices < 0)
-                    throwFileError(path_, "PLY face element has no vertex_indices list");
+                if (face_.indices < 0) throwFileError(path_, "PLY face element has no vertex_indices list");
             }
         }
         if (vertexElement_ < 0) throwFileError(path_, "PLY file has no vertex element");
@@ -469,9 +478,12 @@ private:
     template <typename Reader>
     void readBody(Reader& reader) {
         for (size_t e = 0; e < header_.elements.size(); ++e) {
-            if (int(e) == vertexElement_) readVertices(reader, header_.elements[e]);
-            else if (int(e) == faceElement_) readFaces(reader, header_.elements[e]);
-            else skipElement(reader, header_.elements[e]);
+            if (int(e) == vertexElement_)
+                readVertices(reader, header_.elements[e]);
+            else if (int(e) == faceElement_)
+                readFaces(reader, header_.elements[e]);
+            else
+                skipElement(reader, header_.elements[e]);
         }
         if (const size_t trailing = reader.trailingBytes(); trailing != 0)
             std::fprintf(stderr, "raypack: warning: %s: %zu bytes after the last PLY element are ignored\n",
@@ -521,8 +533,8 @@ private:
         const size_t propertyCount = element.properties.size();
         if (propertyCount > 64) reader.fail("vertex element has more than 64 properties");
         for (size_t i = 0; i < propertyCount; ++i) slotOf[i] = -1;
-        const int slots[9] = {vertex_.x, vertex_.y, vertex_.z, vertex_.nx, vertex_.ny, vertex_.nz,
-                              vertex_.red, vertex_.green, vertex_.blue};
+        const int slots[9] = {vertex_.x,  vertex_.y,   vertex_.z,     vertex_.nx,  vertex_.ny,
+                              vertex_.nz, vertex_.red, vertex_.green, vertex_.blue};
         for (int s = 0; s < 9; ++s)
             if (slots[s] >= 0) slotOf[slots[s]] = s;
         if constexpr (!std::is_same_v<Reader, AsciiReader>) {
@@ -547,12 +559,14 @@ private:
                     values[slot] = reader.readFloat(p.type);
                 }
             }
-            const glm::vec3 position(static_cast<float>(values[0]), static_cast<float>(values[1]), static_cast<float>(values[2]));
+            const glm::vec3 position(static_cast<float>(values[0]), static_cast<float>(values[1]),
+                                     static_cast<float>(values[2]));
             if (!std::isfinite(position.x) || !std::isfinite(position.y) || !std::isfinite(position.z))
                 failAtVertex(reader, v, vertexOffset, "has a non-finite coordinate (NaN, Inf or out of float range)");
             scene_.positions[v] = position;
             if (vertex_.hasNormals()) {
-                const glm::vec3 normal(static_cast<float>(values[3]), static_cast<float>(values[4]), static_cast<float>(values[5]));
+                const glm::vec3 normal(static_cast<float>(values[3]), static_cast<float>(values[4]),
+                                       static_cast<float>(values[5]));
                 if (!std::isfinite(normal.x) || !std::isfinite(normal.y) || !std::isfinite(normal.z))
                     failAtVertex(reader, v, vertexOffset, "has a non-finite normal");
                 scene_.normals[v] = normal;
@@ -579,7 +593,8 @@ private:
             const glm::vec3 p(reader.template loadUnchecked<float>(x), reader.template loadUnchecked<float>(y),
                               reader.template loadUnchecked<float>(z));
             if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-                failAtVertex(reader, v, reader.offset(), "has a non-finite coordinate (NaN, Inf or out of float range)");
+                failAtVertex(reader, v, reader.offset(),
+                             "has a non-finite coordinate (NaN, Inf or out of float range)");
             scene_.positions[v] = p;
             if (normals) {
                 const glm::vec3 n(reader.template loadUnchecked<float>(nx), reader.template loadUnchecked<float>(ny),
@@ -599,10 +614,10 @@ private:
         if constexpr (std::is_same_v<Reader, AsciiReader>) {
             reader.fail("vertex " + std::to_string(v) + " " + what);
         } else {
-            throwFileError(path_, "byte offset " + std::to_string(offset) + ": vertex " + std::to_string(v) + " " + what);
+            throwFileError(path_,
+                           "byte offset " + std::to_string(offset) + ": vertex " + std::to_string(v) + " " + what);
         }
     }
-
 
     // The common binary layout, a face element holding only its index list with every face a
     // triangle, in one tight loop. Returns false, having consumed nothing, at the first face that
@@ -612,7 +627,8 @@ private:
         const PlyProperty& list = element.properties[0];
         const size_t countSize = typeSize(list.countType), indexSize = typeSize(list.type);
         const size_t faceBytes = countSize + 3 * indexSize;
-        if (element.count > reader.trailingBytes() / faceBytes) return false;  // truncated: let the general loop say where
+        if (element.count > reader.trailingBytes() / faceBytes)
+            return false;  // truncated: let the general loop say where
         const uint64_t vertexCount = header_.elements[size_t(vertexElement_)].count;
         // The usual uchar count with int or uint indices: direct loads, whole element size-checked above.
         if (list.countType == PlyType::UInt8 && (list.type == PlyType::Int32 || list.type == PlyType::UInt32)) {
@@ -675,8 +691,11 @@ private:
                 const PlyProperty& p = element.properties[i];
                 if (int(i) == face_.indices) {
                     const int64_t n = reader.readInt(p.countType);
-                    if (n < 3) reader.fail("face " + std::to_string(f) + " has " + std::to_string(n) + " vertices (need at least 3)");
-                    if (!reader.canHold(uint64_t(n), p.type)) reader.fail("face " + std::to_string(f) + " is longer than the rest of the file");
+                    if (n < 3)
+                        reader.fail("face " + std::to_string(f) + " has " + std::to_string(n) +
+                                    " vertices (need at least 3)");
+                    if (!reader.canHold(uint64_t(n), p.type))
+                        reader.fail("face " + std::to_string(f) + " is longer than the rest of the file");
                     if (n > 256) {
                         bigPolygon.resize(size_t(n));
                         polygon = bigPolygon.data();
@@ -790,8 +809,8 @@ void savePly(const Scene& scene, const std::filesystem::path& path) {
         for (char& c : name)
             if (c == '\n' || c == '\r') c = ' ';
         if (colours && !name.empty())
-            header << "comment raypack_material " << int(materialColour[m][0]) << ' ' << int(materialColour[m][1]) << ' '
-                   << int(materialColour[m][2]) << ' ' << name << '\n';
+            header << "comment raypack_material " << int(materialColour[m][0]) << ' ' << int(materialColour[m][1])
+                   << ' ' << int(materialColour[m][2]) << ' ' << name << '\n';
     }
     header << "element vertex " << scene.positions.size() << "\nproperty float x\nproperty float y\nproperty float z\n";
     if (normals) header << "property float nx\nproperty float ny\nproperty float nz\n";

@@ -20,9 +20,7 @@ namespace {
     throwFileError(sceneFile, "texture " + name + ": " + what);
 }
 
-void warnWithout(const Error& error) {
-    std::fprintf(stderr, "raypack: warning: %s; drawn without it\n", error.what());
-}
+void warnWithout(const Error& error) { std::fprintf(stderr, "raypack: warning: %s; drawn without it\n", error.what()); }
 
 }  // namespace
 
@@ -38,10 +36,9 @@ void buildMipLevels(Texture& texture) {
             for (uint32_t x = 0; x < w; ++x) {
                 const uint32_t x0 = std::min(2 * x, width - 1), x1 = std::min(2 * x + 1, width - 1);
                 const uint32_t y0 = std::min(2 * y, height - 1), y1 = std::min(2 * y + 1, height - 1);
-                const uint32_t taps[4] = {texture.texels[level + size_t(y0) * width + x0],
-                                          texture.texels[level + size_t(y0) * width + x1],
-                                          texture.texels[level + size_t(y1) * width + x0],
-                                          texture.texels[level + size_t(y1) * width + x1]};
+                const uint32_t taps[4] = {
+                    texture.texels[level + size_t(y0) * width + x0], texture.texels[level + size_t(y0) * width + x1],
+                    texture.texels[level + size_t(y1) * width + x0], texture.texels[level + size_t(y1) * width + x1]};
                 uint32_t mean = 0;
                 for (int c = 0; c < 4; ++c) {
                     uint32_t sum = 2;  // rounds the mean of four to nearest
@@ -60,11 +57,13 @@ void buildMipLevels(Texture& texture) {
 Texture decodeTextureImage(const unsigned char* bytes, size_t size, const std::string& name,
                            const std::filesystem::path& sceneFile) {
     if (size == 0) failTexture(sceneFile, name, "the image is empty");
-    if (size > size_t(std::numeric_limits<int>::max())) failTexture(sceneFile, name, "the image file is larger than 2 GiB");
+    if (size > size_t(std::numeric_limits<int>::max()))
+        failTexture(sceneFile, name, "the image file is larger than 2 GiB");
     int width = 0, height = 0, channels = 0;
     if (!stbi_info_from_memory(bytes, int(size), &width, &height, &channels)) {
         const char* reason = stbi_failure_reason();
-        failTexture(sceneFile, name, std::string("not an image stb_image can read (") + (reason ? reason : "unknown") + ")");
+        failTexture(sceneFile, name,
+                    std::string("not an image stb_image can read (") + (reason ? reason : "unknown") + ")");
     }
     if (width <= 0 || height <= 0 || uint32_t(width) > kMaxTextureSide || uint32_t(height) > kMaxTextureSide)
         failTexture(sceneFile, name,
@@ -103,7 +102,8 @@ Texture loadTextureImage(const std::filesystem::path& sceneFile, const std::stri
     } catch (const Error& error) {
         failTexture(sceneFile, uri, error.what());
     }
-    Texture texture = decodeTextureImage(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), uri, sceneFile);
+    Texture texture =
+        decodeTextureImage(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size(), uri, sceneFile);
     texture.fileBytes = bytes.size();
     return texture;
 }

@@ -31,10 +31,8 @@ Texture loadTextureImage(const std::filesystem::path& sceneFile, const std::stri
 
 // A scene still loads when one of its textures does not: these print one warning line
 // ("raypack: warning: SCENE: texture NAME: why; drawn without it") and return nothing instead.
-std::optional<Texture> tryLoadTextureImage(const std::filesystem::path& sceneFile,
-                                           const std::string& uri);
-std::optional<Texture> tryDecodeTextureImage(const unsigned char* bytes, size_t size,
-                                             const std::string& name,
+std::optional<Texture> tryLoadTextureImage(const std::filesystem::path& sceneFile, const std::string& uri);
+std::optional<Texture> tryDecodeTextureImage(const unsigned char* bytes, size_t size, const std::string& name,
                                              const std::filesystem::path& sceneFile);
 
 }  // namespace raypack

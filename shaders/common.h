@@ -30,21 +30,15 @@
 
 RP_BEGIN_NAMESPACE
 using uint = uint32_t;
-using glm::ivec2;
-using glm::ivec3;
-using glm::ivec4;
-using glm::uvec2;
-using glm::uvec3;
-using glm::uvec4;
-using glm::vec2;
-using glm::vec3;
-using glm::vec4;
 using glm::abs;
 using glm::clamp;
 using glm::cross;
 using glm::dot;
 using glm::floatBitsToUint;
 using glm::inversesqrt;
+using glm::ivec2;
+using glm::ivec3;
+using glm::ivec4;
 using glm::length;
 using glm::log2;
 using glm::max;
@@ -56,6 +50,12 @@ using glm::reflect;
 using glm::sign;
 using glm::sqrt;
 using glm::uintBitsToFloat;
+using glm::uvec2;
+using glm::uvec3;
+using glm::uvec4;
+using glm::vec2;
+using glm::vec3;
+using glm::vec4;
 RP_END_NAMESPACE
 
 #else  // GLSL

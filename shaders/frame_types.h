@@ -26,10 +26,10 @@ RP_CHECK_SIZE(HitRecord, 40);
 
 // Per-ray traversal counters (the report's N_TR and N_IT), primary and shadow apart.
 struct RayCounters {
-    uint primaryNodes;   // N_TR of the primary ray: nodes visited
-    uint primaryTests;   // N_IT of the primary ray: ray/triangle tests
-    uint shadowNodes;    // N_TR of the shadow ray (0 when there is none)
-    uint shadowTests;    // N_IT of the shadow ray
+    uint primaryNodes;  // N_TR of the primary ray: nodes visited
+    uint primaryTests;  // N_IT of the primary ray: ray/triangle tests
+    uint shadowNodes;   // N_TR of the shadow ray (0 when there is none)
+    uint shadowTests;   // N_IT of the shadow ray
 };
 RP_CHECK_SIZE(RayCounters, 16);
 

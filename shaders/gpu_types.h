@@ -3,8 +3,8 @@
 // Bvh and Scene: the BVH that is built is not the BVH that is traced.
 #ifndef RAYPACK_SHADERS_GPU_TYPES_H
 #define RAYPACK_SHADERS_GPU_TYPES_H
-#include "common.h"
 #include "camera.h"
+#include "common.h"
 #include "texture.h"  // GpuTexture
 
 RP_BEGIN_NAMESPACE
@@ -96,9 +96,9 @@ RP_CHECK_SIZE(GpuPrimaryHit, 16);
 // Values of the kernel specialization constants (constant_id in shaders/trace.comp).
 const uint kKernelPacket = 0u;
 const uint kKernelSingle = 1u;
-const uint kPassPrimary = 0u;         // trace primary rays, keep the hits for the shadow pass
-const uint kPassPrimaryShade = 1u;    // trace primary rays and shade (shadows off)
-const uint kPassShadowShade = 2u;     // trace shadow rays for the kept hits and shade
+const uint kPassPrimary = 0u;       // trace primary rays, keep the hits for the shadow pass
+const uint kPassPrimaryShade = 1u;  // trace primary rays and shade (shadows off)
+const uint kPassShadowShade = 2u;   // trace shadow rays for the kept hits and shade
 const uint kViewShaded = 0u;
 const uint kViewHeatTraversal = 1u;
 const uint kViewHeatIntersections = 2u;

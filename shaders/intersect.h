@@ -120,8 +120,8 @@ RP_HOT_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
 }
 
 // Conservative slab test against [lo, hi] for t in [0, tmax] (tmax widened by kBoxTmaxWiden).
-// Returns whether the ray may touch the box; tEntry is the entry distance (clamped to 0). Boxes are closed: a ray lying in a face plane,
-// or parallel to an axis and inside that slab, hits.
+// Returns whether the ray may touch the box; tEntry is the entry distance (clamped to 0). Boxes are closed: a ray lying
+// in a face plane, or parallel to an axis and inside that slab, hits.
 RP_HOT_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
     const vec3 tLo = (lo - r.org) * r.invDir;
     const vec3 tHi = (hi - r.org) * r.invDir;
@@ -178,8 +178,8 @@ RP_HOT_FUNC float edgeFunction(vec2 p, vec2 q) {
 // A hit's t can still carry a relative error well above an ulp where the hit is close to the ray
 // origin compared to the triangle's size (t is a sum of terms of the triangle's size that cancel),
 // so two triangles meeting the ray at the same point may report t a few 1e-6 apart.
-RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax,
-                               RP_OUT(float) t, RP_OUT(vec2) bary) {
+RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, RP_OUT(float) t,
+                                   RP_OUT(vec2) bary) {
     t = 0.0f;
     bary = vec2(0.0f);
     // Vertices relative to the ray origin.
@@ -199,8 +199,7 @@ RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float 
     // edge function is exactly s^2 times its unscaled value: the two triangles of a shared edge,
     // scaled by different s, still get exactly opposite signs, and watertightness is kept. The
     // exponent is clamped so the scale stays a normal float.
-    const float largest = max(max(max(abs(ax), abs(ay)), max(abs(bx), abs(by))),
-                              max(abs(cx), abs(cy)));
+    const float largest = max(max(max(abs(ax), abs(ay)), max(abs(bx), abs(by))), max(abs(cx), abs(cy)));
     // largest lies in [2^(b-127), 2^(b-126)) for its biased exponent b; scale = 2^(126-b), built
     // from its bits (exact, and no libm call on the CPU).
     const int biasedExponent = int((floatBitsToUint(largest) >> 23u) & 255u);

@@ -26,8 +26,7 @@ RP_FUNC vec3 geometricNormal(vec3 v0, vec3 v1, vec3 v2, vec3 rayDir) {
 
 // The shading normal: the vertex normals interpolated with the hit's barycentric weights (bary.x
 // for n1, bary.y for n2), flipped to face the viewer; the geometric normal when their blend is zero.
-RP_FUNC vec3 interpolatedNormal(vec3 n0, vec3 n1, vec3 n2, vec2 bary, vec3 geometric,
-                                vec3 rayDir) {
+RP_FUNC vec3 interpolatedNormal(vec3 n0, vec3 n1, vec3 n2, vec2 bary, vec3 geometric, vec3 rayDir) {
     const vec3 n = (1.0f - bary.x - bary.y) * n0 + bary.x * n1 + bary.y * n2;
     if (dot(n, n) == 0.0f) return geometric;
     const vec3 unit = normalize(n);
@@ -41,8 +40,7 @@ RP_FUNC vec3 interpolatedNormal(vec3 n0, vec3 n1, vec3 n2, vec2 bary, vec3 geome
 //  toLight:    unit, from the hit point towards the light
 //  lit:        false when the shadow ray found an occluder: ambient only
 // The specular highlight is white; the result is clamped to [0, 1].
-RP_FUNC vec3 shadePhong(vec4 phong, vec3 diffuseColor, vec3 normal, vec3 toViewer, vec3 toLight,
-                        bool lit) {
+RP_FUNC vec3 shadePhong(vec4 phong, vec3 diffuseColor, vec3 normal, vec3 toViewer, vec3 toLight, bool lit) {
     vec3 color = phong.x * diffuseColor;
     const float cosLight = dot(normal, toLight);
     if (lit && cosLight > 0.0f) {
@@ -81,9 +79,7 @@ RP_FUNC float heatFullScaleOf(float requested, bool nodes) {
     return requested > 0.0f ? requested : (nodes ? kHeatFullScaleNodes : kHeatFullScaleTests);
 }
 
-RP_FUNC vec3 heatColorForCount(uint count, float fullScale) {
-    return heatColor(float(count) / fullScale);
-}
+RP_FUNC vec3 heatColorForCount(uint count, float fullScale) { return heatColor(float(count) / fullScale); }
 
 RP_END_NAMESPACE
 

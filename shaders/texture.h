@@ -12,8 +12,8 @@
 // differences in ray directions into visible steps.
 #ifndef RAYPACK_SHADERS_TEXTURE_H
 #define RAYPACK_SHADERS_TEXTURE_H
+#include "camera.h"  // GpuCamera
 #include "common.h"
-#include "camera.h"     // GpuCamera
 #include "intersect.h"  // RP_PRECISE
 
 RP_BEGIN_NAMESPACE
@@ -31,16 +31,15 @@ RP_FUNC uint packChannel(float c) {
 }
 
 RP_FUNC uint packRgba8(vec4 c) {
-    return packChannel(c.x) | (packChannel(c.y) << 8u) | (packChannel(c.z) << 16u) |
-           (packChannel(c.w) << 24u);
+    return packChannel(c.x) | (packChannel(c.y) << 8u) | (packChannel(c.z) << 16u) | (packChannel(c.w) << 24u);
 }
 
 // Multiplied by the float nearest 1/255 rather than divided by 255: GLSL lets a division be
 // approximate (2.5 ulp), a multiplication is exact to rounding on both sides.
 RP_FUNC vec4 unpackRgba8(uint packed) {
-    RP_PRECISE const vec4 c = vec4(float(packed & 255u), float((packed >> 8u) & 255u),
-                                   float((packed >> 16u) & 255u), float(packed >> 24u)) *
-                              (1.0f / 255.0f);
+    RP_PRECISE const vec4 c =
+        vec4(float(packed & 255u), float((packed >> 8u) & 255u), float((packed >> 16u) & 255u), float(packed >> 24u)) *
+        (1.0f / 255.0f);
     return c;
 }
 
@@ -112,8 +111,7 @@ RP_FUNC BilinearTaps bilinearTaps(GpuTexture tex, vec2 uv) {
     const int ya = wrapIndex(int(fy), h, wrapV);
     const int yb = wrapIndex(int(fy) + 1, h, wrapV);
     BilinearTaps taps;
-    taps.texel = uvec4(tex.offset) + uvec4(uint(ya * w + xa), uint(ya * w + xb), uint(yb * w + xa),
-                                           uint(yb * w + xb));
+    taps.texel = uvec4(tex.offset) + uvec4(uint(ya * w + xa), uint(ya * w + xb), uint(yb * w + xa), uint(yb * w + xb));
     taps.weight = vec2(x - fx, y - fy);
     return taps;
 }
@@ -125,9 +123,7 @@ RP_FUNC vec4 lerpPrecise(vec4 a, vec4 b, float w) {
     return r;
 }
 
-RP_FUNC uint textureLevels(GpuTexture tex) {
-    return max((tex.wrap >> 8u) & 255u, 1u);
-}
+RP_FUNC uint textureLevels(GpuTexture tex) { return max((tex.wrap >> 8u) & 255u, 1u); }
 
 // The descriptor of one mip level (its offset and size, the same wrap modes).
 RP_FUNC GpuTexture textureLevel(GpuTexture tex, uint level) {
@@ -141,16 +137,14 @@ RP_FUNC GpuTexture textureLevel(GpuTexture tex, uint level) {
 }
 
 // The angle one pixel spans vertically: 2 tan(fov / 2) / height (shaders/camera.h's GpuCamera).
-RP_FUNC float pixelSpread(GpuCamera camera) {
-    return 2.0f * camera.forward.w / camera.up.w;
-}
+RP_FUNC float pixelSpread(GpuCamera camera) { return 2.0f * camera.forward.w / camera.up.w; }
 
 // The level of detail at a hit: log2 of the texels the pixel's footprint covers. The footprint is
 // hitT * pixelSpread (the pixel's angle, 2 tan(fov / 2) / height) over the cosine between the ray
 // and the triangle (at least 0.1); the texels per unit of length are the square root of the
 // triangle's area in texels over its area in the scene. Clamped to the texture's levels.
-RP_FUNC float textureLod(GpuTexture tex, vec3 v0, vec3 v1, vec3 v2, vec2 uv0, vec2 uv1, vec2 uv2,
-                         vec3 rayDir, float hitT, float pixelSpread) {
+RP_FUNC float textureLod(GpuTexture tex, vec3 v0, vec3 v1, vec3 v2, vec2 uv0, vec2 uv1, vec2 uv2, vec3 rayDir,
+                         float hitT, float pixelSpread) {
     const vec3 n = cross(v1 - v0, v2 - v0);
     const float worldArea = length(n);
     const vec2 a = uv1 - uv0;
@@ -179,8 +173,8 @@ RP_FUNC vec2 interpolateUv(vec2 uv0, vec2 uv1, vec2 uv2, vec2 bary) {
 }
 
 RP_FUNC vec3 interpolateColor(uint c0, uint c1, uint c2, vec2 bary) {
-    RP_PRECISE const vec4 c = (1.0f - bary.x - bary.y) * unpackRgba8(c0) + bary.x * unpackRgba8(c1) +
-                              bary.y * unpackRgba8(c2);
+    RP_PRECISE const vec4 c =
+        (1.0f - bary.x - bary.y) * unpackRgba8(c0) + bary.x * unpackRgba8(c1) + bary.y * unpackRgba8(c2);
     return vec3(c.x, c.y, c.z);
 }
 

@@ -20,8 +20,8 @@ struct CliResult {
 
 // Runs `raypack-cli ARGS` through the shell (ARGS already quoted as needed).
 inline CliResult runCli(const std::string& args) {
-    const std::string command = std::string("XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp} '") +
-                                RAYPACK_CLI + "' " + args + " 2>&1";
+    const std::string command =
+        std::string("XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-/tmp} '") + RAYPACK_CLI + "' " + args + " 2>&1";
     CliResult result;
     FILE* pipe = popen(command.c_str(), "r");
     if (!pipe) return result;
@@ -39,8 +39,7 @@ inline std::string quoted(const std::filesystem::path& path) { return "'" + path
 class ScratchDir {
 public:
     explicit ScratchDir(const std::string& name)
-        : path_(std::filesystem::temp_directory_path() /
-                (name + "-" + std::to_string(::getpid()))) {
+        : path_(std::filesystem::temp_directory_path() / (name + "-" + std::to_string(::getpid()))) {
         std::filesystem::remove_all(path_);
         std::filesystem::create_directories(path_);
     }

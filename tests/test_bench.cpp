@@ -46,25 +46,54 @@ void expectFiniteNumber(const json& record, const char* key) {
     EXPECT_TRUE(std::isfinite(record.at(key).get<double>())) << key << " in " << record.dump();
 }
 
-const char* kTable1Keys[] = {"triangles", "degenerate_triangles", "t_load_s", "load_mb_s",
-                             "n_l_leaves", "d_avg_leaf_depth", "d_max_leaf_depth",
-                             "o_avg_prims_per_leaf", "t_b_s", "nodes", "sah_cost", "bvh_bytes",
-                             "bvh_bytes_per_triangle", "leaf_size"};
-const char* kTable2Keys[] = {"t_r_us_per_ray", "n_it_tests_per_ray", "n_tr_nodes_per_ray",
-                             "n_q_rays", "t_f_s", "t_cu_s", "t_k_s", "t_k_min_s", "t_k_max_s",
-                             "perf_mrays_s", "perf_with_upload_mrays_s", "frame_s", "width_px",
-                             "height_px", "repeats"};
-const char* kEmbreeKeys[] = {"triangles", "t_b_s", "n_q_rays", "t_k_s", "t_k_min_s", "t_k_max_s",
-                             "t_r_us_per_ray", "perf_mrays_s", "hits_compared", "hits_agree_share",
-                             "hits_max_rel_t_error", "threads"};
+const char* kTable1Keys[] = {"triangles",
+                             "degenerate_triangles",
+                             "t_load_s",
+                             "load_mb_s",
+                             "n_l_leaves",
+                             "d_avg_leaf_depth",
+                             "d_max_leaf_depth",
+                             "o_avg_prims_per_leaf",
+                             "t_b_s",
+                             "nodes",
+                             "sah_cost",
+                             "bvh_bytes",
+                             "bvh_bytes_per_triangle",
+                             "leaf_size"};
+const char* kTable2Keys[] = {"t_r_us_per_ray",
+                             "n_it_tests_per_ray",
+                             "n_tr_nodes_per_ray",
+                             "n_q_rays",
+                             "t_f_s",
+                             "t_cu_s",
+                             "t_k_s",
+                             "t_k_min_s",
+                             "t_k_max_s",
+                             "perf_mrays_s",
+                             "perf_with_upload_mrays_s",
+                             "frame_s",
+                             "width_px",
+                             "height_px",
+                             "repeats"};
+const char* kEmbreeKeys[] = {"triangles",
+                             "t_b_s",
+                             "n_q_rays",
+                             "t_k_s",
+                             "t_k_min_s",
+                             "t_k_max_s",
+                             "t_r_us_per_ray",
+                             "perf_mrays_s",
+                             "hits_compared",
+                             "hits_agree_share",
+                             "hits_max_rel_t_error",
+                             "threads"};
 
 TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
     const json& results = quickResults();
     ASSERT_TRUE(results.is_object());
     EXPECT_EQ(results.at("format"), "raypack-bench-1");
     EXPECT_TRUE(results.at("date").is_string());
-    EXPECT_NE(results.at("command").get<std::string>().find("bench --suite quick"),
-              std::string::npos);
+    EXPECT_NE(results.at("command").get<std::string>().find("bench --suite quick"), std::string::npos);
     const json& machine = results.at("machine");
     EXPECT_FALSE(machine.at("cpu_model").get<std::string>().empty());
     EXPECT_GE(machine.at("cpu_threads").get<int>(), 1);
@@ -116,11 +145,9 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
             EXPECT_TRUE(cells.count({scene, "cpu-reference", "", kind})) << scene << " " << kind;
             EXPECT_TRUE(cells.count({scene, "gpu-single", "", kind})) << scene << " " << kind;
             for (const std::string& packet : packets)
-                EXPECT_TRUE(cells.count({scene, "gpu-packet", packet, kind}))
-                    << scene << " " << packet << " " << kind;
+                EXPECT_TRUE(cells.count({scene, "gpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
             for (const std::string& packet : cpuPackets)
-                EXPECT_TRUE(cells.count({scene, "cpu-packet", packet, kind}))
-                    << scene << " " << packet << " " << kind;
+                EXPECT_TRUE(cells.count({scene, "cpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
         }
     EXPECT_EQ(cells.size(), scenes.size() * 2 * (2 + packets.size() + cpuPackets.size()));
 }
@@ -129,8 +156,10 @@ TEST(Bench, EmbreeAgreesWithTheReferenceOnHitDistances) {
     // 200x200 = 40,000 rays, so that 99.99% allows a few rays through shared edges to differ
     // (Embree's default triangle test is not watertight; raypack's is).
     const fs::path out = scratch() / "embree.json";
-    const CliResult r = runCli("bench --device cpu --scenes gen:sphereflake:20k,gen:terrain:20k "
-                               "--width 200 --height 200 --repeat 1 --out " + quoted(out));
+    const CliResult r = runCli(
+        "bench --device cpu --scenes gen:sphereflake:20k,gen:terrain:20k "
+        "--width 200 --height 200 --repeat 1 --out " +
+        quoted(out));
     ASSERT_EQ(r.exitCode, 0) << r.output;
     const json results = readJsonFile(out.string());
     size_t embreeRecords = 0;
@@ -162,9 +191,8 @@ TEST(Bench, ReportScriptWritesTablesAndFigures) {
     const fs::path images = scratch() / "img";
     std::ofstream(markdown) << "# Benchmarks\n\nHand-written text that must stay.\n";
     const std::string script = std::string(RAYPACK_SOURCE_DIR) + "/scripts/bench-report";
-    const std::string command = "/usr/bin/python3 '" + script + "' " + quoted(json) +
-                                " --markdown " + quoted(markdown) + " --img-dir " + quoted(images) +
-                                " > /dev/null 2>&1";
+    const std::string command = "/usr/bin/python3 '" + script + "' " + quoted(json) + " --markdown " +
+                                quoted(markdown) + " --img-dir " + quoted(images) + " > /dev/null 2>&1";
     // Twice: the second run replaces its section instead of appending another.
     ASSERT_EQ(std::system(command.c_str()), 0) << command;
     ASSERT_EQ(std::system(command.c_str()), 0) << command;
@@ -172,9 +200,8 @@ TEST(Bench, ReportScriptWritesTablesAndFigures) {
     text << std::ifstream(markdown).rdbuf();
     const std::string md = text.str();
     EXPECT_NE(md.find("Hand-written text that must stay."), std::string::npos);
-    for (const char* expected : {"Table 1", "Table 2 (primary rays)", "Table 2 (shadow rays)",
-                                 "| N_L |", "bench --suite quick", "quick-figure1.png",
-                                 "quick-figure2.png"})
+    for (const char* expected : {"Table 1", "Table 2 (primary rays)", "Table 2 (shadow rays)", "| N_L |",
+                                 "bench --suite quick", "quick-figure1.png", "quick-figure2.png"})
         EXPECT_NE(md.find(expected), std::string::npos) << expected << " in\n" << md;
     size_t sections = 0;
     for (size_t at = md.find("bench-report:begin quick"); at != std::string::npos;

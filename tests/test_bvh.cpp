@@ -127,8 +127,7 @@ void expectValidTree(const Bvh& bvh, std::span<const Aabb> bounds) {
         }
     }
     for (size_t prim = 0; prim < n; ++prim)
-        ASSERT_EQ(timesInLeaf[prim], 1u) << "primitive " << prim << " is in " << timesInLeaf[prim]
-                                         << " leaves";
+        ASSERT_EQ(timesInLeaf[prim], 1u) << "primitive " << prim << " is in " << timesInLeaf[prim] << " leaves";
     for (size_t node = 0; node < bvh.nodes.size(); ++node)
         ASSERT_EQ(timesReached[node], 1u) << "node " << node << " is unreachable";
 }
@@ -219,8 +218,7 @@ std::unique_ptr<RefNode> referenceBuild(std::span<const Aabb> bounds, std::vecto
             Aabb left, right;
             for (uint32_t k = 0; k < split; ++k) left.grow(bounds[sorted[k]]);
             for (uint32_t k = split; k < count; ++k) right.grow(bounds[sorted[k]]);
-            const double weighted =
-                measure.of(left) * double(split) + measure.of(right) * double(count - split);
+            const double weighted = measure.of(left) * double(split) + measure.of(right) * double(count - split);
             if (weighted < best) {
                 best = weighted;
                 bestLeft.assign(sorted.begin(), sorted.begin() + split);
@@ -515,8 +513,7 @@ TEST(BvhCancel, CancelledMidBuildStopsQuickly) {
             canceller.join();
             ASSERT_TRUE(threw) << "the build finished before it was cancelled";
             const double latencyMs = double(stoppedAt - cancelledAt.load()) * 1e-6;
-            std::printf("  %s cancelled after %d ms: stopped %.1f ms later\n", toString(builder),
-                        delayMs, latencyMs);
+            std::printf("  %s cancelled after %d ms: stopped %.1f ms later\n", toString(builder), delayMs, latencyMs);
             EXPECT_LT(latencyMs, 500.0);
         }
     }
@@ -536,8 +533,8 @@ TEST(BvhBinned, SahCostCloseToExact) {
 TEST(BvhSharedScenes, InvariantsOnRealScenes) {
     const std::filesystem::path root = RAYPACK_SHARED_SCENES;
     int tested = 0;
-    for (const char* file : {"sibenik/sibenik_geom_75284.ply", "stanford/dragon_vrip_res3.ply",
-                             "gltf/DamagedHelmet/DamagedHelmet.glb"}) {
+    for (const char* file :
+         {"sibenik/sibenik_geom_75284.ply", "stanford/dragon_vrip_res3.ply", "gltf/DamagedHelmet/DamagedHelmet.glb"}) {
         const std::filesystem::path path = root / file;
         if (!std::filesystem::exists(path)) continue;
         SCOPED_TRACE(file);
@@ -553,8 +550,10 @@ TEST(BvhSharedScenes, InvariantsOnRealScenes) {
             expectStatsMatchWalk(bvh);
             EXPECT_GE(bvh.stats.avgPrimsPerLeaf, 1.0);
             EXPECT_LE(bvh.stats.avgPrimsPerLeaf, 2.0);
-            if (builder == BvhBuilder::SahExact) exactCost = bvh.stats.sahCost;
-            else EXPECT_LE(bvh.stats.sahCost, exactCost * 1.2);
+            if (builder == BvhBuilder::SahExact)
+                exactCost = bvh.stats.sahCost;
+            else
+                EXPECT_LE(bvh.stats.sahCost, exactCost * 1.2);
         }
         ++tested;
     }

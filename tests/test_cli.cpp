@@ -38,8 +38,7 @@ const ScratchDir& scratch() {
 // as a crash or an internal check.
 void expectCleanError(const CliResult& r, const std::string& mentions) {
     EXPECT_EQ(r.exitCode, 2) << r.output;
-    EXPECT_NE(r.output.find(mentions), std::string::npos) << "expected \"" << mentions << "\" in:\n"
-                                                          << r.output;
+    EXPECT_NE(r.output.find(mentions), std::string::npos) << "expected \"" << mentions << "\" in:\n" << r.output;
     EXPECT_EQ(r.output.find("internal check failed"), std::string::npos) << r.output;
     EXPECT_EQ(r.output.find("terminate"), std::string::npos) << r.output;
 }
@@ -60,8 +59,8 @@ TEST(Cli, RenderWritesImageHitsAndJsonThatAgreeWithTheReference) {
     const fs::path hits = scratch() / "render.hits";
     const fs::path json = scratch() / "render.json";
     const uint32_t width = 96, height = 64;  // not square, so that a transposition shows
-    const CliResult r = runCli("render " + defaultScene() + " --width 96 --height 64 --out " +
-                               quoted(png) + " --hits " + quoted(hits) + " --json " + quoted(json));
+    const CliResult r = runCli("render " + defaultScene() + " --width 96 --height 64 --out " + quoted(png) +
+                               " --hits " + quoted(hits) + " --json " + quoted(json));
     ASSERT_EQ(r.exitCode, 0) << r.output;
     for (const char* printed : {"device", "Table 1", "Table 2", "primary", "shadow", "N_L"})
         EXPECT_NE(r.output.find(printed), std::string::npos) << printed << " in\n" << r.output;
@@ -102,25 +101,24 @@ TEST(Cli, RenderWritesImageHitsAndJsonThatAgreeWithTheReference) {
     // Every 37th ray traced again through the library gives the same closest hit.
     for (size_t i = 0; i < file.records.size(); i += 37) {
         const HitRecord& h = file.records[i];
-        const HitRecord again = traceClosest(scene, bvh, glm::vec3(h.orgX, h.orgY, h.orgZ),
-                                             glm::vec3(h.dirX, h.dirY, h.dirZ));
+        const HitRecord again =
+            traceClosest(scene, bvh, glm::vec3(h.orgX, h.orgY, h.orgZ), glm::vec3(h.dirX, h.dirY, h.dirZ));
         EXPECT_EQ(again.prim, h.prim) << "pixel " << i;
         if (h.prim != gpu::kNoHit) EXPECT_EQ(again.t, h.t) << "pixel " << i;
     }
 
     // JSON: every statistic with its unit, finite.
     const auto& table1 = stats.at("table1");
-    for (const char* key : {"n_l_leaves", "d_avg_leaf_depth", "d_max_leaf_depth",
-                            "o_avg_prims_per_leaf", "t_b_s", "nodes", "sah_cost", "bvh_bytes",
-                            "triangles", "degenerate_triangles", "t_load_s", "load_mb_s"})
+    for (const char* key :
+         {"n_l_leaves", "d_avg_leaf_depth", "d_max_leaf_depth", "o_avg_prims_per_leaf", "t_b_s", "nodes", "sah_cost",
+          "bvh_bytes", "triangles", "degenerate_triangles", "t_load_s", "load_mb_s"})
         EXPECT_TRUE(table1.at(key).is_number()) << key;
     EXPECT_EQ(table1.at("triangles").get<uint64_t>(), scene.triangleCount());
     EXPECT_EQ(table1.at("n_l_leaves").get<uint32_t>(), bvh.stats.leafCount);
     for (const char* kind : {"primary", "shadow"}) {
         const auto& row = stats.at("table2").at(kind);
-        for (const char* key : {"t_r_us_per_ray", "n_it_tests_per_ray", "n_tr_nodes_per_ray",
-                                "n_q_rays", "t_f_s", "t_cu_s", "t_k_s", "perf_mrays_s",
-                                "perf_with_upload_mrays_s"}) {
+        for (const char* key : {"t_r_us_per_ray", "n_it_tests_per_ray", "n_tr_nodes_per_ray", "n_q_rays", "t_f_s",
+                                "t_cu_s", "t_k_s", "perf_mrays_s", "perf_with_upload_mrays_s"}) {
             ASSERT_TRUE(row.at(key).is_number()) << kind << "." << key;
             EXPECT_TRUE(std::isfinite(row.at(key).get<double>())) << kind << "." << key;
         }
@@ -136,8 +134,8 @@ TEST(Cli, FromReproducesTheSameImageAndFlagsOverrideIt) {
     const fs::path side = scratch() / "from.json";
     ASSERT_EQ(runCli("render " + defaultScene() +
                      " --width 80 --height 60 --eye 3,2.5,4 --at 0,0.5,0 --fov 50 "
-                     "--light-height 0.5 --leaf-size 4 --out " + quoted(a) + " --json " +
-                     quoted(side))
+                     "--light-height 0.5 --leaf-size 4 --out " +
+                     quoted(a) + " --json " + quoted(side))
                   .exitCode,
               0);
     const CliResult again = runCli("render --from " + quoted(side) + " --out " + quoted(b));
@@ -180,8 +178,7 @@ TEST(Cli, DiffCountsDifferencesAndHasDocumentedExitCodes) {
     EXPECT_EQ(runCli("diff " + quoted(a) + " " + quoted(b) + " --threshold 16").exitCode, 0);
 
     expectCleanError(runCli("diff " + quoted(a) + " " + quoted(small)), "diff-small.png");
-    expectCleanError(runCli("diff " + quoted(a) + " " + quoted(scratch() / "missing.png")),
-                     "missing.png");
+    expectCleanError(runCli("diff " + quoted(a) + " " + quoted(scratch() / "missing.png")), "missing.png");
     expectCleanError(runCli("diff " + quoted(a)), "B");
 }
 
@@ -195,8 +192,7 @@ TEST(Cli, BadInputGivesOneClearLineAndExitCodeTwo) {
     expectCleanError(runCli("stats " + quoted(garbage)), "garbage.ply");
     expectCleanError(runCli("render gen:terrain:1k --width abc"), "--width");
     expectCleanError(runCli("render gen:terrain:1k --eye 1,2"), "--eye");
-    expectCleanError(runCli("render gen:terrain:1k --eye 1,2,3 --at 1,2,3 --width 8 --height 8"),
-                     "camera");
+    expectCleanError(runCli("render gen:terrain:1k --eye 1,2,3 --at 1,2,3 --width 8 --height 8"), "camera");
     expectCleanError(runCli("render gen:terrain:1k --packet 0x4"), "--packet");
     expectCleanError(runCli("render gen:terrain:1k --kernel warp"), "--kernel");
     expectCleanError(runCli("render gen:terrain:1k --device tpu"), "--device");
@@ -264,8 +260,8 @@ TEST(Cli, StatsOfAGltfCountsItsBuffersAndImages) {
     const CliResult r = runCli("stats " + quoted(folder / "Duck.gltf") + " --json");
     ASSERT_EQ(r.exitCode, 0) << r.output;
     const nlohmann::json row = nlohmann::json::parse(r.output);
-    const uint64_t expected =
-        fs::file_size(folder / "Duck.gltf") + fs::file_size(folder / "Duck0.bin") + fs::file_size(folder / "DuckCM.png");
+    const uint64_t expected = fs::file_size(folder / "Duck.gltf") + fs::file_size(folder / "Duck0.bin") +
+                              fs::file_size(folder / "DuckCM.png");
     EXPECT_EQ(row.at("input_bytes").get<uint64_t>(), expected);
     EXPECT_EQ(row.at("textures").get<uint64_t>(), 1u);
     EXPECT_GT(row.at("texture_bytes").get<uint64_t>(), 0u);
@@ -279,7 +275,8 @@ TEST(Cli, BenchReportWritesNextToTheResultsByDefault) {
     fs::create_directories(folder);
     const fs::path results = folder / "mine.json";
     // A minimal result as `bench` writes it: one CPU cell.
-    std::ofstream(results) << R"({"machine": {"cpu_model": "test CPU", "cpu_threads": 2}, "command": "raypack-cli bench",
+    std::ofstream(results)
+        << R"({"machine": {"cpu_model": "test CPU", "cpu_threads": 2}, "command": "raypack-cli bench",
       "date": "2026-12-01T00:00:00Z", "settings": {"width_px": 8, "height_px": 8}, "skipped": [], "records": []})";
     const fs::path repositoryMarkdown = fs::path(RAYPACK_SOURCE_DIR) / "docs" / "benchmarks.md";
     const auto before = fs::last_write_time(repositoryMarkdown);
@@ -301,16 +298,15 @@ TEST(Cli, GenerateWritesAPlyThatLoadsBackTheSameScene) {
     const Scene loaded = loadScene(ply);
     EXPECT_EQ(loaded.triangles, generated.triangles);
     EXPECT_EQ(loaded.positions, generated.positions);
-    EXPECT_NE(r.output.find(std::to_string(generated.triangleCount()) + " triangles"),
-              std::string::npos)
-        << r.output;
+    EXPECT_NE(r.output.find(std::to_string(generated.triangleCount()) + " triangles"), std::string::npos) << r.output;
 }
 
 TEST(Cli, GpuRenderOnLavapipeWithValidationMatchesTheHitsFormat) {
     const fs::path hits = scratch() / "gpu.hits", json = scratch() / "gpu.json";
     const CliResult r = runCli("render " + defaultScene() +
                                " --device gpu --validation --width 64 --height 48 --packet 5x6 "
-                               "--hits " + quoted(hits) + " --json " + quoted(json));
+                               "--hits " +
+                               quoted(hits) + " --json " + quoted(json));
     ASSERT_EQ(r.exitCode, 0) << r.output;
     EXPECT_NE(r.output.find("validation no messages"), std::string::npos) << r.output;
     const HitsFile file = readHits(hits.string());
@@ -373,8 +369,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     EXPECT_EQ(back.bvh.binCount, setup.bvh.binCount);
 
     // Missing keys keep the defaults; unknown keys (a sidecar's "stats") are ignored.
-    const RenderSettings defaults =
-        renderSettingsFromJson(nlohmann::json::parse(R"({"stats": {"fps": 3}})"));
+    const RenderSettings defaults = renderSettingsFromJson(nlohmann::json::parse(R"({"stats": {"fps": 3}})"));
     EXPECT_EQ(defaults.width, RenderSettings{}.width);
     EXPECT_EQ(defaults.packet, RenderSettings{}.packet);
 }

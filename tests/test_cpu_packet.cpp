@@ -55,8 +55,7 @@ Scene randomSoup(uint32_t triangles, uint32_t seed) {
     scene.source = "random soup";
     for (uint32_t i = 0; i < triangles; ++i) {
         const glm::vec3 c(centre(rng), centre(rng), centre(rng));
-        for (int k = 0; k < 3; ++k)
-            scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
+        for (int k = 0; k < 3; ++k) scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
         scene.triangles.push_back(glm::uvec3(3 * i, 3 * i + 1, 3 * i + 2));
     }
     return scene;
@@ -106,8 +105,8 @@ Scene translated(Scene scene, glm::vec3 offset) {
 
 std::string describe(const RenderSettings& s, CpuSimd simd) {
     std::ostringstream out;
-    out << s.width << "x" << s.height << " packet " << s.packet.width << "x" << s.packet.height
-        << " " << toString(simd) << (s.shadows ? "" : " no shadows");
+    out << s.width << "x" << s.height << " packet " << s.packet.width << "x" << s.packet.height << " " << toString(simd)
+        << (s.shadows ? "" : " no shadows");
     return out.str();
 }
 
@@ -125,8 +124,7 @@ size_t expectSameFrame(const CpuSceneView& view, const RenderSettings& settings,
     for (size_t i = 0; i < pixels; ++i) {
         const HitRecord& a = reference.hits[i];
         const HitRecord& b = packets.hits[i];
-        const std::string where = describe(settings, simd) + " pixel " +
-                                  std::to_string(i % settings.width) + "," +
+        const std::string where = describe(settings, simd) + " pixel " + std::to_string(i % settings.width) + "," +
                                   std::to_string(i / settings.width);
         EXPECT_EQ(b.prim, a.prim) << where;
         EXPECT_EQ(std::bit_cast<uint32_t>(b.t), std::bit_cast<uint32_t>(a.t)) << where;
@@ -304,8 +302,7 @@ TEST(CpuPacket, HeatViewsAndTimings) {
         const Frame shaded = renderCpuPackets(view, settings, {.image = true, .counters = true}, simd);
         EXPECT_GT(shaded.timings.primarySeconds, 0.0);
         EXPECT_GT(shaded.timings.shadowSeconds, 0.0);
-        EXPECT_GE(shaded.timings.totalSeconds,
-                  shaded.timings.primarySeconds + shaded.timings.shadowSeconds);
+        EXPECT_GE(shaded.timings.totalSeconds, shaded.timings.primarySeconds + shaded.timings.shadowSeconds);
         settings.view = ViewMode::HeatTraversal;
         const Frame nodes = renderCpuPackets(view, settings, {}, simd);
         settings.view = ViewMode::HeatIntersections;
@@ -317,8 +314,7 @@ TEST(CpuPacket, HeatViewsAndTimings) {
         // Each pixel's heat colour is the one of its counters.
         for (size_t i = 0; i < shaded.counters.size(); ++i) {
             const RayCounters& c = shaded.counters[i];
-            const glm::vec3 colour =
-                gpu::heatColorForCount(c.primaryNodes + c.shadowNodes, gpu::kHeatFullScaleNodes);
+            const glm::vec3 colour = gpu::heatColorForCount(c.primaryNodes + c.shadowNodes, gpu::kHeatFullScaleNodes);
             ASSERT_EQ(nodes.rgba[i], gpu::packRgba8(glm::vec4(colour, 1.0f))) << i;
         }
     }
@@ -338,8 +334,7 @@ TEST(CpuPacket, RenderCommand) {
     const auto r1 = runCli("render " + scene + " --hits " + quoted(single));
     ASSERT_EQ(r1.exitCode, 0) << r1.output;
     EXPECT_NE(r1.output.find("CPU reference"), std::string::npos) << r1.output;
-    const auto r2 =
-        runCli("render " + scene + " --kernel packet --packet 5x3 --hits " + quoted(packets));
+    const auto r2 = runCli("render " + scene + " --kernel packet --packet 5x3 --hits " + quoted(packets));
     ASSERT_EQ(r2.exitCode, 0) << r2.output;
     EXPECT_NE(r2.output.find("CPU packets 5x3"), std::string::npos) << r2.output;
     const auto read = [](const std::filesystem::path& path) {
@@ -355,11 +350,10 @@ TEST(CpuPacket, RenderCommand) {
                              std::to_string(kDefaultCpuPacket.height)),
               std::string::npos)
         << r3.output;
-    for (const auto& [args, mentions] :
-         {std::pair<std::string, std::string>{"--packet 8x8", "--packet"},
-          {"--kernel single --packet 8x8", "--packet"},
-          {"--gpu 0", "--gpu"},
-          {"--validation", "--validation"}}) {
+    for (const auto& [args, mentions] : {std::pair<std::string, std::string>{"--packet 8x8", "--packet"},
+                                         {"--kernel single --packet 8x8", "--packet"},
+                                         {"--gpu 0", "--gpu"},
+                                         {"--validation", "--validation"}}) {
         const auto r = runCli("render " + scene + " " + args);
         EXPECT_EQ(r.exitCode, 2) << args << ":\n" << r.output;
         EXPECT_NE(r.output.find(mentions), std::string::npos) << args << ":\n" << r.output;

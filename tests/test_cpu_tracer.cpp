@@ -47,8 +47,7 @@ BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
     for (uint32_t i = 0; i < scene.triangleCount(); ++i) {
         float t;
         glm::vec2 bary;
-        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2),
-                                   bestT, t, bary) &&
+        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2), bestT, t, bary) &&
             gpu::isCloserHit(t, i, bestT, best.prim)) {
             best = {t, i};
             bestT = t;
@@ -63,8 +62,7 @@ bool bruteOccluded(const Scene& scene, glm::vec3 org, glm::vec3 dir, float tmax,
         if (i == skip) continue;
         float t;
         glm::vec2 bary;
-        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2),
-                                   tmax, t, bary))
+        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2), tmax, t, bary))
             return true;
     }
     return false;
@@ -77,8 +75,7 @@ Scene randomSoup(uint32_t triangles, uint32_t seed) {
     scene.source = "random soup";
     for (uint32_t i = 0; i < triangles; ++i) {
         const glm::vec3 c(centre(rng), centre(rng), centre(rng));
-        for (int k = 0; k < 3; ++k)
-            scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
+        for (int k = 0; k < 3; ++k) scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
         scene.triangles.push_back(glm::uvec3(3 * i, 3 * i + 1, 3 * i + 2));
     }
     return scene;
@@ -156,24 +153,23 @@ void expectMatchesBruteForce(const Scene& scene, const Bvh& bvh, int rays, uint3
     std::uniform_int_distribution<uint32_t> anyTriangle(0, uint32_t(scene.triangleCount() - 1));
     int hits = 0, ties = 0;
     for (int i = 0; i < rays; ++i) {
-        const glm::vec3 origin = bounds.lo - margin +
-                                 glm::vec3(unit(rng), unit(rng), unit(rng)) *
-                                     (bounds.extent() + 2.0f * margin);
+        const glm::vec3 origin =
+            bounds.lo - margin + glm::vec3(unit(rng), unit(rng), unit(rng)) * (bounds.extent() + 2.0f * margin);
         glm::vec3 dir;
         const uint32_t tri = anyTriangle(rng);
         switch (i % 4) {
-            case 0: dir = randomDirection(rng); break;
-            case 1: dir = scene.vertex(tri, i % 3) - origin; break;  // exactly at a vertex
-            case 2: {  // at an edge point
-                const glm::vec3 a = scene.vertex(tri, 0), b = scene.vertex(tri, 1);
-                dir = a + unit(rng) * (b - a) - origin;
-                break;
-            }
-            default: {  // axis-parallel, towards the triangle's first vertex on that axis
-                const int axis = i % 3;
-                dir = glm::vec3(0.0f);
-                dir[axis] = scene.vertex(tri, 0)[axis] > origin[axis] ? 1.0f : -1.0f;
-            }
+        case 0: dir = randomDirection(rng); break;
+        case 1: dir = scene.vertex(tri, i % 3) - origin; break;  // exactly at a vertex
+        case 2: {                                                // at an edge point
+            const glm::vec3 a = scene.vertex(tri, 0), b = scene.vertex(tri, 1);
+            dir = a + unit(rng) * (b - a) - origin;
+            break;
+        }
+        default: {  // axis-parallel, towards the triangle's first vertex on that axis
+            const int axis = i % 3;
+            dir = glm::vec3(0.0f);
+            dir[axis] = scene.vertex(tri, 0)[axis] > origin[axis] ? 1.0f : -1.0f;
+        }
         }
         if (dir == glm::vec3(0.0f)) continue;
         const BruteHit expected = bruteClosest(scene, origin, dir);
@@ -181,8 +177,7 @@ void expectMatchesBruteForce(const Scene& scene, const Bvh& bvh, int rays, uint3
         const HitRecord record = traceClosest(scene, bvh, origin, dir, kRayTmaxInfinite, &counters);
         const ClosestHit viewHit = traceClosestHit(view, origin, dir);
         ASSERT_EQ(viewHit.prim, record.prim) << scene.source << " ray " << i;
-        ASSERT_EQ(record.prim == gpu::kNoHit, expected.prim == gpu::kNoHit)
-            << scene.source << " ray " << i;
+        ASSERT_EQ(record.prim == gpu::kNoHit, expected.prim == gpu::kNoHit) << scene.source << " ray " << i;
         if (record.prim != expected.prim) {
             // A tie: two triangles meet the ray at the same point (shared edge, coplanar
             // overlap), their t differing by the triangle test's rounding. A box is culled only
@@ -191,17 +186,14 @@ void expectMatchesBruteForce(const Scene& scene, const Bvh& bvh, int rays, uint3
             const gpu::TraceRay ray = gpu::makeTraceRay(origin, dir);
             float ownT;
             glm::vec2 bary;
-            ASSERT_TRUE(gpu::intersectTriangle(ray, scene.vertex(record.prim, 0),
-                                               scene.vertex(record.prim, 1),
-                                               scene.vertex(record.prim, 2), kRayTmaxInfinite,
-                                               ownT, bary));
+            ASSERT_TRUE(gpu::intersectTriangle(ray, scene.vertex(record.prim, 0), scene.vertex(record.prim, 1),
+                                               scene.vertex(record.prim, 2), kRayTmaxInfinite, ownT, bary));
             EXPECT_EQ(ownT, record.t);
             // The test's t error grows with the triangles' distance from the origin relative to
             // t (cancellation in Woop's t = T / det): allow 1e-5 of the larger of the two.
             float farthest = 0.0f;
             for (uint32_t prim : {record.prim, expected.prim})
-                for (int c = 0; c < 3; ++c)
-                    farthest = std::max(farthest, glm::length(scene.vertex(prim, c) - origin));
+                for (int c = 0; c < 3; ++c) farthest = std::max(farthest, glm::length(scene.vertex(prim, c) - origin));
             const float scale = std::max(expected.t, farthest / glm::length(dir));
             EXPECT_NEAR(record.t, expected.t, 1e-5f * scale) << scene.source << " ray " << i;
             ++ties;
@@ -223,11 +215,9 @@ void expectMatchesBruteForce(const Scene& scene, const Bvh& bvh, int rays, uint3
         // some triangle: the same as brute force.
         const float tmax = expected.prim != gpu::kNoHit ? 0.5f * expected.t : 10.0f;
         const uint32_t skip = tri;
-        EXPECT_EQ(traceOccluded(scene, bvh, origin, dir, tmax, skip),
-                  bruteOccluded(scene, origin, dir, tmax, skip))
+        EXPECT_EQ(traceOccluded(scene, bvh, origin, dir, tmax, skip), bruteOccluded(scene, origin, dir, tmax, skip))
             << scene.source << " ray " << i;
-        EXPECT_EQ(traceOccluded(view, origin, dir, tmax, skip),
-                  bruteOccluded(scene, origin, dir, tmax, skip));
+        EXPECT_EQ(traceOccluded(view, origin, dir, tmax, skip), bruteOccluded(scene, origin, dir, tmax, skip));
     }
     EXPECT_GT(hits, rays / 10) << scene.source;
     EXPECT_LE(ties, rays / 100) << scene.source << ": ties should be rare";
@@ -288,10 +278,9 @@ Scene uvSphere(glm::vec3 centre, float radius, int rings, int segments) {
     for (int r = 1; r < rings; ++r) {
         for (int s = 0; s < segments; ++s) {
             const double theta = M_PI * r / rings, phi = 2.0 * M_PI * s / segments;
-            scene.positions.push_back(
-                centre + radius * glm::vec3(float(std::sin(theta) * std::cos(phi)),
-                                            float(std::cos(theta)),
-                                            float(std::sin(theta) * std::sin(phi))));
+            scene.positions.push_back(centre + radius * glm::vec3(float(std::sin(theta) * std::cos(phi)),
+                                                                  float(std::cos(theta)),
+                                                                  float(std::sin(theta) * std::sin(phi))));
         }
     }
     for (int r = 0; r < rings; ++r) {
@@ -308,8 +297,7 @@ Scene uvSphere(glm::vec3 centre, float radius, int rings, int segments) {
 TEST(ClosestHit, NoLeaksThroughSharedEdgesAndVertices) {
     const glm::vec3 centre(3.0f, -2.0f, 7.5f);
     const std::vector<std::pair<Scene, std::vector<glm::vec3>>> cases = {
-        {tessellatedCube(5),
-         {glm::vec3(0.0f), glm::vec3(0.3f, -0.45f, 0.1f), glm::vec3(0.9f, 0.9f, -0.9f)}},
+        {tessellatedCube(5), {glm::vec3(0.0f), glm::vec3(0.3f, -0.45f, 0.1f), glm::vec3(0.9f, 0.9f, -0.9f)}},
         {uvSphere(centre, 2.0f, 24, 32), {centre, centre + glm::vec3(0.5f, 0.7f, -0.2f)}},
     };
     for (const auto& [scene, origins] : cases) {
@@ -323,8 +311,7 @@ TEST(ClosestHit, NoLeaksThroughSharedEdgesAndVertices) {
                         const glm::vec3 dir = a + f * (b - a) - origin;
                         const HitRecord hit = traceClosest(scene, bvh, origin, dir);
                         ASSERT_NE(hit.prim, gpu::kNoHit)
-                            << scene.source << ": a ray through triangle " << tri << " edge " << e
-                            << " escaped";
+                            << scene.source << ": a ray through triangle " << tri << " edge " << e << " escaped";
                         ++rays;
                     }
                 }
@@ -338,11 +325,10 @@ TEST(ClosestHit, NoLeaksThroughSharedEdgesAndVertices) {
 Scene plateOverGround() {
     Scene scene;
     scene.source = "plate over ground";
-    scene.positions = {glm::vec3(-4, 0, -4), glm::vec3(4, 0, -4), glm::vec3(4, 0, 4),
-                       glm::vec3(-4, 0, 4), glm::vec3(-0.5f, 1, -0.5f), glm::vec3(0.5f, 1, -0.5f),
+    scene.positions = {glm::vec3(-4, 0, -4),     glm::vec3(4, 0, -4),        glm::vec3(4, 0, 4),
+                       glm::vec3(-4, 0, 4),      glm::vec3(-0.5f, 1, -0.5f), glm::vec3(0.5f, 1, -0.5f),
                        glm::vec3(0.5f, 1, 0.5f), glm::vec3(-0.5f, 1, 0.5f)};
-    scene.triangles = {glm::uvec3(0, 1, 2), glm::uvec3(0, 2, 3), glm::uvec3(4, 5, 6),
-                       glm::uvec3(4, 6, 7)};
+    scene.triangles = {glm::uvec3(0, 1, 2), glm::uvec3(0, 2, 3), glm::uvec3(4, 5, 6), glm::uvec3(4, 6, 7)};
     return scene;
 }
 
@@ -368,8 +354,7 @@ TEST(Shadows, MatchTheShadowComputedByHand) {
             EXPECT_EQ(r.shadow, gpu::kShadowNone);
             continue;
         }
-        const glm::vec3 p =
-            glm::vec3(r.orgX, r.orgY, r.orgZ) + r.t * glm::vec3(r.dirX, r.dirY, r.dirZ);
+        const glm::vec3 p = glm::vec3(r.orgX, r.orgY, r.orgZ) + r.t * glm::vec3(r.dirX, r.dirY, r.dirZ);
         if (r.prim >= 2) {  // the plate's top faces the light: lit, no acne
             EXPECT_EQ(r.shadow, gpu::kShadowLit) << "acne on the plate at " << p.x << "," << p.z;
             ++plateLit;
@@ -423,8 +408,7 @@ TEST(Render, FrameContents) {
     settings.width = 64;
     settings.height = 48;
     settings.camera = frameScene(scene.bounds());
-    const Frame frame =
-        renderCpu(scene, bvh, settings, {.image = true, .hits = true, .counters = true});
+    const Frame frame = renderCpu(scene, bvh, settings, {.image = true, .hits = true, .counters = true});
     ASSERT_EQ(frame.rgba.size(), 64u * 48u);
     ASSERT_EQ(frame.hits.size(), 64u * 48u);
     ASSERT_EQ(frame.counters.size(), 64u * 48u);
@@ -479,9 +463,8 @@ TEST(Render, FrameContents) {
     for (size_t i = 0; i < heatFrame.rgba.size(); ++i) {
         const RayCounters& c = heatFrame.counters[i];
         EXPECT_EQ(heatFrame.rgba[i],
-                  gpu::packRgba8(glm::vec4(gpu::heatColorForCount(c.primaryNodes + c.shadowNodes,
-                                                                  gpu::kHeatFullScaleNodes),
-                                           1.0f)));
+                  gpu::packRgba8(glm::vec4(
+                      gpu::heatColorForCount(c.primaryNodes + c.shadowNodes, gpu::kHeatFullScaleNodes), 1.0f)));
     }
 }
 
@@ -496,8 +479,7 @@ TEST(Render, EveryPixelOnceAtOddSizes) {
         settings.width = width;
         settings.height = height;
         settings.camera = frameScene(scene.bounds());
-        const Frame frame =
-            renderCpu(view, settings, {.image = false, .hits = true, .counters = true});
+        const Frame frame = renderCpu(view, settings, {.image = false, .hits = true, .counters = true});
         ASSERT_EQ(frame.hits.size(), size_t(width) * height);
         const gpu::GpuCamera camera = makeGpuCamera(settings.camera, width, height);
         const glm::vec3 eye = gpu::cameraEye(camera);
@@ -507,12 +489,9 @@ TEST(Render, EveryPixelOnceAtOddSizes) {
                 const size_t i = size_t(y) * width + x;
                 const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
                 TraversalCounts counts;
-                const ClosestHit single =
-                    traceClosestHit(view, eye, dir, kRayTmaxInfinite, &counts);
-                ASSERT_EQ(frame.hits[i].prim, single.prim)
-                    << width << "x" << height << " pixel " << x << "," << y;
-                ASSERT_EQ(std::bit_cast<uint32_t>(frame.hits[i].t),
-                          std::bit_cast<uint32_t>(single.t));
+                const ClosestHit single = traceClosestHit(view, eye, dir, kRayTmaxInfinite, &counts);
+                ASSERT_EQ(frame.hits[i].prim, single.prim) << width << "x" << height << " pixel " << x << "," << y;
+                ASSERT_EQ(std::bit_cast<uint32_t>(frame.hits[i].t), std::bit_cast<uint32_t>(single.t));
                 ASSERT_EQ(frame.counters[i].primaryNodes, counts.nodes);
                 ASSERT_EQ(frame.counters[i].primaryTests, counts.tests);
                 if (!single.hit()) {
@@ -521,11 +500,9 @@ TEST(Render, EveryPixelOnceAtOddSizes) {
                 }
                 ++hits;
                 TraversalCounts shadowCounts;
-                const bool occluded = traceShadowOccluded(
-                    view, frame.light, gpu::hitPosition(eye, dir, single.t), single.prim,
-                    &shadowCounts);
-                ASSERT_EQ(frame.hits[i].shadow,
-                          occluded ? gpu::kShadowOccluded : gpu::kShadowLit);
+                const bool occluded = traceShadowOccluded(view, frame.light, gpu::hitPosition(eye, dir, single.t),
+                                                          single.prim, &shadowCounts);
+                ASSERT_EQ(frame.hits[i].shadow, occluded ? gpu::kShadowOccluded : gpu::kShadowLit);
                 ASSERT_EQ(frame.counters[i].shadowNodes, shadowCounts.nodes);
                 ASSERT_EQ(frame.counters[i].shadowTests, shadowCounts.tests);
             }
@@ -590,17 +567,14 @@ TEST(Camera, FrameSceneAndLight) {
 
 // intersectChildBoxes must give, bit for bit, what gpu::intersectBox gives for each child: the
 // same hit decision and the same entry distance (the traversal orders and culls with it).
-void expectChildBoxesMatch(const gpu::TraceRay& ray, const BvhNode* children, float tmax,
-                           const char* what) {
+void expectChildBoxesMatch(const gpu::TraceRay& ray, const BvhNode* children, float tmax, const char* what) {
     const ChildBoxHits pair = intersectChildBoxes(makeChildBoxRay(ray, tmax), children);
     for (int child = 0; child < 2; ++child) {
         float tEntry = -1.0f;
-        const bool hit =
-            gpu::intersectBox(ray, children[child].lo, children[child].hi, tmax, tEntry);
+        const bool hit = gpu::intersectBox(ray, children[child].lo, children[child].hi, tmax, tEntry);
         const float pairEntry = child == 0 ? pair.tLeft : pair.tRight;
-        ASSERT_EQ(((pair.mask >> child) & 1u) != 0, hit)
-            << what << ": child " << child << " dir " << ray.dir.x << "," << ray.dir.y << ","
-            << ray.dir.z << " tmax " << tmax;
+        ASSERT_EQ(((pair.mask >> child) & 1u) != 0, hit) << what << ": child " << child << " dir " << ray.dir.x << ","
+                                                         << ray.dir.y << "," << ray.dir.z << " tmax " << tmax;
         ASSERT_EQ(std::bit_cast<uint32_t>(pairEntry), std::bit_cast<uint32_t>(tEntry))
             << what << ": child " << child << " entry " << pairEntry << " vs " << tEntry;
     }
@@ -615,19 +589,19 @@ TEST(ChildBoxes, BitIdenticalToIntersectBoxOnAdversarialBoxes) {
     const float scales[] = {1.0f, 1e-3f, 1e3f, 1e-30f, 1e30f, 3.0e38f};
     const auto coordinate = [&](float origin) {
         switch (pick(rng)) {
-            case 0: return 0.0f;
-            case 1: return -0.0f;
-            case 2: return origin;  // a face through the ray origin
-            default: return unit(rng) * scales[pick(rng) % 6];
+        case 0: return 0.0f;
+        case 1: return -0.0f;
+        case 2: return origin;  // a face through the ray origin
+        default: return unit(rng) * scales[pick(rng) % 6];
         }
     };
     const auto directionComponent = [&]() {
         switch (pick(rng)) {
-            case 0: return 0.0f;               // parallel
-            case 1: return -0.0f;              // parallel, negative zero
-            case 2: return 1e-39f;             // denormal: parallel by kParallelEpsilon
-            case 3: return unit(rng) * 1e-30f; // 1/d overflows the box distances to inf
-            default: return unit(rng);
+        case 0: return 0.0f;                // parallel
+        case 1: return -0.0f;               // parallel, negative zero
+        case 2: return 1e-39f;              // denormal: parallel by kParallelEpsilon
+        case 3: return unit(rng) * 1e-30f;  // 1/d overflows the box distances to inf
+        default: return unit(rng);
         }
     };
     int tested = 0;
@@ -663,15 +637,13 @@ TEST(ChildBoxes, BitIdenticalToIntersectBoxOnAdversarialBoxes) {
 }
 
 TEST(ChildBoxes, BitIdenticalToIntersectBoxOnATree) {
-    const Scene scene = loadScene(std::filesystem::path(RAYPACK_SHARED_SCENES) /
-                                  "sibenik/sibenik_geom_75284.ply");
+    const Scene scene = loadScene(std::filesystem::path(RAYPACK_SHARED_SCENES) / "sibenik/sibenik_geom_75284.ply");
     const Bvh bvh = build(scene, 1);
     const Aabb bounds = scene.bounds();
     std::mt19937 rng(22);
     std::uniform_real_distribution<float> unit(0.0f, 1.0f);
     for (int i = 0; i < 48; ++i) {
-        const glm::vec3 origin =
-            bounds.lo + glm::vec3(unit(rng), unit(rng), unit(rng)) * bounds.extent();
+        const glm::vec3 origin = bounds.lo + glm::vec3(unit(rng), unit(rng), unit(rng)) * bounds.extent();
         glm::vec3 dir = randomDirection(rng);
         if (i % 8 == 0) dir = glm::vec3(0.0f, i % 16 == 0 ? 1.0f : -1.0f, 0.0f);  // parallel
         const gpu::TraceRay ray = gpu::makeTraceRay(origin, dir);
@@ -695,9 +667,7 @@ TEST(CpuSceneView, NodesAreAVerbatimCopyWithSiblingsOnOneLine) {
             options.leafSize = leafSize;
             const Bvh bvh = buildBvh(scene, options);
             const CpuSceneView view = makeCpuSceneView(scene, bvh);
-            ASSERT_EQ(std::memcmp(view.nodes(), bvh.nodes.data(),
-                                  bvh.nodes.size() * sizeof(BvhNode)),
-                      0);
+            ASSERT_EQ(std::memcmp(view.nodes(), bvh.nodes.data(), bvh.nodes.size() * sizeof(BvhNode)), 0);
             for (const BvhNode& node : bvh.nodes) {
                 if (node.isLeaf()) continue;
                 EXPECT_EQ(reinterpret_cast<uintptr_t>(view.nodes() + node.index) % 64, 0u)
@@ -717,8 +687,8 @@ struct PlainTrace {
     TraversalCounts counts;
 };
 
-PlainTrace plainTraversal(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir,
-                          float tmax, bool anyHit, uint32_t skipPrim) {
+PlainTrace plainTraversal(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax, bool anyHit,
+                          uint32_t skipPrim) {
     const gpu::TraceRay ray = gpu::makeTraceRay(origin, dir);
     PlainTrace out;
     float bestT = tmax;
@@ -737,8 +707,8 @@ PlainTrace plainTraversal(const Scene& scene, const Bvh& bvh, glm::vec3 origin, 
                 ++out.counts.tests;
                 float t;
                 glm::vec2 bary;
-                if (!gpu::intersectTriangle(ray, scene.vertex(prim, 0), scene.vertex(prim, 1),
-                                            scene.vertex(prim, 2), bestT, t, bary))
+                if (!gpu::intersectTriangle(ray, scene.vertex(prim, 0), scene.vertex(prim, 1), scene.vertex(prim, 2),
+                                            bestT, t, bary))
                     continue;
                 if (anyHit) {
                     out.occluded = true;
@@ -752,10 +722,8 @@ PlainTrace plainTraversal(const Scene& scene, const Bvh& bvh, glm::vec3 origin, 
         } else {
             const uint32_t left = node.index, right = node.index + 1;
             float tLeft, tRight;
-            const bool hitLeft =
-                gpu::intersectBox(ray, bvh.nodes[left].lo, bvh.nodes[left].hi, bestT, tLeft);
-            const bool hitRight =
-                gpu::intersectBox(ray, bvh.nodes[right].lo, bvh.nodes[right].hi, bestT, tRight);
+            const bool hitLeft = gpu::intersectBox(ray, bvh.nodes[left].lo, bvh.nodes[left].hi, bestT, tLeft);
+            const bool hitRight = gpu::intersectBox(ray, bvh.nodes[right].lo, bvh.nodes[right].hi, bestT, tRight);
             if (hitLeft && hitRight) {
                 if (tRight < tLeft) {
                     stack.push_back({left, tLeft});
@@ -792,9 +760,8 @@ void expectSameTraversal(const Scene& scene, const Bvh& bvh, int rays, uint32_t 
     int hits = 0, occlusions = 0;
     uint64_t nodes = 0;
     for (int i = 0; i < rays; ++i) {
-        const glm::vec3 origin = bounds.lo - 0.1f * bounds.extent() +
-                                 glm::vec3(unit(rng), unit(rng), unit(rng)) * 1.2f *
-                                     bounds.extent();
+        const glm::vec3 origin =
+            bounds.lo - 0.1f * bounds.extent() + glm::vec3(unit(rng), unit(rng), unit(rng)) * 1.2f * bounds.extent();
         const uint32_t tri = anyTriangle(rng);
         glm::vec3 dir = i % 2 ? randomDirection(rng) : scene.vertex(tri, i % 3) - origin;
         if (i % 10 == 0) dir = glm::vec3(0.0f);
@@ -802,8 +769,7 @@ void expectSameTraversal(const Scene& scene, const Bvh& bvh, int rays, uint32_t 
         if (dir == glm::vec3(0.0f)) continue;
         TraversalCounts counts;
         const ClosestHit hit = traceClosestHit(view, origin, dir, kRayTmaxInfinite, &counts);
-        const PlainTrace plain =
-            plainTraversal(scene, bvh, origin, dir, kRayTmaxInfinite, false, 0);
+        const PlainTrace plain = plainTraversal(scene, bvh, origin, dir, kRayTmaxInfinite, false, 0);
         ASSERT_EQ(hit.prim, plain.hit.prim) << scene.source << " ray " << i;
         ASSERT_EQ(std::bit_cast<uint32_t>(hit.t), std::bit_cast<uint32_t>(plain.hit.t));
         ASSERT_EQ(std::bit_cast<uint32_t>(hit.bary.x), std::bit_cast<uint32_t>(plain.hit.bary.x));
@@ -838,8 +804,7 @@ TEST(ClosestHit, SameVisitsAsThePlainTraversal) {
     expectSameTraversal(ties, build(ties, 1), 2000, 33);
     const Scene cube = tessellatedCube(6);
     expectSameTraversal(cube, build(cube, 1), 2000, 34);
-    const Scene sibenik = loadScene(std::filesystem::path(RAYPACK_SHARED_SCENES) /
-                                    "sibenik/sibenik_geom_75284.ply");
+    const Scene sibenik = loadScene(std::filesystem::path(RAYPACK_SHARED_SCENES) / "sibenik/sibenik_geom_75284.ply");
     expectSameTraversal(sibenik, build(sibenik, 1), 3000, 35);
 }
 

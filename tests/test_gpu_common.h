@@ -45,9 +45,7 @@ inline LoadedScene loadForTest(const std::string& spec) {
     return s;
 }
 
-inline std::string sharedScene(const char* relative) {
-    return std::string(RAYPACK_SHARED_SCENES) + "/" + relative;
-}
+inline std::string sharedScene(const char* relative) { return std::string(RAYPACK_SHARED_SCENES) + "/" + relative; }
 
 // Pixels whose RGBA8 values differ in any channel.
 inline size_t differingPixels(const Frame& a, const Frame& b) {
@@ -60,9 +58,9 @@ inline size_t differingPixels(const Frame& a, const Frame& b) {
 
 struct HitAgreement {
     size_t rays = 0;
-    size_t agree = 0;          // same hit/miss, t within 1e-4 relative
-    size_t shadowRays = 0;     // pixels where the reference traced a shadow ray
-    size_t shadowAgree = 0;    // ... and the GPU reports the same lit/occluded state
+    size_t agree = 0;        // same hit/miss, t within 1e-4 relative
+    size_t shadowRays = 0;   // pixels where the reference traced a shadow ray
+    size_t shadowAgree = 0;  // ... and the GPU reports the same lit/occluded state
 };
 
 inline HitAgreement compareHits(const Frame& gpu, const Frame& cpu) {
@@ -73,9 +71,7 @@ inline HitAgreement compareHits(const Frame& gpu, const Frame& cpu) {
         const HitRecord& c = cpu.hits[i];
         ++h.rays;
         const bool gHit = g.prim != gpu::kNoHit, cHit = c.prim != gpu::kNoHit;
-        if (gHit == cHit &&
-            (!cHit || std::abs(g.t - c.t) <= 1e-4f * std::max(std::abs(c.t), 1e-30f)))
-            ++h.agree;
+        if (gHit == cHit && (!cHit || std::abs(g.t - c.t) <= 1e-4f * std::max(std::abs(c.t), 1e-30f))) ++h.agree;
         if (c.shadow != gpu::kShadowNone) {
             ++h.shadowRays;
             if (g.shadow == c.shadow) ++h.shadowAgree;
@@ -101,8 +97,6 @@ inline void expectMatchesReference(const Frame& gpu, const Frame& cpu, const std
     ::testing::Test::RecordProperty(what + " differing pixels", int(differing));
 }
 
-inline void expectNoValidationMessages() {
-    EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
-}
+inline void expectNoValidationMessages() { EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u); }
 
 }  // namespace raypack::test

@@ -83,12 +83,12 @@ TEST(GpuContext, BuffersRoundTripThroughUpload) {
     std::vector<uint32_t> data(1000);
     for (uint32_t i = 0; i < data.size(); ++i) data[i] = i * 2654435761u;
     const VkDeviceSize bytes = data.size() * 4;
-    vk::Buffer device = vk::createBuffer(
-        ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-        VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "test data");
-    vk::Buffer host = vk::createBuffer(
-        ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "read-back");
+    vk::Buffer device =
+        vk::createBuffer(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                         VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "test data");
+    vk::Buffer host =
+        vk::createBuffer(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                         VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "read-back");
     vk::uploadToBuffer(ctx, pool, device, data.data(), bytes);
     vk::submitAndWait(ctx, pool, [&](VkCommandBuffer cmd) {
         VkBufferCopy region{0, 0, bytes};

@@ -7,8 +7,7 @@
 namespace raypack::test {
 namespace {
 
-void compareAt800(const LoadedScene& s, const Camera& camera, KernelKind kernel,
-                  const std::string& what) {
+void compareAt800(const LoadedScene& s, const Camera& camera, KernelKind kernel, const std::string& what) {
     GpuTracer tracer(validatedContext());
     const double uploadSeconds = tracer.upload(s.scene, s.bvh);
     EXPECT_GT(uploadSeconds, 0.0);
@@ -24,9 +23,8 @@ void compareAt800(const LoadedScene& s, const Camera& camera, KernelKind kernel,
     EXPECT_GT(gpu.timings.primarySeconds, 0.0);
     EXPECT_GT(gpu.timings.shadowSeconds, 0.0);
     expectMatchesReference(gpu, cpu, what);
-    std::printf("%s: T_CU %.3f s, T_K primary %.3f s, shadow %.3f s (%s)\n", what.c_str(),
-                uploadSeconds, gpu.timings.primarySeconds, gpu.timings.shadowSeconds,
-                tracer.device().name.c_str());
+    std::printf("%s: T_CU %.3f s, T_K primary %.3f s, shadow %.3f s (%s)\n", what.c_str(), uploadSeconds,
+                gpu.timings.primarySeconds, gpu.timings.shadowSeconds, tracer.device().name.c_str());
     expectNoValidationMessages();
 }
 

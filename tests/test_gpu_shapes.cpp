@@ -47,10 +47,9 @@ TEST_F(GpuShapes, EveryPacketShapeMatchesReference) {
             settings.kernel = kernel;
             settings.packet = shape;
             const Frame gpu = tracer_->render(settings, request);
-            expectMatchesReference(gpu, cpu,
-                                   std::string(toString(kernel)) + " " +
-                                       std::to_string(shape.width) + "x" +
-                                       std::to_string(shape.height));
+            expectMatchesReference(
+                gpu, cpu,
+                std::string(toString(kernel)) + " " + std::to_string(shape.width) + "x" + std::to_string(shape.height));
         }
     }
     expectNoValidationMessages();
@@ -68,9 +67,7 @@ TEST_F(GpuShapes, PacketsOfOneSubgroupMatchReference) {
     for (const PacketShape shape : shapes) {
         settings.packet = shape;
         const Frame gpu = tracer_->render(settings, request);
-        expectMatchesReference(gpu, cpu,
-                               "packet " + std::to_string(shape.width) + "x" +
-                                   std::to_string(shape.height));
+        expectMatchesReference(gpu, cpu, "packet " + std::to_string(shape.width) + "x" + std::to_string(shape.height));
     }
     expectNoValidationMessages();
 }
@@ -127,12 +124,10 @@ TEST_F(GpuShapes, HostTimedPassesKeepTheFrameAndTimeEachPass) {
     tracer_->setHostTimedPasses(false);
     EXPECT_EQ(byTimestamps.rgba, byHost.rgba);
     ASSERT_EQ(byTimestamps.hits.size(), byHost.hits.size());
-    EXPECT_EQ(0, std::memcmp(byTimestamps.hits.data(), byHost.hits.data(),
-                             byHost.hits.size() * sizeof(HitRecord)));
+    EXPECT_EQ(0, std::memcmp(byTimestamps.hits.data(), byHost.hits.data(), byHost.hits.size() * sizeof(HitRecord)));
     EXPECT_GT(byHost.timings.primarySeconds, 0.0);
     EXPECT_GT(byHost.timings.shadowSeconds, 0.0);
-    EXPECT_LE(byHost.timings.primarySeconds + byHost.timings.shadowSeconds,
-              byHost.timings.totalSeconds);
+    EXPECT_LE(byHost.timings.primarySeconds + byHost.timings.shadowSeconds, byHost.timings.totalSeconds);
     EXPECT_GT(byHostNoShadows.timings.primarySeconds, 0.0);
     EXPECT_EQ(byHostNoShadows.timings.shadowSeconds, 0.0);
     expectNoValidationMessages();
@@ -147,8 +142,7 @@ TEST_F(GpuShapes, HeatViewsShowWork) {
     ASSERT_EQ(heat.counters.size(), heat.rgba.size());
     for (size_t i = 0; i < heat.rgba.size(); ++i) {
         const RayCounters& c = heat.counters[i];
-        const glm::vec3 color =
-            gpu::heatColorForCount(c.primaryNodes + c.shadowNodes, gpu::kHeatFullScaleNodes);
+        const glm::vec3 color = gpu::heatColorForCount(c.primaryNodes + c.shadowNodes, gpu::kHeatFullScaleNodes);
         EXPECT_EQ(heat.rgba[i], gpu::packRgba8(glm::vec4(color, 1.0f))) << "pixel " << i;
     }
     EXPECT_NE(heat.rgba, shaded.rgba);
@@ -166,9 +160,9 @@ TEST_F(GpuShapes, RecordedFrameEqualsSynchronousRender) {
     poolInfo.queueFamilyIndex = ctx.queueFamily;
     VkCommandPool pool;
     ASSERT_EQ(vkCreateCommandPool(ctx.device, &poolInfo, nullptr, &pool), VK_SUCCESS);
-    vk::Buffer host = vk::createBuffer(
-        ctx, 120 * 90 * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "read-back");
+    vk::Buffer host =
+        vk::createBuffer(ctx, 120 * 90 * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                         VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "read-back");
     for (const bool bgra : {false, true}) {
         vk::submitAndWait(ctx, pool, [&](VkCommandBuffer cmd) {
             tracer_->recordFrame(cmd, settings, {bgra});
@@ -179,9 +173,7 @@ TEST_F(GpuShapes, RecordedFrameEqualsSynchronousRender) {
         std::memcpy(pixels.data(), host.mapped, pixels.size() * 4);
         for (size_t i = 0; i < pixels.size(); ++i) {
             uint32_t expected = reference.rgba[i];
-            if (bgra)
-                expected = (expected & 0xFF00FF00u) | ((expected & 0xFFu) << 16) |
-                           ((expected >> 16) & 0xFFu);
+            if (bgra) expected = (expected & 0xFF00FF00u) | ((expected & 0xFFu) << 16) | ((expected >> 16) & 0xFFu);
             ASSERT_EQ(pixels[i], expected) << "pixel " << i << (bgra ? " (BGRA)" : "");
         }
         const std::optional<FrameTimings> times = tracer_->lastKernelTimes();
@@ -228,8 +220,7 @@ TEST(GpuDeepTree, StackIsSizedFromTheTree) {
         settings.kernel = kernel;
         for (const PacketShape shape : {PacketShape{8, 4}, PacketShape{16, 16}}) {
             settings.packet = shape;
-            expectMatchesReference(tracer.render(settings, request), cpu,
-                                   std::string("deep ") + toString(kernel));
+            expectMatchesReference(tracer.render(settings, request), cpu, std::string("deep ") + toString(kernel));
         }
     }
     expectNoValidationMessages();

@@ -5,14 +5,14 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
-#include <functional>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <random>
-#include <unistd.h>
 
 namespace {
 
@@ -21,9 +21,9 @@ using namespace raypack;
 class TempDir : public ::testing::Test {
 protected:
     void SetUp() override {
-        dir_ = std::filesystem::temp_directory_path() /
-               ("raypack_test_image_" + std::to_string(::getpid()) + "_" +
-                ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        dir_ =
+            std::filesystem::temp_directory_path() / ("raypack_test_image_" + std::to_string(::getpid()) + "_" +
+                                                      ::testing::UnitTest::GetInstance()->current_test_info()->name());
         std::filesystem::create_directories(dir_);
     }
     void TearDown() override { std::filesystem::remove_all(dir_); }
@@ -78,10 +78,8 @@ TEST_F(Png, ErrorsNameTheFile) {
     expectErrorMentioning([&] { readPng(path("missing.png")); }, "missing.png");
     std::ofstream(path("junk.png")) << "not a png at all";
     expectErrorMentioning([&] { readPng(path("junk.png")); }, "junk.png");
-    expectErrorMentioning([&] { writePng(path("no/such/dir/x.png"), randomImage(2, 2, 3)); },
-                          "x.png");
-    expectErrorMentioning([&] { writePng(path("bad.png"), 4, 4, std::vector<uint32_t>(3)); },
-                          "bad.png");
+    expectErrorMentioning([&] { writePng(path("no/such/dir/x.png"), randomImage(2, 2, 3)); }, "x.png");
+    expectErrorMentioning([&] { writePng(path("bad.png"), 4, 4, std::vector<uint32_t>(3)); }, "bad.png");
 }
 
 TEST(Diff, IdenticalImages) {
@@ -117,9 +115,8 @@ TEST(Diff, CountsShareMaxAndPsnrByHand) {
 }
 
 TEST(Diff, SizeMismatchNamesBothImages) {
-    expectErrorMentioning(
-        [] { diffImages(randomImage(4, 4, 1), randomImage(4, 5, 1), 0, "left.png", "right.png"); },
-        "right.png");
+    expectErrorMentioning([] { diffImages(randomImage(4, 4, 1), randomImage(4, 5, 1), 0, "left.png", "right.png"); },
+                          "right.png");
 }
 
 using Hits = TempDir;
@@ -160,22 +157,21 @@ TEST_F(Hits, RoundTripAndExactLayout) {
 
     // The bytes themselves, as docs/hits-format.md gives them (little-endian).
     std::ifstream in(path("h.bin"), std::ios::binary);
-    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                     std::istreambuf_iterator<char>());
+    std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     EXPECT_EQ(std::string(bytes.begin(), bytes.begin() + 8), "RPKHITS1");
     EXPECT_EQ(bytes[8], 3);   // width, low byte first
     EXPECT_EQ(bytes[12], 2);  // height
     auto word = [&](size_t offset) {
-        return uint32_t(bytes[offset]) | uint32_t(bytes[offset + 1]) << 8 |
-               uint32_t(bytes[offset + 2]) << 16 | uint32_t(bytes[offset + 3]) << 24;
+        return uint32_t(bytes[offset]) | uint32_t(bytes[offset + 1]) << 8 | uint32_t(bytes[offset + 2]) << 16 |
+               uint32_t(bytes[offset + 3]) << 24;
     };
-    EXPECT_EQ(word(16), 0x3FC00000u);  // light.x = 1.5f
-    EXPECT_EQ(word(28), 0u);           // reserved
-    const size_t record1 = 32 + 40;    // second record
-    EXPECT_EQ(word(record1 + 0), 0x3F800000u);      // org.x = 1.0f
-    EXPECT_EQ(word(record1 + 24), 0x3F800000u);     // t = 1.0f
-    EXPECT_EQ(word(record1 + 28), 1001u);           // prim
-    EXPECT_EQ(word(record1 + 32), 1u);              // shadow: occluded
+    EXPECT_EQ(word(16), 0x3FC00000u);                // light.x = 1.5f
+    EXPECT_EQ(word(28), 0u);                         // reserved
+    const size_t record1 = 32 + 40;                  // second record
+    EXPECT_EQ(word(record1 + 0), 0x3F800000u);       // org.x = 1.0f
+    EXPECT_EQ(word(record1 + 24), 0x3F800000u);      // t = 1.0f
+    EXPECT_EQ(word(record1 + 28), 1001u);            // prim
+    EXPECT_EQ(word(record1 + 32), 1u);               // shadow: occluded
     EXPECT_EQ(word(32 + 4 * 40 + 24), 0x7F800000u);  // the miss: t = +inf
     EXPECT_EQ(word(32 + 4 * 40 + 28), 0xFFFFFFFFu);  // prim = none
     EXPECT_EQ(word(32 + 4 * 40 + 32), 2u);           // no shadow ray
@@ -195,20 +191,17 @@ TEST_F(Hits, WriteFromAFrame) {
 }
 
 // Writes `bytes` to a file and expects readHits to reject it with `text` in the message.
-void expectRejected(const std::string& file, const std::vector<unsigned char>& bytes,
-                    const std::string& text) {
+void expectRejected(const std::string& file, const std::vector<unsigned char>& bytes, const std::string& text) {
     std::ofstream(file, std::ios::binary)
         .write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
     const std::string message = expectErrorMentioning([&] { readHits(file); }, text);
-    EXPECT_NE(message.find(std::filesystem::path(file).filename().string()), std::string::npos)
-        << message;
+    EXPECT_NE(message.find(std::filesystem::path(file).filename().string()), std::string::npos) << message;
 }
 
 TEST_F(Hits, RejectsBadFiles) {
     writeHits(path("good.bin"), sampleHits());
     std::ifstream in(path("good.bin"), std::ios::binary);
-    const std::vector<unsigned char> good((std::istreambuf_iterator<char>(in)),
-                                          std::istreambuf_iterator<char>());
+    const std::vector<unsigned char> good((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
 
     expectErrorMentioning([&] { readHits(path("absent.bin")); }, "absent.bin");
     expectRejected(path("empty.bin"), {}, "truncated");

@@ -7,12 +7,12 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <unistd.h>
 #include <random>
 #include <tuple>
 #include <vector>
@@ -27,8 +27,7 @@ struct Mesh {
 };
 
 // Vertex index of p, adding it when new (exact float equality: shared vertices are bit-identical).
-uint32_t vertexIndex(Mesh& mesh, std::map<std::tuple<float, float, float>, uint32_t>& index,
-                     vec3 p) {
+uint32_t vertexIndex(Mesh& mesh, std::map<std::tuple<float, float, float>, uint32_t>& index, vec3 p) {
     const auto key = std::make_tuple(p.x, p.y, p.z);
     const auto it = index.find(key);
     if (it != index.end()) return it->second;
@@ -48,8 +47,7 @@ Mesh makeSphere(int rings, int segments, float radius) {
         if (ring == rings) return vec3(0.0f, -radius, 0.0f);
         const double theta = M_PI * ring / rings;
         const double phi = 2.0 * M_PI * (segment % segments) / segments;
-        return vec3(float(radius * std::sin(theta) * std::cos(phi)),
-                    float(radius * std::cos(theta)),
+        return vec3(float(radius * std::sin(theta) * std::cos(phi)), float(radius * std::cos(theta)),
                     float(radius * std::sin(theta) * std::sin(phi)));
     };
     for (int r = 0; r < rings; ++r) {
@@ -117,8 +115,8 @@ BruteHit closestBrute(const Mesh& mesh, vec3 org, vec3 dir) {
         const uvec3 tri = mesh.triangles[i];
         float t;
         vec2 bary;
-        if (intersectTriangle(ray, mesh.positions[tri.x], mesh.positions[tri.y],
-                              mesh.positions[tri.z], bestT, t, bary) &&
+        if (intersectTriangle(ray, mesh.positions[tri.x], mesh.positions[tri.y], mesh.positions[tri.z], bestT, t,
+                              bary) &&
             isCloserHit(t, i, bestT, best.prim)) {
             best = {true, t, i};
             bestT = t;
@@ -149,9 +147,9 @@ void expectWatertight(const Mesh& mesh, const std::vector<vec3>& origins, float 
         for (const vec3& target : targets) {
             const vec3 dir = target - origin;
             const BruteHit hit = closestBrute(mesh, origin, dir);
-            ASSERT_TRUE(hit.hit) << "ray from (" << origin.x << "," << origin.y << "," << origin.z
-                                 << ") to (" << target.x << "," << target.y << "," << target.z
-                                 << ") at scale " << scale << " leaked";
+            ASSERT_TRUE(hit.hit) << "ray from (" << origin.x << "," << origin.y << "," << origin.z << ") to ("
+                                 << target.x << "," << target.y << "," << target.z << ") at scale " << scale
+                                 << " leaked";
             // The target is on the surface (vertices exactly, edge points within rounding), so the
             // closest hit is at t = 1; a cube is flat there, a sphere chord is within rounding.
             EXPECT_NEAR(hit.t, 1.0f, 1e-4f) << "scale " << scale;
@@ -170,9 +168,7 @@ TEST(Watertight, SphereVerticesAndEdgesNeverLeak) {
     expectWatertight(makeSphere(12, 16, 1.0f), interiorOrigins(1.0f), 1.0f);
 }
 
-TEST(Watertight, CubeVerticesAndEdgesNeverLeak) {
-    expectWatertight(makeCube(4), interiorOrigins(1.0f), 1.0f);
-}
+TEST(Watertight, CubeVerticesAndEdgesNeverLeak) { expectWatertight(makeCube(4), interiorOrigins(1.0f), 1.0f); }
 
 TEST(Watertight, HugeAndTinyCoordinates) {
     for (float scale : {1e20f, 1e-20f}) {
@@ -221,28 +217,26 @@ TEST(Triangle, HitDistanceAndBarycentrics) {
     const TraceRay ray = makeTraceRay(vec3(0.25f, 0.5f, 2.0f), vec3(0.0f, 0.0f, -1.0f));
     float t;
     vec2 bary;
-    ASSERT_TRUE(intersectTriangle(ray, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 1.0f, 0.0f),
-                                  kFloatHuge, t, bary));
+    ASSERT_TRUE(
+        intersectTriangle(ray, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 1.0f, 0.0f), kFloatHuge, t, bary));
     EXPECT_FLOAT_EQ(t, 2.0f);
     EXPECT_FLOAT_EQ(bary.x, 0.25f);
     EXPECT_FLOAT_EQ(bary.y, 0.5f);
     // Both faces: the reversed triangle is hit identically.
-    ASSERT_TRUE(intersectTriangle(ray, vec3(0.0f), vec3(0.0f, 1.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f),
-                                  kFloatHuge, t, bary));
+    ASSERT_TRUE(
+        intersectTriangle(ray, vec3(0.0f), vec3(0.0f, 1.0f, 0.0f), vec3(1.0f, 0.0f, 0.0f), kFloatHuge, t, bary));
     EXPECT_FLOAT_EQ(t, 2.0f);
     EXPECT_FLOAT_EQ(bary.x, 0.5f);
     // tmax is inclusive and limits; behind the origin never hits.
-    EXPECT_TRUE(intersectTriangle(ray, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f),
-                                  vec3(0.0f, 1.0f, 0.0f), 2.0f, t, bary));
-    EXPECT_FALSE(intersectTriangle(ray, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f),
-                                   vec3(0.0f, 1.0f, 0.0f), 1.999f, t, bary));
+    EXPECT_TRUE(intersectTriangle(ray, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 1.0f, 0.0f), 2.0f, t, bary));
+    EXPECT_FALSE(intersectTriangle(ray, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 1.0f, 0.0f), 1.999f, t, bary));
     const TraceRay away = makeTraceRay(vec3(0.25f, 0.5f, 2.0f), vec3(0.0f, 0.0f, 1.0f));
-    EXPECT_FALSE(intersectTriangle(away, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f),
-                                   vec3(0.0f, 1.0f, 0.0f), kFloatHuge, t, bary));
+    EXPECT_FALSE(
+        intersectTriangle(away, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 1.0f, 0.0f), kFloatHuge, t, bary));
     // A ray in the triangle's plane does not hit it (det = 0).
     const TraceRay inPlane = makeTraceRay(vec3(-1.0f, 0.25f, 0.0f), vec3(1.0f, 0.0f, 0.0f));
-    EXPECT_FALSE(intersectTriangle(inPlane, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f),
-                                   vec3(0.0f, 1.0f, 0.0f), kFloatHuge, t, bary));
+    EXPECT_FALSE(
+        intersectTriangle(inPlane, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 1.0f, 0.0f), kFloatHuge, t, bary));
 }
 
 TEST(Triangle, DegenerateTrianglesAreNeverHit) {
@@ -272,8 +266,7 @@ TEST(Triangle, DegenerateTrianglesAreNeverHit) {
     // triangle to a sliver, so a ray that passes exactly through the segment may be reported hit;
     // then the hit must lie on the segment. Rays that pass beside it never hit.
     const vec3 p0(0.0f), p1(1.0f), p2(2.0f);
-    for (const vec3& origin :
-         {vec3(0.0f, 0.0f, 5.0f), vec3(3.0f, -4.0f, 1.0f), vec3(1.0f, 0.0f, 0.0f)}) {
+    for (const vec3& origin : {vec3(0.0f, 0.0f, 5.0f), vec3(3.0f, -4.0f, 1.0f), vec3(1.0f, 0.0f, 0.0f)}) {
         for (const vec3& target : {p0, p1, p2, vec3(0.5f), vec3(1.5f)}) {
             float t;
             vec2 bary;
@@ -301,35 +294,32 @@ TEST(Box, RaysInFacePlanesAndParallelRays) {
     for (float x : {0.0f, 1.0f}) {
         for (float dz : {1.0f, -1.0f}) {
             for (float zeroSign : {0.0f, -0.0f}) {
-                const TraceRay ray =
-                    makeTraceRay(vec3(x, 0.5f, dz > 0 ? -1.0f : 2.0f), vec3(zeroSign, zeroSign, dz));
+                const TraceRay ray = makeTraceRay(vec3(x, 0.5f, dz > 0 ? -1.0f : 2.0f), vec3(zeroSign, zeroSign, dz));
                 EXPECT_TRUE(intersectBox(ray, lo, hi, kFloatHuge, tEntry)) << x << " " << dz;
                 EXPECT_FLOAT_EQ(tEntry, 1.0f);
             }
         }
     }
     // Along an edge of the box (two face planes at once) and through a corner.
-    EXPECT_TRUE(intersectBox(makeTraceRay(vec3(1.0f, 1.0f, -1.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi,
-                             kFloatHuge, tEntry));
-    EXPECT_TRUE(intersectBox(makeTraceRay(vec3(1.0f, 0.0f, -5.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi,
-                             kFloatHuge, tEntry));
+    EXPECT_TRUE(
+        intersectBox(makeTraceRay(vec3(1.0f, 1.0f, -1.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi, kFloatHuge, tEntry));
+    EXPECT_TRUE(
+        intersectBox(makeTraceRay(vec3(1.0f, 0.0f, -5.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi, kFloatHuge, tEntry));
     // One ulp outside the slab: miss, on either side.
     const float justAbove = std::nextafter(1.0f, 2.0f), justBelow = std::nextafter(0.0f, -1.0f);
-    EXPECT_FALSE(intersectBox(makeTraceRay(vec3(justAbove, 0.5f, -1.0f), vec3(0.0f, 0.0f, 1.0f)),
-                              lo, hi, kFloatHuge, tEntry));
-    EXPECT_FALSE(intersectBox(makeTraceRay(vec3(justBelow, 0.5f, -1.0f), vec3(0.0f, 0.0f, 1.0f)),
-                              lo, hi, kFloatHuge, tEntry));
+    EXPECT_FALSE(
+        intersectBox(makeTraceRay(vec3(justAbove, 0.5f, -1.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi, kFloatHuge, tEntry));
+    EXPECT_FALSE(
+        intersectBox(makeTraceRay(vec3(justBelow, 0.5f, -1.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi, kFloatHuge, tEntry));
     // Origin inside: entry 0. Box behind the ray, or beyond tmax: miss.
-    EXPECT_TRUE(intersectBox(makeTraceRay(vec3(0.5f), vec3(1.0f, 0.0f, 0.0f)), lo, hi, kFloatHuge,
-                             tEntry));
+    EXPECT_TRUE(intersectBox(makeTraceRay(vec3(0.5f), vec3(1.0f, 0.0f, 0.0f)), lo, hi, kFloatHuge, tEntry));
     EXPECT_EQ(tEntry, 0.0f);
-    EXPECT_FALSE(intersectBox(makeTraceRay(vec3(0.5f, 0.5f, 2.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi,
-                              kFloatHuge, tEntry));
-    EXPECT_FALSE(intersectBox(makeTraceRay(vec3(0.5f, 0.5f, -2.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi,
-                              0.5f, tEntry));
+    EXPECT_FALSE(
+        intersectBox(makeTraceRay(vec3(0.5f, 0.5f, 2.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi, kFloatHuge, tEntry));
+    EXPECT_FALSE(intersectBox(makeTraceRay(vec3(0.5f, 0.5f, -2.0f), vec3(0.0f, 0.0f, 1.0f)), lo, hi, 0.5f, tEntry));
     // A flat box (zero thickness in z), as a leaf of coplanar triangles has: hit head on.
-    EXPECT_TRUE(intersectBox(makeTraceRay(vec3(0.5f, 0.5f, -2.0f), vec3(0.0f, 0.0f, 1.0f)),
-                             vec3(0.0f, 0.0f, 0.0f), vec3(1.0f, 1.0f, 0.0f), kFloatHuge, tEntry));
+    EXPECT_TRUE(intersectBox(makeTraceRay(vec3(0.5f, 0.5f, -2.0f), vec3(0.0f, 0.0f, 1.0f)), vec3(0.0f, 0.0f, 0.0f),
+                             vec3(1.0f, 1.0f, 0.0f), kFloatHuge, tEntry));
     EXPECT_FLOAT_EQ(tEntry, 2.0f);
     // A denormal direction component counts as parallel: no NaN, the slab decides.
     const TraceRay denormal = makeTraceRay(vec3(1.0f, 0.5f, -1.0f), vec3(1e-40f, 0.0f, 1.0f));
@@ -353,12 +343,12 @@ TEST(Box, NeverCullsATriangleHit) {
         if (trial % 5 == 0) v2.z = v1.z = v0.z;  // axis-aligned triangle: a flat box
         vec3 target;
         switch (trial % 3) {
-            case 0: target = trial % 2 ? v1 : v2; break;
-            case 1: target = v0 + unit(rng) * (v1 - v0); break;
-            default: {
-                const float a = unit(rng), b = unit(rng) * (1.0f - a);
-                target = v0 + a * (v1 - v0) + b * (v2 - v0);
-            }
+        case 0: target = trial % 2 ? v1 : v2; break;
+        case 1: target = v0 + unit(rng) * (v1 - v0); break;
+        default: {
+            const float a = unit(rng), b = unit(rng) * (1.0f - a);
+            target = v0 + a * (v1 - v0) + b * (v2 - v0);
+        }
         }
         vec3 origin = vec3(coord(rng), coord(rng), coord(rng)) * (3.0f * scale);
         if (trial % 4 == 0) origin.x = target.x;  // axis-parallel components
@@ -497,9 +487,8 @@ void main() {
     pixels[gl_GlobalInvocationID.x] = packRgba8(vec4(c, 1.0f)) + packChannel(unpackRgba8(7u).x);
 }
 )";
-    const std::string command = "glslangValidator -V --target-env vulkan1.2 -I\"" +
-                                std::string(RAYPACK_SOURCE_DIR) + "/shaders\" -o \"" +
-                                (dir / "headers.spv").string() + "\" \"" + shader.string() +
+    const std::string command = "glslangValidator -V --target-env vulkan1.2 -I\"" + std::string(RAYPACK_SOURCE_DIR) +
+                                "/shaders\" -o \"" + (dir / "headers.spv").string() + "\" \"" + shader.string() +
                                 "\" > \"" + (dir / "log.txt").string() + "\" 2>&1";
     const int status = std::system(command.c_str());
     std::ifstream logFile(dir / "log.txt");

@@ -182,7 +182,8 @@ TEST(RobustGltf, NodeListingAChildTwiceAtEveryLevelIsBounded) {
     TempDir dir;
     writeFile(dir / "tri.bin", triangleBytes());
     std::string nodes = "[";
-    for (int i = 0; i < 40; ++i) nodes += R"({"children":[)" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
+    for (int i = 0; i < 40; ++i)
+        nodes += R"({"children":[)" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
     nodes += R"({"mesh":0}])";
     writeFile(dir / "dag.gltf", gltfJson(nodes));  // 2^40 instances of one triangle
     expectLoadError(dir / "dag.gltf", "RAYPACK_MAX_GLTF_INSTANCES");
@@ -193,7 +194,8 @@ TEST(RobustGltf, InstancedTrianglesAreBoundedByTheInstancingFactor) {
     writeFile(dir / "tri.bin", triangleBytes());
     // 2^21 instances of one triangle, within a raised instance limit: the factor refuses it.
     std::string nodes = "[";
-    for (int i = 0; i < 21; ++i) nodes += R"({"children":[)" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
+    for (int i = 0; i < 21; ++i)
+        nodes += R"({"children":[)" + std::to_string(i + 1) + "," + std::to_string(i + 1) + "]},";
     nodes += R"({"mesh":0}])";
     writeFile(dir / "dag.gltf", gltfJson(nodes));
     ScopedEnv raised("RAYPACK_MAX_GLTF_INSTANCES", "100000000");
@@ -203,8 +205,7 @@ TEST(RobustGltf, InstancedTrianglesAreBoundedByTheInstancingFactor) {
 TEST(RobustGltf, SharedChildIsInstancedOncePerPath) {
     TempDir dir;
     writeFile(dir / "tri.bin", triangleBytes());
-    writeFile(dir / "two.gltf",
-              gltfJson(R"([{"children":[1,1]},{"mesh":0,"translation":[0,0,1]}])"));
+    writeFile(dir / "two.gltf", gltfJson(R"([{"children":[1,1]},{"mesh":0,"translation":[0,0,1]}])"));
     const Scene scene = loadScene(dir / "two.gltf");
     EXPECT_EQ(scene.triangles.size(), 2u);
     EXPECT_EQ(scene.positions[3], glm::vec3(0, 0, 1));
@@ -242,14 +243,16 @@ TEST(RobustGltf, RequiredDracoIsRefused) {
 // ---- 5. PLY elements without properties take no bytes, whatever their count.
 TEST(RobustPly, ElementWithoutPropertiesAndAHugeCountIsSkippedAtOnce) {
     TempDir dir;
-    const std::string header = "ply\nformat ascii 1.0\nelement junk 18446744073709551615\nelement vertex 3\n"
-                               "property float x\nproperty float y\nproperty float z\n"
-                               "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    const std::string header =
+        "ply\nformat ascii 1.0\nelement junk 18446744073709551615\nelement vertex 3\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
     writeFile(dir / "a.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
     EXPECT_EQ(loadScene(dir / "a.ply").triangles.size(), 1u);
-    std::string binary = "ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\nelement vertex 3\n"
-                         "property float x\nproperty float y\nproperty float z\n"
-                         "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    std::string binary =
+        "ply\nformat binary_little_endian 1.0\nelement junk 18446744073709551615\nelement vertex 3\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
     binary += triangleBytes();
     const char face[13] = {3, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0};
     binary.append(face, sizeof face);
@@ -260,9 +263,10 @@ TEST(RobustPly, ElementWithoutPropertiesAndAHugeCountIsSkippedAtOnce) {
 // ---- 12. A binary quad after triangles: the fast path's undo (UB under UBSan before the fix).
 TEST(RobustPly, BinaryQuadAfterTrianglesLoadsInFileOrder) {
     TempDir dir;
-    std::string ply = "ply\nformat binary_little_endian 1.0\nelement vertex 4\n"
-                      "property float x\nproperty float y\nproperty float z\n"
-                      "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
+    std::string ply =
+        "ply\nformat binary_little_endian 1.0\nelement vertex 4\n"
+        "property float x\nproperty float y\nproperty float z\n"
+        "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
     const float p[12] = {0, 0, 0, 1, 0, 0, 1, 1, 0, 0, 1, 0};
     ply.append(reinterpret_cast<const char*>(p), sizeof p);
     const char tri[13] = {3, 0, 0, 0, 0, 1, 0, 0, 0, 2, 0, 0, 0};
@@ -355,7 +359,8 @@ TEST(RobustPng, HugeHeaderDimensionsAreRefusedBeforeDecoding) {
     TempDir dir;
     // A PNG signature and an IHDR of 100000 x 100000 (10^10 pixels, 40 GB as RGBA8), no data.
     std::string png = "\x89PNG\r\n\x1a\n";
-    const unsigned char ihdr[25] = {0, 0, 0, 13, 'I', 'H', 'D', 'R', 0, 1, 0x86, 0xA0, 0, 1, 0x86, 0xA0, 8, 6, 0, 0, 0, 0, 0, 0, 0};
+    const unsigned char ihdr[25] = {0, 0,    0,    13, 'I', 'H', 'D', 'R', 0, 1, 0x86, 0xA0, 0,
+                                    1, 0x86, 0xA0, 8,  6,   0,   0,   0,   0, 0, 0,    0};
     png.append(reinterpret_cast<const char*>(ihdr), sizeof ihdr);
     writeFile(dir / "bomb.png", png);
     const std::string message = errorOf([&] { readPng((dir / "bomb.png").string()); });
@@ -484,9 +489,10 @@ TEST(RobustCli, RenderLargerThanAvailableMemoryIsRefusedBeforeAllocating) {
 // empty second line.
 TEST(RobustPng, CorruptDataAfterAValidHeaderIsOneLine) {
     TempDir dir;
-    const unsigned char bytes[] = {0x89, 'P', 'N', 'G', 0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 0x0d, 'I', 'H', 'D', 'R',
-                                   0, 0, 0, 4, 0, 0, 0, 1, 8, 0, 0, 0, 0, 0xdc, 'W', 'P', 'D', 'A', 'N', 'G',
-                                   0x0d, 0x0a, 0x1a, 0x0a, 0, 0, 0, 0, 0, 'I', 'E', 'N', 'D', 0x60, 0x82};
+    const unsigned char bytes[] = {0x89, 'P', 'N', 'G',  0x0d, 0x0a, 0x1a, 0x0a, 0,   0,   0,    0x0d, 'I',
+                                   'H',  'D', 'R', 0,    0,    0,    4,    0,    0,   0,   1,    8,    0,
+                                   0,    0,   0,   0xdc, 'W',  'P',  'D',  'A',  'N', 'G', 0x0d, 0x0a, 0x1a,
+                                   0x0a, 0,   0,   0,    0,    0,    'I',  'E',  'N', 'D', 0x60, 0x82};
     writeFile(dir / "cut.png", std::string(reinterpret_cast<const char*>(bytes), sizeof bytes));
     const std::string message = errorOf([&] { readPng((dir / "cut.png").string()); });  // one line
     EXPECT_NE(message.find("cut.png: "), std::string::npos) << message;

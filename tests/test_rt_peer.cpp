@@ -73,8 +73,7 @@ TEST(RtPeer, ContextWithoutRayTracingIsRefused) {
     EXPECT_FALSE(context.rayTracing);
     const std::string reason = rtPeerUnsupportedReason(context);
     const bool offered = vk::rayTracingMissing(context.physicalDevice).empty();
-    EXPECT_NE(reason.find(offered ? "without enableRayTracing" : "lacks"), std::string::npos)
-        << reason;
+    EXPECT_NE(reason.find(offered ? "without enableRayTracing" : "lacks"), std::string::npos) << reason;
     const Scene scene = openScene("gen:default");
     EXPECT_THROW(runRtPeer(context, scene, smallSettings(scene, 32), 1), RtPeerUnsupported);
     EXPECT_EQ(vk::validationMessageCount(context), 0u);
@@ -85,8 +84,7 @@ TEST(RtPeer, CliHookCreatesItsOwnContext) {
     const Scene scene = openScene("gen:default");
     vk::VulkanContextOptions options = testOptions(false);  // the hook turns ray tracing on
     if (!rayTracingContext().rayTracing) {
-        EXPECT_THROW(runRtPeerOnDevice(options, scene, smallSettings(scene, 32), 1),
-                     RtPeerUnsupported);
+        EXPECT_THROW(runRtPeerOnDevice(options, scene, smallSettings(scene, 32), 1), RtPeerUnsupported);
         return;
     }
     const RtPeerResult result = runRtPeerOnDevice(options, scene, smallSettings(scene, 32), 1);
@@ -121,8 +119,8 @@ void expectAgreesWithReference(const std::string& spec, uint32_t size) {
     }
     const RtPeerAgreement a = compareRtPeerHits(result.frame.hits, reference.hits);
     std::printf("%s\n%s: %.4f%% of rays agree (max rel t error %.2e), %.4f%% of shadows\n",
-                describeRtPeer(result).c_str(), spec.c_str(), 100.0 * a.rayShare(),
-                a.maxRelativeTError, 100.0 * a.shadowShare());
+                describeRtPeer(result).c_str(), spec.c_str(), 100.0 * a.rayShare(), a.maxRelativeTError,
+                100.0 * a.shadowShare());
     EXPECT_GE(a.rayShare(), 0.999);
     EXPECT_GE(a.shadowShare(), 0.995);
     EXPECT_EQ(result.primaryRays, uint64_t(size) * size);
@@ -135,8 +133,7 @@ void expectAgreesWithReference(const std::string& spec, uint32_t size) {
 TEST(RtPeer, DefaultSceneAgreesWithCpuReference) { expectAgreesWithReference("gen:default", 128); }
 
 TEST(RtPeer, SibenikAgreesWithCpuReference) {
-    expectAgreesWithReference(std::string(RAYPACK_SHARED_SCENES) + "/sibenik/sibenik_geom_75284.ply",
-                              256);
+    expectAgreesWithReference(std::string(RAYPACK_SHARED_SCENES) + "/sibenik/sibenik_geom_75284.ply", 256);
 }
 
 // The spec's rules for the table (vkCmdTraceRaysKHR): every region's address a multiple of
@@ -148,8 +145,7 @@ TEST(RtPeer, ShaderBindingTableLayoutFollowsTheAlignmentRules) {
     };
     // NVIDIA's values (32, 32, 64), and unusual ones: a handle smaller than its alignment, a large
     // base alignment.
-    for (const Device d : {Device{32, 32, 64}, Device{16, 8, 256}, Device{32, 64, 64},
-                           Device{48, 16, 32}}) {
+    for (const Device d : {Device{32, 32, 64}, Device{16, 8, 256}, Device{32, 64, 64}, Device{48, 16, 32}}) {
         const ShaderBindingTableLayout l =
             layoutShaderBindingTable(d.handleSize, d.handleAlignment, d.baseAlignment, 4096, 2, 1);
         for (const ShaderBindingTableRegion& r : {l.raygen, l.miss, l.hit}) {
@@ -182,16 +178,14 @@ HitRecord hitAt(float t, uint32_t prim, uint32_t shadow) {
 
 TEST(RtPeer, HitComparisonUsesTheEmbreeBar) {
     const float inf = INFINITY;
-    const std::vector<HitRecord> reference = {
-        hitAt(10.0f, 1, gpu::kShadowLit),       hitAt(10.0f, 2, gpu::kShadowOccluded),
-        hitAt(inf, gpu::kNoHit, gpu::kShadowNone), hitAt(5.0f, 3, gpu::kShadowLit),
-        hitAt(5.0f, 4, gpu::kShadowLit)};
+    const std::vector<HitRecord> reference = {hitAt(10.0f, 1, gpu::kShadowLit), hitAt(10.0f, 2, gpu::kShadowOccluded),
+                                              hitAt(inf, gpu::kNoHit, gpu::kShadowNone),
+                                              hitAt(5.0f, 3, gpu::kShadowLit), hitAt(5.0f, 4, gpu::kShadowLit)};
     const std::vector<HitRecord> peer = {
-        hitAt(10.0005f, 7, gpu::kShadowLit),    // t within 1e-4, another triangle (a tie)
-        hitAt(10.0f, 2, gpu::kShadowLit),       // shadow differs
-        hitAt(inf, gpu::kNoHit, gpu::kShadowNone),
-        hitAt(5.002f, 3, gpu::kShadowLit),      // t off by 4e-4
-        hitAt(inf, gpu::kNoHit, gpu::kShadowNone)};  // missed
+        hitAt(10.0005f, 7, gpu::kShadowLit),  // t within 1e-4, another triangle (a tie)
+        hitAt(10.0f, 2, gpu::kShadowLit),     // shadow differs
+        hitAt(inf, gpu::kNoHit, gpu::kShadowNone), hitAt(5.002f, 3, gpu::kShadowLit),  // t off by 4e-4
+        hitAt(inf, gpu::kNoHit, gpu::kShadowNone)};                                    // missed
     const RtPeerAgreement a = compareRtPeerHits(peer, reference);
     EXPECT_EQ(a.comparedRays, 5u);
     EXPECT_EQ(a.agreeingRays, 3u);
@@ -230,8 +224,8 @@ TEST(RtPeer, BenchRecordsCarryEveryFigure) {
     EXPECT_DOUBLE_EQ(records[0]["t_b_s"].get<double>(), 0.0021);
     EXPECT_DOUBLE_EQ(records[0]["hits_agree_share"].get<double>(), 1.0);
     for (const auto& record : records)
-        for (const char* key : {"t_k_s", "t_k_min_s", "t_k_max_s", "t_r_us_per_ray", "t_cu_s",
-                                "bytes_per_triangle", "n_q_rays"}) {
+        for (const char* key :
+             {"t_k_s", "t_k_min_s", "t_k_max_s", "t_r_us_per_ray", "t_cu_s", "bytes_per_triangle", "n_q_rays"}) {
             ASSERT_TRUE(record.contains(key)) << key;
             EXPECT_TRUE(std::isfinite(record[key].get<double>())) << key;
         }

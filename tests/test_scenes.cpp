@@ -183,9 +183,10 @@ TEST(SceneLoaders, ExtensionIsCaseInsensitive) {
     TempDir dir;
     fs::copy_file(kShared / "gltf/Box/Box.glb", dir / "BOX.GLB");
     EXPECT_EQ(loadScene(dir / "BOX.GLB").triangleCount(), 12u);
-    writeFile(dir / "tri.PLY", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                               "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
-                               "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    writeFile(dir / "tri.PLY",
+              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+              "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
     EXPECT_EQ(loadScene(dir / "tri.PLY").triangleCount(), 1u);
 }
 
@@ -304,10 +305,11 @@ TEST(PlyLoader, SavePlyRoundTrip) {
 
 TEST(PlyLoader, VertexColoursStayPerVertex) {
     TempDir dir;
-    writeFile(dir / "vc.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
-                              "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
-                              "element face 2\nproperty list uchar uint vertex_index\nend_header\n"
-                              "0 0 0 0 255 0\n1 0 0 9 9 9\n1 1 0 9 9 9\n0 1 0 1 2 3\n3 0 1 2\n3 3 2 1\n");
+    writeFile(dir / "vc.ply",
+              "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+              "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+              "element face 2\nproperty list uchar uint vertex_index\nend_header\n"
+              "0 0 0 0 255 0\n1 0 0 9 9 9\n1 1 0 9 9 9\n0 1 0 1 2 3\n3 0 1 2\n3 3 2 1\n");
     const Scene scene = loadScene(dir / "vc.ply");
     EXPECT_FALSE(scene.hasMaterials());
     // RGBA8, R in the low byte, opaque.
@@ -318,9 +320,10 @@ TEST(PlyLoader, VertexColoursStayPerVertex) {
 
 TEST(PlyLoader, DegenerateTrianglesAreKept) {
     TempDir dir;
-    writeFile(dir / "degenerate.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                                      "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
-                                      "end_header\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n3 1 1 1\n");
+    writeFile(dir / "degenerate.ply",
+              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+              "end_header\n0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n3 1 1 1\n");
     const Scene scene = loadScene(dir / "degenerate.ply");
     EXPECT_EQ(scene.triangleCount(), 2u);
     EXPECT_EQ(scene.degenerateCount(), 2u);
@@ -401,8 +404,9 @@ TEST(BadInput, PlyFiles) {
     expectLoadError(dir / "bad_format.ply", "line 2");
     writeFile(dir / "bad_type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n");
     expectLoadError(dir / "bad_type.ply", "line 4");
-    writeFile(dir / "points.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                                  "property float z\nend_header\n0 0 0\n");
+    writeFile(dir / "points.ply",
+              "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+              "property float z\nend_header\n0 0 0\n");
     expectLoadError(dir / "points.ply", "no face element");
 }
 
@@ -434,8 +438,9 @@ TEST(BadInput, ObjFiles) {
 TEST(ObjLoader, NormalsUnweldVerticesAndMissingMtlIsAWarning) {
     TempDir dir;
     // Two triangles share vertices 1 and 3 but with different normals at vertex 3.
-    writeFile(dir / "n.obj", "mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\nvn 0 1 0\n"
-                             "usemtl red\nf 1//1 2//1 3//1\nf 2//1 4//2 3//2\n");
+    writeFile(dir / "n.obj",
+              "mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 1\nvn 0 1 0\n"
+              "usemtl red\nf 1//1 2//1 3//1\nf 2//1 4//2 3//2\n");
     const Scene scene = loadScene(dir / "n.obj");
     ASSERT_EQ(scene.triangleCount(), 2u);
     ASSERT_TRUE(scene.hasNormals());
@@ -450,8 +455,9 @@ TEST(ObjLoader, NormalsUnweldVerticesAndMissingMtlIsAWarning) {
 TEST(ObjLoader, MtlDiffuseColour) {
     TempDir dir;
     writeFile(dir / "m.mtl", "newmtl red\nKd 0.9 0.1 0.2\nnewmtl blue\nKd 0 0 1\n");
-    writeFile(dir / "m.obj", "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl blue\nf 1 3 2\n"
-                             "usemtl red\nf 2 3 1\n");
+    writeFile(dir / "m.obj",
+              "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nusemtl blue\nf 1 3 2\n"
+              "usemtl red\nf 2 3 1\n");
     const Scene scene = loadScene(dir / "m.obj");
     ASSERT_EQ(scene.materials.size(), 3u);  // red, blue, and a default for the first face
     EXPECT_EQ(scene.materials[0].name, "red");
@@ -472,8 +478,8 @@ TEST(BadInput, GltfFiles) {
 
     // A hand-made glTF with one non-indexed triangle in an embedded buffer, then broken variants.
     auto gltf = [](const std::string& positions, size_t count, const std::string& indices) {
-        std::string accessors = "{\"bufferView\":0,\"componentType\":5126,\"count\":" + std::to_string(count) +
-                                ",\"type\":\"VEC3\"}";
+        std::string accessors =
+            "{\"bufferView\":0,\"componentType\":5126,\"count\":" + std::to_string(count) + ",\"type\":\"VEC3\"}";
         std::string primitive = "{\"attributes\":{\"POSITION\":0}";
         std::string views = "{\"buffer\":0,\"byteOffset\":0,\"byteLength\":36}";
         std::string buffers = "{\"byteLength\":36,\"uri\":\"data:application/octet-stream;base64," + positions + "\"}";
@@ -485,15 +491,16 @@ TEST(BadInput, GltfFiles) {
         }
         primitive += "}";
         return "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],\"nodes\":[{\"mesh\":0,"
-               "\"translation\":[10,0,0]}],\"meshes\":[{\"primitives\":[" + primitive + "]}],\"accessors\":[" +
-               accessors + "],\"bufferViews\":[" + views + "],\"buffers\":[" + buffers + "]}";
+               "\"translation\":[10,0,0]}],\"meshes\":[{\"primitives\":[" +
+               primitive + "]}],\"accessors\":[" + accessors + "],\"bufferViews\":[" + views + "],\"buffers\":[" +
+               buffers + "]}";
     };
     // Base64 of floats (0,0,0, 1,0,0, 0,1,0).
     const std::string triangle = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
     writeFile(dir / "ok.gltf", gltf(triangle, 3, ""));
     const Scene ok = loadScene(dir / "ok.gltf");
     ASSERT_EQ(ok.triangleCount(), 1u);
-    EXPECT_EQ(ok.positions[1], glm::vec3(11, 0, 0));  // translation applied
+    EXPECT_EQ(ok.positions[1], glm::vec3(11, 0, 0));             // translation applied
     writeFile(dir / "indexed.gltf", gltf(triangle, 3, "AAEC"));  // 8-bit indices 0 1 2
     EXPECT_EQ(loadScene(dir / "indexed.gltf").triangleCount(), 1u);
     writeFile(dir / "bad_index.gltf", gltf(triangle, 3, "AAEH"));  // 0 1 7

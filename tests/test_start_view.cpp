@@ -16,8 +16,8 @@ namespace {
 std::string sharedScene(const char* relative) { return std::string(RAYPACK_SHARED_SCENES) + "/" + relative; }
 
 void printProbe(const std::string& what, const ViewProbe& p) {
-    std::printf("%-34s rays %4u, hits %4u, back faces %4u, near %4u\n", what.c_str(), p.rays, p.hits,
-                p.backHits, p.nearHits);
+    std::printf("%-34s rays %4u, hits %4u, back faces %4u, near %4u\n", what.c_str(), p.rays, p.hits, p.backHits,
+                p.nearHits);
 }
 
 bool sameCamera(const Camera& a, const Camera& b) {
@@ -40,8 +40,10 @@ void expectStartsInside(const Scene& scene, const std::string& what) {
     // Looking along the longest horizontal axis.
     const glm::vec3 extent = scene.bounds().extent();
     const glm::vec3 view = start.at - start.eye;
-    if (extent.x >= extent.z) EXPECT_EQ(view, glm::vec3(1, 0, 0)) << what;
-    else EXPECT_EQ(view, glm::vec3(0, 0, 1)) << what;
+    if (extent.x >= extent.z)
+        EXPECT_EQ(view, glm::vec3(1, 0, 0)) << what;
+    else
+        EXPECT_EQ(view, glm::vec3(0, 0, 1)) << what;
 }
 
 TEST(StartView, SharedRoomsStartInside) {
@@ -70,9 +72,7 @@ Scene closedBoxRoom(bool facingInwards) {
     return scene;
 }
 
-TEST(StartView, GeneratedClosedBoxStartsInside) {
-    expectStartsInside(closedBoxRoom(true), "generated closed box");
-}
+TEST(StartView, GeneratedClosedBoxStartsInside) { expectStartsInside(closedBoxRoom(true), "generated closed box"); }
 
 TEST(StartView, ObjectsKeepTheFraming) {
     // The same box as a solid object (faces outwards) is framed from outside.
@@ -80,18 +80,19 @@ TEST(StartView, ObjectsKeepTheFraming) {
     const Bvh solidBvh = buildBvh(solid, BvhBuildOptions{});
     EXPECT_FALSE(centreIsInARoom(solid, solidBvh));
     EXPECT_TRUE(sameCamera(startCamera(solid, solidBvh), frameScene(solid.bounds())));
-    for (const std::string spec : {sharedScene("gltf/BoxTextured/BoxTextured.glb"), sharedScene("gltf/Avocado/glTF/Avocado.gltf"),
-                                   sharedScene("gltf/DamagedHelmet/DamagedHelmet.glb"),
-                                   sharedScene("gltf/2CylinderEngine/2CylinderEngine.glb"),
-                                   sharedScene("stanford/bun_zipper.ply"), sharedScene("stanford/dragon_vrip_res3.ply"),
-                                   std::string("gen:default"), std::string("gen:terrain:10k"),
-                                   std::string("gen:sphereflake:10k"), std::string("gen:deep:20")}) {
+    for (const std::string spec :
+         {sharedScene("gltf/BoxTextured/BoxTextured.glb"), sharedScene("gltf/Avocado/glTF/Avocado.gltf"),
+          sharedScene("gltf/DamagedHelmet/DamagedHelmet.glb"), sharedScene("gltf/2CylinderEngine/2CylinderEngine.glb"),
+          sharedScene("stanford/bun_zipper.ply"), sharedScene("stanford/dragon_vrip_res3.ply"),
+          std::string("gen:default"), std::string("gen:terrain:10k"), std::string("gen:sphereflake:10k"),
+          std::string("gen:deep:20")}) {
         const Scene scene = openScene(spec);
         const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
         printProbe(spec + " around its centre", probeAround(scene, bvh, scene.bounds().center()));
         EXPECT_FALSE(centreIsInARoom(scene, bvh)) << spec;
         // (2CylinderEngine has a camera of its own.)
-        EXPECT_TRUE(sameCamera(startCamera(scene, bvh), scene.fileCamera ? *scene.fileCamera : frameScene(scene.bounds())))
+        EXPECT_TRUE(
+            sameCamera(startCamera(scene, bvh), scene.fileCamera ? *scene.fileCamera : frameScene(scene.bounds())))
             << spec;
     }
 }

@@ -11,10 +11,10 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <unistd.h>
 
 namespace raypack::test {
 namespace {
@@ -24,8 +24,8 @@ namespace fs = std::filesystem;
 class TempDir {
 public:
     TempDir() {
-        path_ = fs::temp_directory_path() / ("raypack-textures-" + std::to_string(getpid()) + "-" +
-                                             std::to_string(counter_++));
+        path_ = fs::temp_directory_path() /
+                ("raypack-textures-" + std::to_string(getpid()) + "-" + std::to_string(counter_++));
         fs::create_directories(path_);
     }
     ~TempDir() { fs::remove_all(path_); }
@@ -36,9 +36,7 @@ private:
     static inline int counter_ = 0;
 };
 
-void writeFile(const fs::path& path, const std::string& text) {
-    std::ofstream(path, std::ios::binary) << text;
-}
+void writeFile(const fs::path& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
 
 constexpr uint32_t kRed = 0xFF0000FFu, kGreen = 0xFF00FF00u, kBlue = 0xFFFF0000u, kWhite = 0xFFFFFFFFu;
 
@@ -97,9 +95,9 @@ TEST(TextureSampling, BilinearWeights) {
     const Texture t = tinyTexture(TextureWrap::Clamp);
     // The image's centre is the four texels' average.
     const glm::vec4 centre = sample(t, {0.5f, 0.5f});
-    EXPECT_FLOAT_EQ(centre.x, 0.5f);   // red + white
-    EXPECT_FLOAT_EQ(centre.y, 0.5f);   // green + white
-    EXPECT_FLOAT_EQ(centre.z, 0.5f);   // blue + white
+    EXPECT_FLOAT_EQ(centre.x, 0.5f);  // red + white
+    EXPECT_FLOAT_EQ(centre.y, 0.5f);  // green + white
+    EXPECT_FLOAT_EQ(centre.z, 0.5f);  // blue + white
     // A quarter of the way from the red texel's centre to the green one's: 3/4 red, 1/4 green.
     const gpu::BilinearTaps taps = gpu::bilinearTaps(gpuTexture(t, 0), {0.375f, 0.25f});
     EXPECT_EQ(taps.texel, glm::uvec4(0, 1, 2, 3));
@@ -153,7 +151,7 @@ TEST(TextureSampling, MipLevelsAndLevelOfDetail) {
     ASSERT_EQ(t.texels.size(), Texture::texelCount(4, 2, 3));
     ASSERT_EQ(t.texels.size(), 11u);
     EXPECT_EQ(t.texels[8], kRed);
-    EXPECT_EQ(t.texels[9], 0xFF808000u);  // half green, half blue: 127.5 rounds to 128
+    EXPECT_EQ(t.texels[9], 0xFF808000u);   // half green, half blue: 127.5 rounds to 128
     EXPECT_EQ(t.texels[10], 0xFF404080u);  // the 2x1 level's mean: red 510 / 4 -> 128, green 256 / 4 -> 64
     const gpu::GpuTexture d = gpuTexture(t, 0);
     EXPECT_EQ(gpu::textureLevels(d), 3u);
@@ -188,7 +186,8 @@ TEST(TextureImages, DecodesPngAndNamesBadImages) {
         loadTextureImage(dir / "scene.obj", "bad.png");
         FAIL() << "no error for a file that is no image";
     } catch (const Error& e) {
-        EXPECT_NE(std::string(e.what()).find("scene.obj: texture bad.png: not an image"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("scene.obj: texture bad.png: not an image"), std::string::npos)
+            << e.what();
     }
     try {
         loadTextureImage(dir / "scene.obj", "missing.png");
@@ -221,7 +220,8 @@ std::string quadGltf(const std::string& material, const std::string& extra, bool
   "cameras": [{"type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1}}],
   "meshes": [{"primitives": [{"attributes": {"POSITION": 0)") +
            (withUvs ? R"(, "TEXCOORD_0": 1)" : "") + R"(}, "indices": 2, "material": 0}]}],
-  "materials": [)" + material + R"(],
+  "materials": [)" +
+           material + R"(],
   "buffers": [{"uri": "quad.bin", "byteLength": 92}],
   "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
                   {"buffer": 0, "byteOffset": 48, "byteLength": 32},
@@ -406,10 +406,11 @@ TEST(TextureImages, GeneratedTexturedQuadGpuMatchesCpu) {
 
 TEST(TextureImages, VertexColouredPlyGpuMatchesCpu) {
     TempDir dir;
-    writeFile(dir / "vc.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                              "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
-                              "element face 1\nproperty list uchar uint vertex_index\nend_header\n"
-                              "-1 -1 0 255 0 0\n1 -1 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n");
+    writeFile(dir / "vc.ply",
+              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+              "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
+              "element face 1\nproperty list uchar uint vertex_index\nend_header\n"
+              "-1 -1 0 255 0 0\n1 -1 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n");
     const Scene scene = loadScene(dir / "vc.ply");
     ASSERT_TRUE(scene.hasVertexColors());
     Camera camera;

@@ -391,8 +391,9 @@ TEST(Bookmarks, RoundTripExactlyPerSceneAndPrintAsCliArguments) {
     const std::string arguments = ui::cameraCliArguments(camera);
     Camera parsed;
     char eye[64], at[64], up[64];
-    ASSERT_EQ(std::sscanf(arguments.c_str(), "--eye %63s --at %63s --up %63s --fov %f", eye, at, up,
-                          &parsed.fovYDegrees), 4) << arguments;
+    ASSERT_EQ(
+        std::sscanf(arguments.c_str(), "--eye %63s --at %63s --up %63s --fov %f", eye, at, up, &parsed.fovYDegrees), 4)
+        << arguments;
     ASSERT_EQ(std::sscanf(eye, "%f,%f,%f", &parsed.eye.x, &parsed.eye.y, &parsed.eye.z), 3);
     EXPECT_EQ(parsed.eye, camera.eye) << arguments;
     EXPECT_EQ(parsed.fovYDegrees, camera.fovYDegrees) << arguments;
@@ -428,16 +429,14 @@ CommandRun runCommand(const std::string& command) {
     return run;
 }
 
-bool haveXvfb() {
-    return std::system("command -v xvfb-run >/dev/null 2>&1 && command -v Xvfb >/dev/null 2>&1") == 0;
-}
+bool haveXvfb() { return std::system("command -v xvfb-run >/dev/null 2>&1 && command -v Xvfb >/dev/null 2>&1") == 0; }
 
 // Each run gets its own server (-a picks a free display number); the config folder is private so
 // the user's bookmarks are untouched.
 std::string viewerCommand(const std::string& arguments) {
     const fs::path config = fs::temp_directory_path() / "raypack_test_viewer_xdg";
-    return "XDG_RUNTIME_DIR=/tmp XDG_CONFIG_HOME=" + config.string() +
-           " xvfb-run -a -s '-screen 0 1024x768x24' " + RAYPACK_VIEWER + " " + arguments;
+    return "XDG_RUNTIME_DIR=/tmp XDG_CONFIG_HOME=" + config.string() + " xvfb-run -a -s '-screen 0 1024x768x24' " +
+           RAYPACK_VIEWER + " " + arguments;
 }
 
 class ViewerUnderXvfb : public ::testing::Test {
@@ -456,9 +455,10 @@ protected:
 TEST_F(ViewerUnderXvfb, ScriptedScreenshotEqualsTheCliRenderOfTheSameView) {
     const std::string shot = (dir_ / "viewer.png").string();
     // Packet shape, leaf size and shadows changed by the script while it runs, then a screenshot.
-    const CommandRun viewer = runCommand(viewerCommand(
-        "--width 256 --height 192 --frames 8 --validation --no-counters --samples 1 --tracer vulkan-packet --screenshot " + shot +
-        " --script 2:packet:5x6 --script 3:leaf-size:4 --script 4:shadows:off"));
+    const CommandRun viewer =
+        runCommand(viewerCommand("--width 256 --height 192 --frames 8 --validation --no-counters --samples 1 --tracer "
+                                 "vulkan-packet --screenshot " +
+                                 shot + " --script 2:packet:5x6 --script 3:leaf-size:4 --script 4:shadows:off"));
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     EXPECT_NE(viewer.output.find("0 validation messages"), std::string::npos) << viewer.output;
     ASSERT_TRUE(fs::exists(shot)) << viewer.output;
@@ -476,12 +476,13 @@ TEST_F(ViewerUnderXvfb, ScriptedScreenshotEqualsTheCliRenderOfTheSameView) {
     // The CLI from the sidecar, and from plain flags with the default framing.
     const std::string fromSidecar = (dir_ / "cli_from.png").string();
     CommandRun cli = runCommand(std::string("XDG_RUNTIME_DIR=/tmp ") + RAYPACK_CLI + " render --device gpu --from " +
-                         ui::sidecarPath(shot) + " --out " + fromSidecar);
+                                ui::sidecarPath(shot) + " --out " + fromSidecar);
     ASSERT_EQ(cli.exitCode, 0) << cli.output;
     const std::string fromFlags = (dir_ / "cli_flags.png").string();
     cli = runCommand(std::string("XDG_RUNTIME_DIR=/tmp ") + RAYPACK_CLI +
                      " render gen:default --device gpu --width 256 --height 192 --packet 5x6 --leaf-size 4"
-                     " --no-shadows --out " + fromFlags);
+                     " --no-shadows --out " +
+                     fromFlags);
     ASSERT_EQ(cli.exitCode, 0) << cli.output;
 
     const Image viewerImage = readPng(shot);
@@ -499,12 +500,13 @@ TEST_F(ViewerUnderXvfb, ResizeAndSceneLoadDuringARebuildPassValidation) {
     // (hundreds of milliseconds) and resizes the window; frame 3 opens another scene while that
     // rebuild runs, which cancels it.
     const CommandRun viewer = runCommand(viewerCommand(
-        "--scene gen:terrain:500k --width 200 --height 160 --frames 7 --validation --no-counters --screenshot " +
-        shot + " --script 1:wait --script 2:leaf-size:1 --script 2:resize:240x136 --script 3:open:" + sibenik));
+        "--scene gen:terrain:500k --width 200 --height 160 --frames 7 --validation --no-counters --screenshot " + shot +
+        " --script 1:wait --script 2:leaf-size:1 --script 2:resize:240x136 --script 3:open:" + sibenik));
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     EXPECT_NE(viewer.output.find("0 validation messages"), std::string::npos) << viewer.output;
     EXPECT_NE(viewer.output.find("worker building when the load was requested"), std::string::npos)
-        << "the load did not meet a running rebuild:\n" << viewer.output;
+        << "the load did not meet a running rebuild:\n"
+        << viewer.output;
     const RenderSetup setup = renderSetupFromJson(readJsonFile(ui::sidecarPath(shot)));
     EXPECT_EQ(setup.scene, fs::absolute(sibenik).lexically_normal().string());
     EXPECT_EQ(setup.settings.width, 240u);
@@ -516,8 +518,9 @@ TEST_F(ViewerUnderXvfb, ABadFileIsReportedAndTheSceneStays) {
     const fs::path bad = dir_ / "broken.obj";
     std::ofstream(bad) << "v 0 0 0\nv 1 0 0\nf 1 2 7\n";
     const std::string shot = (dir_ / "still.png").string();
-    const CommandRun viewer = runCommand(viewerCommand("--width 128 --height 96 --frames 5 --no-counters --screenshot " +
-                                                shot + " --script 1:wait --script 2:open:" + bad.string()));
+    const CommandRun viewer =
+        runCommand(viewerCommand("--width 128 --height 96 --frames 5 --no-counters --screenshot " + shot +
+                                 " --script 1:wait --script 2:open:" + bad.string()));
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     EXPECT_NE(viewer.output.find("broken.obj"), std::string::npos) << viewer.output;
     EXPECT_EQ(renderSetupFromJson(readJsonFile(ui::sidecarPath(shot))).scene, "gen:default");
@@ -542,8 +545,10 @@ void expectCliReproduces(const fs::path& dir, const std::string& shot, const std
 TEST_F(ViewerUnderXvfb, AConvergedScreenshotEqualsTheCliRenderWithAsManySamples) {
     for (const std::string tracer : {"cpu-packet", "cpu-reference", "vulkan-single"}) {
         const std::string shot = (dir_ / ("converged-" + tracer + ".png")).string();
-        const CommandRun viewer = runCommand(viewerCommand("--width 160 --height 120 --frames 12 --samples 4 --validation "
-                                                           "--tracer " + tracer + " --script 1:wait --screenshot " + shot));
+        const CommandRun viewer =
+            runCommand(viewerCommand("--width 160 --height 120 --frames 12 --samples 4 --validation "
+                                     "--tracer " +
+                                     tracer + " --script 1:wait --screenshot " + shot));
         ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
         const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
         EXPECT_EQ(sidecar["samples_per_pixel"], 4) << viewer.output;
@@ -561,8 +566,9 @@ TEST_F(ViewerUnderXvfb, AConvergedScreenshotEqualsTheCliRenderWithAsManySamples)
 TEST_F(ViewerUnderXvfb, AReducedResolutionFrameEqualsTheCliRenderAtThatResolutionScaledUp) {
     for (const std::string view : {"shaded", "nodes"}) {
         const std::string shot = (dir_ / ("reduced-" + view + ".png")).string();
-        const CommandRun viewer = runCommand(viewerCommand("--width 200 --height 150 --frames 4 --validation --view " + view +
-                                                           " --script 1:wait --script 2:scale:4 --script 2:screenshot:" + shot));
+        const CommandRun viewer =
+            runCommand(viewerCommand("--width 200 --height 150 --frames 4 --validation --view " + view +
+                                     " --script 1:wait --script 2:scale:4 --script 2:screenshot:" + shot));
         ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
         const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
         EXPECT_EQ(sidecar["resolution_scale"], 4) << viewer.output;
@@ -582,8 +588,9 @@ TEST_F(ViewerUnderXvfb, AStillViewerStopsTracing) {
     // however many frames follow.
     const std::string summary = (dir_ / "summary.json").string();
     for (const uint32_t frames : {30u, 60u}) {
-        const CommandRun viewer = runCommand(viewerCommand("--width 96 --height 64 --samples 4 --validation --frames " +
-                                                           std::to_string(frames) + " --script 1:wait --summary " + summary));
+        const CommandRun viewer =
+            runCommand(viewerCommand("--width 96 --height 64 --samples 4 --validation --frames " +
+                                     std::to_string(frames) + " --script 1:wait --summary " + summary));
         ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
         const nlohmann::json s = readJsonFile(summary);
         EXPECT_EQ(s["frames"], frames);
@@ -594,8 +601,10 @@ TEST_F(ViewerUnderXvfb, AStillViewerStopsTracing) {
 
 TEST_F(ViewerUnderXvfb, ScriptedMovesAndARecordedPathReplayFrameForFrame) {
     const std::string first = (dir_ / "first.json").string(), second = (dir_ / "second.json").string();
-    CommandRun viewer = runCommand(viewerCommand("--width 96 --height 64 --frames 12 --validation --script 1:wait --script 3:move:0,0,0.05 "
-                                                 "--script 5:look:40,-10 --script 7:move:0.05,0.02,0 --record-path " + first));
+    CommandRun viewer = runCommand(
+        viewerCommand("--width 96 --height 64 --frames 12 --validation --script 1:wait --script 3:move:0,0,0.05 "
+                      "--script 5:look:40,-10 --script 7:move:0.05,0.02,0 --record-path " +
+                      first));
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     viewer = runCommand(viewerCommand("--width 96 --height 64 --frames 12 --script 1:wait --play-path " + first +
                                       " --play-frames --record-path " + second));
@@ -622,15 +631,18 @@ TEST_F(ViewerUnderXvfb, OffscreenRunsTheSameFrameLoopWithoutADisplay) {
     b.eye += 0.1f * (b.at - b.eye);
     cameraPath.keys = {{0.0, a}, {0.3, b}};
     ui::writeCameraPath(path, cameraPath);
-    const CommandRun viewer = runCommand(std::string("env -u DISPLAY -u WAYLAND_DISPLAY XDG_RUNTIME_DIR=/tmp ") +
-                                         RAYPACK_VIEWER + " --offscreen --validation --width 120 --height 90 --samples 4 "
-                                         "--play-path " + path + " --summary " + summary);
+    const CommandRun viewer =
+        runCommand(std::string("env -u DISPLAY -u WAYLAND_DISPLAY XDG_RUNTIME_DIR=/tmp ") + RAYPACK_VIEWER +
+                   " --offscreen --validation --width 120 --height 90 --samples 4 "
+                   "--play-path " +
+                   path + " --summary " + summary);
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     const nlohmann::json s = readJsonFile(summary);
     EXPECT_GE(s["frames_moving"].get<uint64_t>(), 1u) << viewer.output;
     EXPECT_GE(s["converged_after_stop_s"].get<double>(), 0.0) << viewer.output;
-    const CommandRun still = runCommand(std::string("env -u DISPLAY XDG_RUNTIME_DIR=/tmp ") + RAYPACK_VIEWER +
-                                        " --offscreen --width 120 --height 90 --samples 4 --frames 8 --screenshot " + shot);
+    const CommandRun still =
+        runCommand(std::string("env -u DISPLAY XDG_RUNTIME_DIR=/tmp ") + RAYPACK_VIEWER +
+                   " --offscreen --width 120 --height 90 --samples 4 --frames 8 --screenshot " + shot);
     ASSERT_EQ(still.exitCode, 0) << still.output;
     EXPECT_EQ(readJsonFile(ui::sidecarPath(shot))["samples_per_pixel"], 4) << still.output;
     expectCliReproduces(dir_, shot, "");
@@ -638,8 +650,10 @@ TEST_F(ViewerUnderXvfb, OffscreenRunsTheSameFrameLoopWithoutADisplay) {
 
 TEST_F(ViewerUnderXvfb, SideBySideHalvesAreTheTwoTracersImages) {
     const std::string shot = (dir_ / "split.png").string();
-    const CommandRun viewer = runCommand(viewerCommand("--width 161 --height 120 --frames 4 --samples 1 --validation --tracer cpu-packet "
-                                                       "--side-by-side vulkan-single --script 1:wait --screenshot " + shot));
+    const CommandRun viewer =
+        runCommand(viewerCommand("--width 161 --height 120 --frames 4 --samples 1 --validation --tracer cpu-packet "
+                                 "--side-by-side vulkan-single --script 1:wait --screenshot " +
+                                 shot));
     ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
     const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
     ASSERT_TRUE(sidecar["stats"].contains("side_by_side")) << sidecar.dump();
@@ -658,19 +672,23 @@ TEST_F(ViewerUnderXvfb, SideBySideHalvesAreTheTwoTracersImages) {
     for (uint32_t y = 0; y < split.height; ++y)
         for (uint32_t x = 0; x < split.width; ++x) {
             const size_t i = size_t(y) * split.width + x;
-            if (x < split.width / 2) leftDiffer += split.rgba[i] != left.rgba[i];
-            else rightDiffer += split.rgba[i] != right.rgba[i];
+            if (x < split.width / 2)
+                leftDiffer += split.rgba[i] != left.rgba[i];
+            else
+                rightDiffer += split.rgba[i] != right.rgba[i];
         }
     EXPECT_EQ(leftDiffer, 0u);
     EXPECT_EQ(rightDiffer, 0u);
 }
 
 TEST_F(ViewerUnderXvfb, ABadStartSceneFailsAScriptedRun) {
-    const CommandRun viewer = runCommand(viewerCommand("--width 64 --height 48 --frames 3 --scene /nonexistent/scene.ply"));
+    const CommandRun viewer =
+        runCommand(viewerCommand("--width 64 --height 48 --frames 3 --scene /nonexistent/scene.ply"));
     EXPECT_EQ(viewer.exitCode, 2) << viewer.output;
     EXPECT_NE(viewer.output.find("/nonexistent/scene.ply"), std::string::npos) << viewer.output;
     EXPECT_EQ(viewer.output.find("/nonexistent/scene.ply: /nonexistent/scene.ply"), std::string::npos)
-        << "the path is said once:\n" << viewer.output;
+        << "the path is said once:\n"
+        << viewer.output;
 }
 
 TEST_F(ViewerUnderXvfb, F12AndTheScreenshotKeyWriteAPngAndItsSidecar) {
@@ -698,7 +716,7 @@ TEST_F(ViewerUnderXvfb, F12AndTheScreenshotKeyWriteAPngAndItsSidecar) {
 
 TEST(Viewer, WithoutADisplayItFailsWithAClearMessage) {
     const CommandRun run = runCommand(std::string("env -u DISPLAY -u WAYLAND_DISPLAY XDG_RUNTIME_DIR=/tmp ") +
-                               RAYPACK_VIEWER + " --frames 1");
+                                      RAYPACK_VIEWER + " --frames 1");
     EXPECT_EQ(run.exitCode, 2) << run.output;
     EXPECT_NE(run.output.find("cannot open a window"), std::string::npos) << run.output;
     EXPECT_NE(run.output.find("DISPLAY"), std::string::npos) << run.output;

@@ -62,8 +62,7 @@ float viewPitch(const Camera& camera) {
 // A folder of its own under the temporary folder, removed at the end of the test.
 struct TempFolder {
     fs::path path;
-    explicit TempFolder(const std::string& name)
-        : path(fs::temp_directory_path() / ("raypack_test_" + name)) {
+    explicit TempFolder(const std::string& name) : path(fs::temp_directory_path() / ("raypack_test_" + name)) {
         fs::remove_all(path);
         fs::create_directories(path);
     }
@@ -107,13 +106,11 @@ TEST(OrbitCamera, DraggingRightMovesTheCameraLeftAndDraggingDownMovesItUp) {
     const glm::vec3 right = glm::normalize(glm::cross(forward, start.up));
     orbit.update(OrbitInput{glm::vec2(50.0f, 0.0f)});
     EXPECT_LT(glm::dot(orbit.camera().eye - start.eye, right), 0.0f);
-    EXPECT_NEAR(viewPitch(orbit.camera()), viewPitch(start), 1e-5f)
-        << "a horizontal drag only yaws";
+    EXPECT_NEAR(viewPitch(orbit.camera()), viewPitch(start), 1e-5f) << "a horizontal drag only yaws";
     orbit.reset(start, bounds);
     orbit.update(OrbitInput{glm::vec2(0.0f, 50.0f)});
     EXPECT_GT(orbit.camera().eye.y, start.eye.y);
-    EXPECT_LT(viewPitch(orbit.camera()), viewPitch(start))
-        << "the view tilts down toward the pivot";
+    EXPECT_LT(viewPitch(orbit.camera()), viewPitch(start)) << "the view tilts down toward the pivot";
 }
 
 TEST(OrbitCamera, PitchStopsShortOfThePoles) {
@@ -163,8 +160,7 @@ TEST(OrbitCamera, TheWheelZoomsTowardThePointUnderTheCursor) {
     const glm::vec2 after = project(orbit.camera(), 800, 600, target);
     EXPECT_NEAR(after.x, targetPixel.x, 0.01f);
     EXPECT_NEAR(after.y, targetPixel.y, 0.01f);
-    EXPECT_NEAR(glm::length(target - orbit.camera().eye), glm::length(target - start.eye) * factor,
-                1e-4f);
+    EXPECT_NEAR(glm::length(target - orbit.camera().eye), glm::length(target - start.eye) * factor, 1e-4f);
     EXPECT_NEAR(glm::length(orbit.pivot() - orbit.camera().eye), pivotDistance * factor, 1e-4f);
     // Over the background: toward the pivot, which stays where it is.
     const glm::vec3 pivot = orbit.pivot();
@@ -184,13 +180,13 @@ TEST(OrbitCamera, TheWheelNeitherReachesThePivotNorLosesTheScene) {
     OrbitInput in;
     in.wheel = 1000.0f;
     orbit.update(in);
-    EXPECT_NEAR(glm::length(orbit.pivot() - orbit.camera().eye),
-                OrbitCamera::kMinDistancePerDiagonal * diagonal, 1e-6f);
+    EXPECT_NEAR(glm::length(orbit.pivot() - orbit.camera().eye), OrbitCamera::kMinDistancePerDiagonal * diagonal,
+                1e-6f);
     EXPECT_NO_THROW(makeGpuCamera(orbit.camera(), 64, 64));
     in.wheel = -1000.0f;
     orbit.update(in);
-    EXPECT_NEAR(glm::length(orbit.pivot() - orbit.camera().eye),
-                OrbitCamera::kMaxDistancePerDiagonal * diagonal, 1e-2f);
+    EXPECT_NEAR(glm::length(orbit.pivot() - orbit.camera().eye), OrbitCamera::kMaxDistancePerDiagonal * diagonal,
+                1e-2f);
 }
 
 TEST(OrbitCamera, TabBetweenFlyAndOrbitKeepsTheCameraBitForBit) {
@@ -225,8 +221,7 @@ TEST(OrbitCamera, SetCameraKeepsAPickedPivotUnlessTheViewMoved) {
     orbit.reset(frameScene(bounds), bounds);
     const glm::vec3 picked(0.5f, 0.0f, 0.0f);
     orbit.setPivot(picked);
-    EXPECT_EQ(orbit.camera().at, frameScene(bounds).at)
-        << "setting the pivot does not move the view";
+    EXPECT_EQ(orbit.camera().at, frameScene(bounds).at) << "setting the pivot does not move the view";
     Camera wider = orbit.camera();
     wider.fovYDegrees = 80.0f;  // the panel's fov slider, given back every frame
     orbit.setCamera(wider);
@@ -272,16 +267,14 @@ TEST(Pick, EqualsTheReferenceFramesHitAtEveryPixelAndMissesTheBackground) {
             ++hits;
             EXPECT_EQ(pick->prim, expected.prim);
             EXPECT_EQ(pick->t, expected.t);
-            const glm::vec3 fromRecord =
-                glm::vec3(expected.orgX, expected.orgY, expected.orgZ) +
-                expected.t * glm::vec3(expected.dirX, expected.dirY, expected.dirZ);
+            const glm::vec3 fromRecord = glm::vec3(expected.orgX, expected.orgY, expected.orgZ) +
+                                         expected.t * glm::vec3(expected.dirX, expected.dirY, expected.dirZ);
             EXPECT_EQ(pick->point, fromRecord);
             // On the triangle's plane.
             const glm::vec3 a = scene.vertex(pick->prim, 0), b = scene.vertex(pick->prim, 1),
                             c = scene.vertex(pick->prim, 2);
             const glm::vec3 normal = glm::normalize(glm::cross(b - a, c - a));
-            EXPECT_NEAR(glm::dot(pick->point - a, normal), 0.0f,
-                        1e-4f * glm::length(scene.bounds().extent()));
+            EXPECT_NEAR(glm::dot(pick->point - a, normal), 0.0f, 1e-4f * glm::length(scene.bounds().extent()));
         }
     }
     EXPECT_GT(hits, 100u) << "the framing camera sees the scene";
@@ -290,8 +283,7 @@ TEST(Pick, EqualsTheReferenceFramesHitAtEveryPixelAndMissesTheBackground) {
     Camera away = settings.camera;  // looking away from the scene: nothing to pick
     away.at = away.eye + (away.eye - settings.camera.at);
     for (uint32_t y = 0; y < 72; y += 9)
-        for (uint32_t x = 0; x < 96; x += 8)
-            EXPECT_FALSE(pickPixel(scene, bvh, away, 96, 72, x, y));
+        for (uint32_t x = 0; x < 96; x += 8) EXPECT_FALSE(pickPixel(scene, bvh, away, 96, 72, x, y));
 }
 
 // ---- The pointer over the image
@@ -304,20 +296,14 @@ TEST(Pointer, TheCursorMapsToTheTracedPixelThroughHiDpiFramingAndReducedResoluti
     image.size = glm::vec2(1240.0f, 1400.0f);
     image.traced = glm::uvec2(310u, 350u);
     const glm::ivec2 window(1000, 700), framebuffer(2000, 1400);
-    EXPECT_FALSE(ui::imagePixelUnderCursor({100.0, 300.0}, window, framebuffer, image))
-        << "over the panel";
-    EXPECT_FALSE(ui::imagePixelUnderCursor({500.0, 700.0}, window, framebuffer, image))
-        << "below the window";
-    EXPECT_EQ(ui::imagePixelUnderCursor({380.0, 0.0}, window, framebuffer, image),
-              glm::uvec2(0u, 0u));
+    EXPECT_FALSE(ui::imagePixelUnderCursor({100.0, 300.0}, window, framebuffer, image)) << "over the panel";
+    EXPECT_FALSE(ui::imagePixelUnderCursor({500.0, 700.0}, window, framebuffer, image)) << "below the window";
+    EXPECT_EQ(ui::imagePixelUnderCursor({380.0, 0.0}, window, framebuffer, image), glm::uvec2(0u, 0u));
     // Window x 690 -> framebuffer 1380 -> 620 into the image -> pixel 620 / 4 = 155.
-    EXPECT_EQ(ui::imagePixelUnderCursor({690.0, 350.0}, window, framebuffer, image),
-              glm::uvec2(155u, 175u));
-    EXPECT_EQ(ui::imagePixelUnderCursor({999.9, 699.9}, window, framebuffer, image),
-              glm::uvec2(309u, 349u));
+    EXPECT_EQ(ui::imagePixelUnderCursor({690.0, 350.0}, window, framebuffer, image), glm::uvec2(155u, 175u));
+    EXPECT_EQ(ui::imagePixelUnderCursor({999.9, 699.9}, window, framebuffer, image), glm::uvec2(309u, 349u));
     image.traced = glm::uvec2(0u, 0u);
-    EXPECT_FALSE(ui::imagePixelUnderCursor({690.0, 350.0}, window, framebuffer, image))
-        << "nothing traced yet";
+    EXPECT_FALSE(ui::imagePixelUnderCursor({690.0, 350.0}, window, framebuffer, image)) << "nothing traced yet";
 }
 
 TEST(Pointer, ADoubleClickIsTwoNearPressesWithinItsTimeWhateverTheFrameRate) {
@@ -335,8 +321,7 @@ TEST(Pointer, ADoubleClickIsTwoNearPressesWithinItsTimeWhateverTheFrameRate) {
 TEST(RecentFiles, KeepTheLastTenMostRecentFirstWithoutDuplicates) {
     TempFolder folder("recent");
     std::vector<std::string> paths;
-    for (int i = 0; i < 12; ++i)
-        paths.push_back(folder.file("scene" + std::to_string(i) + ".ply").string());
+    for (int i = 0; i < 12; ++i) paths.push_back(folder.file("scene" + std::to_string(i) + ".ply").string());
     ui::RecentFiles recent;
     for (const std::string& p : paths) EXPECT_TRUE(recent.add(p));
     ASSERT_EQ(recent.entries().size(), ui::RecentFiles::kMaxEntries);
@@ -395,8 +380,7 @@ TEST(ViewerConfig, RoundTripsThePanelLayoutAndTheRecentFiles) {
     config.panel.overlay = true;
     config.recent.add(folder.file("a.glb").string());
     config.recent.add(folder.file("b.gltf").string());
-    const std::string file =
-        (folder.path / "deeper" / "viewer.json").string();  // its folder is made
+    const std::string file = (folder.path / "deeper" / "viewer.json").string();  // its folder is made
     ui::saveViewerConfig(file, config);
     const ui::ViewerConfigLoad loaded = ui::loadViewerConfig(file);
     EXPECT_EQ(loaded.warning, "");
@@ -427,12 +411,11 @@ TEST(ViewerConfig, ABrokenFileGivesTheDefaultsAndOneLineNamingIt) {
 
 TEST(ViewerConfig, BadFieldsFallBackOneByOneAndAreNamed) {
     TempFolder folder("config_fields");
-    const std::string file =
-        folder
-            .file("viewer.json",
-                  R"({"panel": {"width": "wide", "collapsed": true, "ui_scale": 50, "overlay": 1},
+    const std::string file = folder
+                                 .file("viewer.json",
+                                       R"({"panel": {"width": "wide", "collapsed": true, "ui_scale": 50, "overlay": 1},
             "recent_files": 7})")
-            .string();
+                                 .string();
     const ui::ViewerConfigLoad loaded = ui::loadViewerConfig(file);
     EXPECT_EQ(loaded.config.panel.width, ui::PanelLayout::kDefaultWidth);
     EXPECT_TRUE(loaded.config.panel.collapsed) << "the good field is kept";
@@ -440,8 +423,7 @@ TEST(ViewerConfig, BadFieldsFallBackOneByOneAndAreNamed) {
     EXPECT_FALSE(loaded.config.panel.overlay);
     EXPECT_TRUE(loaded.config.recent.entries().empty());
     for (const char* named : {"panel.width", "panel.ui_scale", "panel.overlay", "recent_files"})
-        EXPECT_NE(loaded.warning.find(named), std::string::npos)
-            << named << " in: " << loaded.warning;
+        EXPECT_NE(loaded.warning.find(named), std::string::npos) << named << " in: " << loaded.warning;
     EXPECT_EQ(loaded.warning.find("collapsed"), std::string::npos) << loaded.warning;
 }
 
@@ -484,8 +466,7 @@ struct BrowserFolder : TempFolder {
 
 std::vector<std::string> names(const ui::DirectoryListing& listing) {
     std::vector<std::string> out;
-    for (const ui::DirectoryEntry& e : listing.entries)
-        out.push_back(e.directory ? e.name + "/" : e.name);
+    for (const ui::DirectoryEntry& e : listing.entries) out.push_back(e.directory ? e.name + "/" : e.name);
     return out;
 }
 
@@ -494,8 +475,8 @@ TEST(FileBrowser, ListsFoldersFirstThenSceneFilesByNameIgnoringCase) {
     const ui::DirectoryListing scenes = ui::listDirectory(folder.path.string());
     EXPECT_EQ(scenes.error, "");
     EXPECT_EQ(scenes.directory, fs::weakly_canonical(folder.path).string());
-    EXPECT_EQ(names(scenes), (std::vector<std::string>{"A_dir/", "b_dir/", "model.obj", "scene.PLY",
-                                                       "x.gltf", "y.glb"}));
+    EXPECT_EQ(names(scenes),
+              (std::vector<std::string>{"A_dir/", "b_dir/", "model.obj", "scene.PLY", "x.gltf", "y.glb"}));
     EXPECT_EQ(scenes.entries[3].bytes, 5u);
     const auto filterNamed = [](const std::string& label) {
         for (size_t i = 0; i < ui::fileFilters().size(); ++i)
@@ -508,11 +489,10 @@ TEST(FileBrowser, ListsFoldersFirstThenSceneFilesByNameIgnoringCase) {
     EXPECT_EQ(names(ui::listDirectory(folder.path.string(), filterNamed("glTF (.gltf .glb)"))),
               (std::vector<std::string>{"A_dir/", "b_dir/", "x.gltf", "y.glb"}));
     EXPECT_EQ(names(ui::listDirectory(folder.path.string(), filterNamed("every file"))),
-              (std::vector<std::string>{"A_dir/", "b_dir/", "model.obj", "notes.txt", "scene.PLY",
-                                        "x.gltf", "y.glb"}));
+              (std::vector<std::string>{"A_dir/", "b_dir/", "model.obj", "notes.txt", "scene.PLY", "x.gltf", "y.glb"}));
     EXPECT_EQ(names(ui::listDirectory(folder.path.string(), 0, /*showHidden=*/true)),
-              (std::vector<std::string>{".hidden_dir/", "A_dir/", "b_dir/", ".hidden.ply",
-                                        "model.obj", "scene.PLY", "x.gltf", "y.glb"}));
+              (std::vector<std::string>{".hidden_dir/", "A_dir/", "b_dir/", ".hidden.ply", "model.obj", "scene.PLY",
+                                        "x.gltf", "y.glb"}));
 }
 
 TEST(FileBrowser, AFolderThatCannotBeListedGivesAnErrorNamingIt) {
@@ -536,8 +516,7 @@ TEST(FileBrowser, NavigatesUpDownAndByTypedPathsAndHandsBackTheChosenFile) {
     EXPECT_FALSE(browser.submit("b_dir"));
     EXPECT_EQ(browser.listing().directory, root + "/b_dir");
     EXPECT_FALSE(browser.submit("../nothing.ply"));
-    EXPECT_NE(browser.error().find("nothing.ply: no such file or folder"), std::string::npos)
-        << browser.error();
+    EXPECT_NE(browser.error().find("nothing.ply: no such file or folder"), std::string::npos) << browser.error();
     EXPECT_EQ(browser.listing().directory, root + "/b_dir") << "a bad path keeps the folder";
     EXPECT_TRUE(browser.isOpen());
     const std::optional<std::string> chosen = browser.submit("../A_dir/inner.glb");
@@ -599,11 +578,9 @@ TEST(Panel, TheSceneLineSaysFailedNotLoadingAfterAFailedLoad) {
     info.failedScene.clear();
     EXPECT_EQ(ui::sceneLine(info), "Scene: gen:default (1234 triangles)");
     info.failedScene = "/x/bad.glb";
-    EXPECT_EQ(ui::sceneLine(info),
-              "Scene: gen:default (1234 triangles); /x/bad.glb failed to load");
+    EXPECT_EQ(ui::sceneLine(info), "Scene: gen:default (1234 triangles); /x/bad.glb failed to load");
     info.build.phase = BuildPhase::Building;  // a rebuild has no path: nothing is loading
-    EXPECT_EQ(ui::sceneLine(info),
-              "Scene: gen:default (1234 triangles); /x/bad.glb failed to load");
+    EXPECT_EQ(ui::sceneLine(info), "Scene: gen:default (1234 triangles); /x/bad.glb failed to load");
     info.build.scenePath = "/x/next.glb";
     EXPECT_EQ(ui::sceneLine(info), "Scene: gen:default (1234 triangles); loading /x/next.glb");
 }
@@ -668,8 +645,7 @@ TEST_F(HeadlessImGui, ThePanelStartsAtItsRememberedWidthAndStaysOnScreenAfterARe
     EXPECT_LE(window->Pos.x + window->Size.x, 400.0f);
     EXPECT_EQ(window->Size.y, 300.0f);
     EXPECT_EQ(state.layout.width, 500.0f) << "the clamp to a small window is not remembered";
-    EXPECT_EQ(state.coveredWidthPixels, 2.0f * window->Size.x)
-        << "what is covered, not what is remembered";
+    EXPECT_EQ(state.coveredWidthPixels, 2.0f * window->Size.x) << "what is covered, not what is remembered";
     // The window grows again: so does the panel, back to the remembered width.
     frame(1600, 1000);
     frame(1600, 1000);

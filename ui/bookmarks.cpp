@@ -24,9 +24,7 @@ std::string exactFloat(float value) {
     return text;
 }
 
-std::string exactVec3(const glm::vec3& v) {
-    return exactFloat(v.x) + "," + exactFloat(v.y) + "," + exactFloat(v.z);
-}
+std::string exactVec3(const glm::vec3& v) { return exactFloat(v.x) + "," + exactFloat(v.y) + "," + exactFloat(v.z); }
 
 json cameraToJson(const Camera& camera) {
     RenderSettings settings;
@@ -34,9 +32,7 @@ json cameraToJson(const Camera& camera) {
     return toJson(settings)["camera"];
 }
 
-Camera cameraFromJson(const json& value) {
-    return renderSettingsFromJson(json{{"camera", value}}).camera;
-}
+Camera cameraFromJson(const json& value) { return renderSettingsFromJson(json{{"camera", value}}).camera; }
 
 // One key per file, whatever relative path or symlink opened it.
 std::string sceneKeyOf(const std::string& scenePath) {
@@ -48,16 +44,14 @@ std::string sceneKeyOf(const std::string& scenePath) {
 }  // namespace
 
 std::string configDirectory() {
-    if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg)
-        return (fs::path(xdg) / "raypack").string();
-    if (const char* home = std::getenv("HOME"); home && *home)
-        return (fs::path(home) / ".config" / "raypack").string();
+    if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg) return (fs::path(xdg) / "raypack").string();
+    if (const char* home = std::getenv("HOME"); home && *home) return (fs::path(home) / ".config" / "raypack").string();
     return (fs::temp_directory_path() / "raypack").string();
 }
 
 std::string cameraCliArguments(const Camera& camera) {
-    return "--eye " + exactVec3(camera.eye) + " --at " + exactVec3(camera.at) + " --up " +
-           exactVec3(camera.up) + " --fov " + exactFloat(camera.fovYDegrees);
+    return "--eye " + exactVec3(camera.eye) + " --at " + exactVec3(camera.at) + " --up " + exactVec3(camera.up) +
+           " --fov " + exactFloat(camera.fovYDegrees);
 }
 
 BookmarkStore::BookmarkStore(std::string file, std::string scenePath)

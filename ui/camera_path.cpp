@@ -53,8 +53,7 @@ CameraPath readCameraPath(const std::string& path) {
     for (size_t i = 0; i < keys->size(); ++i) {
         const nlohmann::json& key = (*keys)[i];
         const std::string where = path + ": key " + std::to_string(i);
-        if (!key.is_object() || !key.contains("t") || !key["t"].is_number())
-            throw Error(where + ": no time \"t\"");
+        if (!key.is_object() || !key.contains("t") || !key["t"].is_number()) throw Error(where + ": no time \"t\"");
         CameraKey k;
         k.seconds = key["t"].get<double>();
         if (!std::isfinite(k.seconds) || (!result.keys.empty() && k.seconds < result.keys.back().seconds))
@@ -75,8 +74,8 @@ Camera cameraAt(const CameraPath& path, double seconds) {
     const std::vector<CameraKey>& keys = path.keys;
     if (seconds <= keys.front().seconds) return keys.front().camera;
     if (seconds >= keys.back().seconds) return keys.back().camera;
-    const auto next = std::upper_bound(keys.begin(), keys.end(), seconds,
-                                       [](double s, const CameraKey& k) { return s < k.seconds; });
+    const auto next =
+        std::upper_bound(keys.begin(), keys.end(), seconds, [](double s, const CameraKey& k) { return s < k.seconds; });
     const CameraKey& b = *next;
     const CameraKey& a = *(next - 1);
     const double span = b.seconds - a.seconds;

@@ -17,8 +17,7 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string lowerCase(std::string text) {
-    std::transform(text.begin(), text.end(), text.begin(),
-                   [](unsigned char c) { return char(std::tolower(c)); });
+    std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     return text;
 }
 
@@ -77,13 +76,10 @@ bool matchesFilter(const std::string& name, const std::vector<std::string>& exte
 
 DirectoryListing listDirectory(const std::string& directory, size_t filter, bool showHidden) {
     DirectoryListing listing;
-    listing.directory =
-        normalizedDirectory(directory.empty() ? fs::path(".") : fs::path(directory));
-    const std::vector<std::string>& extensions =
-        fileFilters()[std::min(filter, fileFilters().size() - 1)].extensions;
+    listing.directory = normalizedDirectory(directory.empty() ? fs::path(".") : fs::path(directory));
+    const std::vector<std::string>& extensions = fileFilters()[std::min(filter, fileFilters().size() - 1)].extensions;
     std::error_code error;
-    fs::directory_iterator it(listing.directory, fs::directory_options::skip_permission_denied,
-                              error);
+    fs::directory_iterator it(listing.directory, fs::directory_options::skip_permission_denied, error);
     if (error) {
         listing.error = listing.directory + ": cannot be listed: " + error.message();
         return listing;
@@ -105,12 +101,11 @@ DirectoryListing listDirectory(const std::string& directory, size_t filter, bool
             listing.entries.push_back({name, false, entryError ? 0 : bytes});
         }
     }
-    std::sort(listing.entries.begin(), listing.entries.end(),
-              [](const DirectoryEntry& a, const DirectoryEntry& b) {
-                  if (a.directory != b.directory) return a.directory;
-                  const std::string la = lowerCase(a.name), lb = lowerCase(b.name);
-                  return la != lb ? la < lb : a.name < b.name;
-              });
+    std::sort(listing.entries.begin(), listing.entries.end(), [](const DirectoryEntry& a, const DirectoryEntry& b) {
+        if (a.directory != b.directory) return a.directory;
+        const std::string la = lowerCase(a.name), lb = lowerCase(b.name);
+        return la != lb ? la < lb : a.name < b.name;
+    });
     return listing;
 }
 
@@ -150,8 +145,7 @@ bool FileBrowser::navigate(const std::string& directory) {
 
 void FileBrowser::up() {
     const fs::path current(listing_.directory);
-    if (current.has_parent_path() && current.parent_path() != current)
-        navigate(current.parent_path().string());
+    if (current.has_parent_path() && current.parent_path() != current) navigate(current.parent_path().string());
 }
 
 void FileBrowser::setFilter(size_t filter) {
@@ -186,22 +180,20 @@ std::optional<std::string> FileBrowser::draw() {
     if (!visible_) return std::nullopt;
     std::optional<std::string> chosen;
     const ImGuiViewport* viewport = ImGui::GetMainViewport();
-    ImGui::SetNextWindowPos(ImVec2(viewport->WorkPos.x + viewport->WorkSize.x * 0.5f,
-                                   viewport->WorkPos.y + viewport->WorkSize.y * 0.5f),
-                            ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
+    ImGui::SetNextWindowPos(
+        ImVec2(viewport->WorkPos.x + viewport->WorkSize.x * 0.5f, viewport->WorkPos.y + viewport->WorkSize.y * 0.5f),
+        ImGuiCond_Appearing, ImVec2(0.5f, 0.5f));
     ImGui::SetNextWindowSize(ImVec2(600, 440), ImGuiCond_FirstUseEver);
     if (justOpened_) ImGui::SetNextWindowFocus();
     justOpened_ = false;
-    if (!ImGui::Begin("Open a scene###raypack-file-browser", &visible_,
-                      ImGuiWindowFlags_NoCollapse)) {
+    if (!ImGui::Begin("Open a scene###raypack-file-browser", &visible_, ImGuiWindowFlags_NoCollapse)) {
         ImGui::End();
         return std::nullopt;
     }
     if (ImGui::Button("Up")) up();
     ImGui::SameLine();
     ImGui::SetNextItemWidth(-1);
-    if (ImGui::InputText("##browser-path", &typed_, ImGuiInputTextFlags_EnterReturnsTrue))
-        chosen = submit(typed_);
+    if (ImGui::InputText("##browser-path", &typed_, ImGuiInputTextFlags_EnterReturnsTrue)) chosen = submit(typed_);
 
     ImGui::SetNextItemWidth(ImGui::GetContentRegionAvail().x * 0.6f);
     if (ImGui::BeginCombo("filter", fileFilters()[filter_].label)) {
@@ -221,14 +213,12 @@ std::optional<std::string> FileBrowser::draw() {
         if (listing_.entries.empty()) ImGui::TextDisabled("no folders or matching files here");
         for (size_t i = 0; i < listing_.entries.size() && !chosen; ++i) {
             const DirectoryEntry& entry = listing_.entries[i];
-            const std::string label =
-                entry.directory ? "[dir]  " + entry.name + "/" : "       " + entry.name;
+            const std::string label = entry.directory ? "[dir]  " + entry.name + "/" : "       " + entry.name;
             ImGui::PushID(int(i));
             // A folder is entered on one click: a double-click needs two clicks within 0.3 s of
             // ImGui's clock, which a viewer drawing a frame every few seconds (lavapipe) never
             // sees. A file is selected by one click, opened by a double-click or Open.
-            if (ImGui::Selectable(label.c_str(), selected_ == i,
-                                  ImGuiSelectableFlags_AllowDoubleClick)) {
+            if (ImGui::Selectable(label.c_str(), selected_ == i, ImGuiSelectableFlags_AllowDoubleClick)) {
                 selected_ = i;
                 if (entry.directory) {
                     activate(i);

@@ -32,14 +32,13 @@ struct DirectoryEntry {
 struct DirectoryListing {
     std::string directory;                // absolute, normalized
     std::vector<DirectoryEntry> entries;  // folders first, then files, each by name ignoring case
-    std::string error;  // empty, or one line naming the folder and why it could not be listed
+    std::string error;                    // empty, or one line naming the folder and why it could not be listed
 };
 
 // The folders and the files matching `filter` (an index into fileFilters()) of `directory`.
 // Names starting with '.' are left out unless `showHidden`; entries that cannot be examined
 // (a dangling link, no permission) are left out. Never throws.
-DirectoryListing listDirectory(const std::string& directory, size_t filter = 0,
-                               bool showHidden = false);
+DirectoryListing listDirectory(const std::string& directory, size_t filter = 0, bool showHidden = false);
 
 class FileBrowser {
 public:

@@ -12,9 +12,7 @@ void FlyCamera::reset(const Camera& camera, const Aabb& sceneBounds) {
     sceneBounds_ = sceneBounds;
 }
 
-void FlyCamera::frameAll() {
-    camera_ = frameScene(sceneBounds_);
-}
+void FlyCamera::frameAll() { camera_ = frameScene(sceneBounds_); }
 
 float FlyCamera::speed() const {
     float diagonal = glm::length(sceneBounds_.extent());
@@ -25,8 +23,7 @@ float FlyCamera::speed() const {
 bool FlyCamera::update(const FlyInput& input, float seconds) {
     bool changed = false;
     if (input.wheel != 0.0f) {
-        speedMultiplier_ = std::clamp(speedMultiplier_ * std::pow(kWheelFactor, input.wheel),
-                                      1.0f / 1024.0f, 1024.0f);
+        speedMultiplier_ = std::clamp(speedMultiplier_ * std::pow(kWheelFactor, input.wheel), 1.0f / 1024.0f, 1024.0f);
     }
 
     const glm::vec3 worldUp = glm::normalize(camera_.up);

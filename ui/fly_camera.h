@@ -18,9 +18,9 @@ struct FlyInput {
     // ... and, from ui/input.h's HeldKeys, seconds each direction was held during the frame:
     // x right minus left, y up minus down, z forward minus back.
     glm::vec3 heldSeconds{0.0f};
-    bool fast = false;                   // Shift
-    glm::vec2 lookPixels{0.0f};          // mouse motion while the right button is held
-    float wheel = 0.0f;                  // scroll steps this frame (positive: faster)
+    bool fast = false;           // Shift
+    glm::vec2 lookPixels{0.0f};  // mouse motion while the right button is held
+    float wheel = 0.0f;          // scroll steps this frame (positive: faster)
 };
 
 class FlyCamera {
@@ -46,7 +46,7 @@ public:
 
     const Camera& camera() const { return camera_; }
     void setCamera(const Camera& camera) { camera_ = camera; }
-    float speed() const;            // scene units per second, without Shift
+    float speed() const;  // scene units per second, without Shift
     float speedMultiplier() const { return speedMultiplier_; }
 
 private:

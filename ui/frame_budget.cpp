@@ -26,8 +26,7 @@ void FrameCostModel::addFrame(uint64_t pixels, double traceSeconds, double frame
     fixedSeconds_ += kNewestWeight * (fixed - fixedSeconds_);
 }
 
-uint32_t chooseResolutionScale(const FrameCostModel& model, uint32_t width, uint32_t height,
-                               double budgetSeconds) {
+uint32_t chooseResolutionScale(const FrameCostModel& model, uint32_t width, uint32_t height, double budgetSeconds) {
     if (!model.measured()) return 1;
     for (const uint32_t scale : kResolutionScales) {
         const uint64_t pixels = uint64_t(scaledExtent(width, scale)) * scaledExtent(height, scale);

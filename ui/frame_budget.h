@@ -33,7 +33,6 @@ private:
 
 // The smallest scale of kResolutionScales whose predicted frame fits `budgetSeconds`; the largest
 // scale when none does; 1 before the first measurement.
-uint32_t chooseResolutionScale(const FrameCostModel& model, uint32_t width, uint32_t height,
-                               double budgetSeconds);
+uint32_t chooseResolutionScale(const FrameCostModel& model, uint32_t width, uint32_t height, double budgetSeconds);
 
 }  // namespace raypack::ui

@@ -53,7 +53,8 @@ FramePlan FrameLoop::plan(const FrameLoopSettings& settings, uint32_t width, uin
         fullDone_ = false;
         samplesDone_ = 0;
         plan.kind = FrameKind::Moving;
-        if (forcedScale) plan.scale = std::max(1u, *forcedScale);
+        if (forcedScale)
+            plan.scale = std::max(1u, *forcedScale);
         else if (settings.adaptiveResolution)
             plan.scale = chooseResolutionScale(cost_, width, height, settings.frameBudgetMs * 1e-3);
         return plan;

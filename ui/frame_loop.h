@@ -57,8 +57,8 @@ struct FrameLoopStatus {
     uint32_t samplesShown = 0;             // samples in the image shown (0: a reduced or plain frame)
     uint32_t samplesWanted = 1;
     bool costMeasured = false;
-    double secondsPerMegapixel = 0.0;      // tracing cost, smoothed
-    double fixedSeconds = 0.0;             // the rest of a frame, smoothed
+    double secondsPerMegapixel = 0.0;  // tracing cost, smoothed
+    double fixedSeconds = 0.0;         // the rest of a frame, smoothed
     uint64_t framesTraced = 0;
     uint64_t framesPresented = 0;
 };
@@ -73,7 +73,10 @@ public:
     // After tracing `plan`: `pixels` traced in `traceSeconds`, the frame took `frameSeconds`.
     void traced(const FramePlan& plan, uint64_t pixels, double traceSeconds, double frameSeconds);
     // The image is no longer what was traced (the traced frame failed, or the caller dropped it).
-    void invalidate() { fullDone_ = false; samplesDone_ = 0; }
+    void invalidate() {
+        fullDone_ = false;
+        samplesDone_ = 0;
+    }
     uint32_t samplesDone() const { return samplesDone_; }
     bool fullDone() const { return fullDone_; }
     const FrameCostModel& cost() const { return cost_; }

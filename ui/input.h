@@ -35,7 +35,7 @@ public:
 private:
     struct Key {
         bool down = false;
-        double downSince = 0.0;   // time of the press, while down
+        double downSince = 0.0;    // time of the press, while down
         double heldSeconds = 0.0;  // held time of presses released in this interval
         bool tapped = false;       // pressed (and maybe released) in this interval
     };

@@ -16,15 +16,13 @@ namespace {
 glm::vec3 rightOf(const glm::vec3& forward, const glm::vec3& worldUp) {
     glm::vec3 right = glm::cross(forward, worldUp);
     if (glm::length(right) < 1e-6f)
-        right = glm::cross(worldUp,
-                           std::abs(worldUp.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 0, 1));
+        right = glm::cross(worldUp, std::abs(worldUp.x) < 0.9f ? glm::vec3(1, 0, 0) : glm::vec3(0, 0, 1));
     return glm::normalize(right);
 }
 
 }  // namespace
 
-void OrbitCamera::reset(const Camera& camera, const Aabb& sceneBounds,
-                        std::optional<glm::vec3> pivot) {
+void OrbitCamera::reset(const Camera& camera, const Aabb& sceneBounds, std::optional<glm::vec3> pivot) {
     camera_ = camera;
     sceneBounds_ = sceneBounds;
     pivot_ = pivot.value_or(camera.at);
@@ -36,8 +34,7 @@ void OrbitCamera::frameAll() {
 }
 
 void OrbitCamera::setCamera(const Camera& camera) {
-    const bool sameView =
-        camera.eye == camera_.eye && camera.at == camera_.at && camera.up == camera_.up;
+    const bool sameView = camera.eye == camera_.eye && camera.at == camera_.at && camera.up == camera_.up;
     if (!sameView) {
         const float distance = glm::length(pivot_ - camera_.eye);
         pivot_ = camera.eye + glm::normalize(camera.at - camera.eye) * distance;
@@ -47,8 +44,7 @@ void OrbitCamera::setCamera(const Camera& camera) {
 
 float OrbitCamera::distanceLimit(float perDiagonal) const {
     float diagonal = glm::length(sceneBounds_.extent());
-    if (!(diagonal > 0.0f))
-        diagonal = 1.0f;  // empty or single-point scene: frameScene's unit radius
+    if (!(diagonal > 0.0f)) diagonal = 1.0f;  // empty or single-point scene: frameScene's unit radius
     return perDiagonal * diagonal;
 }
 
@@ -68,8 +64,7 @@ bool OrbitCamera::orbit(glm::vec2 pixels) {
     // the plane perpendicular to up, and stops short of the poles.
     const float yaw = -pixels.x * kRadiansPerPixel;
     const float pitch = std::asin(std::clamp(glm::dot(forward, worldUp), -1.0f, 1.0f));
-    const float newPitch =
-        std::clamp(pitch - pixels.y * kRadiansPerPixel, -kMaxPitchRadians, kMaxPitchRadians);
+    const float newPitch = std::clamp(pitch - pixels.y * kRadiansPerPixel, -kMaxPitchRadians, kMaxPitchRadians);
     const glm::quat rotation =
         glm::angleAxis(yaw, worldUp) * glm::angleAxis(newPitch - pitch, rightOf(forward, worldUp));
     camera_.eye = pivot_ + rotation * (camera_.eye - pivot_);
@@ -85,8 +80,8 @@ bool OrbitCamera::pan(glm::vec2 pixels, uint32_t viewportHeight) {
     // image height at unit depth). A pivot behind the eye pans at the depth of `at`.
     float depth = glm::dot(pivot_ - camera_.eye, forward);
     if (!(depth > 0.0f)) depth = glm::length(camera_.at - camera_.eye);
-    const float unitsPerPixel = 2.0f * depth * std::tan(glm::radians(camera_.fovYDegrees) * 0.5f) /
-                                float(std::max(viewportHeight, 1u));
+    const float unitsPerPixel =
+        2.0f * depth * std::tan(glm::radians(camera_.fovYDegrees) * 0.5f) / float(std::max(viewportHeight, 1u));
     const glm::vec3 delta = (-pixels.x * right + pixels.y * upInView) * unitsPerPixel;
     camera_.eye += delta;
     camera_.at += delta;
@@ -110,8 +105,7 @@ bool OrbitCamera::zoom(float steps, const glm::vec3& target) {
     return true;
 }
 
-void switchToOrbit(const FlyCamera& fly, OrbitCamera& orbit, const Aabb& sceneBounds,
-                   std::optional<glm::vec3> pivot) {
+void switchToOrbit(const FlyCamera& fly, OrbitCamera& orbit, const Aabb& sceneBounds, std::optional<glm::vec3> pivot) {
     orbit.reset(fly.camera(), sceneBounds, pivot);
 }
 

@@ -81,8 +81,8 @@ void drawStatisticsSection(PanelState& state, const PanelInfo& info, PanelAction
     ImGui::Text("Frame %.2f ms  (%.1f fps)   %ux%u", st.frameSeconds * 1e3,
                 st.frameSeconds > 0 ? 1.0 / st.frameSeconds : 0.0, s.width, s.height);
     if (st.kernelTimesValid) {
-        const double primaryMrays = st.primaryKernelSeconds > 0
-                                        ? double(st.primaryRays) / st.primaryKernelSeconds / 1e6 : 0.0;
+        const double primaryMrays =
+            st.primaryKernelSeconds > 0 ? double(st.primaryRays) / st.primaryKernelSeconds / 1e6 : 0.0;
         ImGui::Text("T_K primary %.2f ms   %.1f Mrays/s", st.primaryKernelSeconds * 1e3, primaryMrays);
         if (s.shadows) {
             if (st.countersValid && st.shadowKernelSeconds > 0)
@@ -111,15 +111,23 @@ void drawStatisticsSection(PanelState& state, const PanelInfo& info, PanelAction
         ImGui::Text("BVH (%s, leaf size %u): Table 1", toString(info.builtWith.builder), info.builtWith.leafSize);
         if (ImGui::BeginTable("table1", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchSame)) {
             ImGui::TableNextRow();
-            ImGui::TableNextColumn(); ImGui::Text("N_L %u", b.leafCount);
-            ImGui::TableNextColumn(); ImGui::Text("D_AVG %.1f", b.avgLeafDepth);
-            ImGui::TableNextColumn(); ImGui::Text("D_MAX %u", b.maxLeafDepth);
-            ImGui::TableNextColumn(); ImGui::Text("O_AVG %.2f", b.avgPrimsPerLeaf);
+            ImGui::TableNextColumn();
+            ImGui::Text("N_L %u", b.leafCount);
+            ImGui::TableNextColumn();
+            ImGui::Text("D_AVG %.1f", b.avgLeafDepth);
+            ImGui::TableNextColumn();
+            ImGui::Text("D_MAX %u", b.maxLeafDepth);
+            ImGui::TableNextColumn();
+            ImGui::Text("O_AVG %.2f", b.avgPrimsPerLeaf);
             ImGui::TableNextRow();
-            ImGui::TableNextColumn(); ImGui::Text("T_B %.3f s", b.buildSeconds);
-            ImGui::TableNextColumn(); ImGui::Text("SAH %.1f", b.sahCost);
-            ImGui::TableNextColumn(); ImGui::Text("%.1f MiB", double(b.bytes) / (1024.0 * 1024.0));
-            ImGui::TableNextColumn(); ImGui::Text("nodes %u", b.nodeCount);
+            ImGui::TableNextColumn();
+            ImGui::Text("T_B %.3f s", b.buildSeconds);
+            ImGui::TableNextColumn();
+            ImGui::Text("SAH %.1f", b.sahCost);
+            ImGui::TableNextColumn();
+            ImGui::Text("%.1f MiB", double(b.bytes) / (1024.0 * 1024.0));
+            ImGui::TableNextColumn();
+            ImGui::Text("nodes %u", b.nodeCount);
             ImGui::EndTable();
         }
     }
@@ -161,8 +169,7 @@ void drawSceneSection(PanelState& state, const PanelInfo& info, PanelActions& ac
     }
     if (ImGui::BeginCombo("builder", toString(state.bvh.builder))) {
         for (BvhBuilder builder : kAllBvhBuilders)
-            if (ImGui::Selectable(toString(builder), builder == state.bvh.builder) &&
-                builder != state.bvh.builder) {
+            if (ImGui::Selectable(toString(builder), builder == state.bvh.builder) && builder != state.bvh.builder) {
                 state.bvh.builder = builder;
                 actions.rebuild = true;
             }
@@ -177,8 +184,8 @@ void drawSceneSection(PanelState& state, const PanelInfo& info, PanelActions& ac
     } else if (build.phase == BuildPhase::Building) {
         const float share = build.total ? float(double(build.placed) / double(build.total)) : 0.0f;
         char overlay[128];
-        std::snprintf(overlay, sizeof overlay, "building: %" PRIu64 " / %" PRIu64 " placed  %.1f s",
-                      build.placed, build.total, build.elapsedSeconds);
+        std::snprintf(overlay, sizeof overlay, "building: %" PRIu64 " / %" PRIu64 " placed  %.1f s", build.placed,
+                      build.total, build.elapsedSeconds);
         ImGui::ProgressBar(share, ImVec2(-1, 0), overlay);
     } else if (info.hasBvh) {
         ImGui::TextDisabled("load %.3f s, build %.3f s", info.loadSeconds, info.bvhStats.buildSeconds);
@@ -247,13 +254,15 @@ void drawCameraSection(PanelState& state, const PanelInfo& info, PanelActions& a
     ImGui::TextDisabled("(Tab switches)");
     if (mode != before) actions.toggleCameraMode = true;
     if (info.orbitCamera)
-        ImGui::TextWrapped("Left drag orbits the pivot, middle drag pans, the wheel zooms toward the point "
-                           "under the cursor, double-click sets the pivot there; F frames the scene; "
-                           "Ctrl+1..9 saves a bookmark, 1..9 recalls it.");
+        ImGui::TextWrapped(
+            "Left drag orbits the pivot, middle drag pans, the wheel zooms toward the point "
+            "under the cursor, double-click sets the pivot there; F frames the scene; "
+            "Ctrl+1..9 saves a bookmark, 1..9 recalls it.");
     else
-        ImGui::TextWrapped("W/A/S/D/Q/E fly, right drag looks, wheel: speed (%.3g units/s), Shift faster, "
-                           "F frames the scene; Ctrl+1..9 saves a bookmark, 1..9 recalls it.",
-                           double(info.flySpeed));
+        ImGui::TextWrapped(
+            "W/A/S/D/Q/E fly, right drag looks, wheel: speed (%.3g units/s), Shift faster, "
+            "F frames the scene; Ctrl+1..9 saves a bookmark, 1..9 recalls it.",
+            double(info.flySpeed));
     sliderFloat("fov", &state.settings.camera.fovYDegrees, 10.0f, 120.0f, "%.1f deg");
     if (ImGui::Button("Frame scene (F)")) actions.frameAll = true;
     ImGui::TextWrapped("%s", info.cameraArguments.c_str());
@@ -279,8 +288,8 @@ void drawScreenshotSection(PanelState& state, const PanelInfo& info, PanelAction
     if (ImGui::Button("Compare with CPU reference")) actions.compare = true;
     const CompareResult& c = info.compare;
     if (c.valid) {
-        ImGui::Text("%" PRIu64 " of %" PRIu64 " pixels differ (%.4f%%), max channel diff %u",
-                    c.differingPixels, c.pixels, c.differingShare * 100.0, c.maxChannelDifference);
+        ImGui::Text("%" PRIu64 " of %" PRIu64 " pixels differ (%.4f%%), max channel diff %u", c.differingPixels,
+                    c.pixels, c.differingShare * 100.0, c.maxChannelDifference);
         ImGui::Text("CPU reference took %.2f s", c.cpuSeconds);
         int showing = int(state.showing);
         ImGui::RadioButton("GPU", &showing, int(Showing::Traced));
@@ -309,8 +318,8 @@ void drawPanelSection(PanelState& state, const PanelInfo&, PanelActions& actions
             std::snprintf(label, sizeof label, "%.2f", double(scale));
             if (ImGui::Selectable(label, scale == layout.uiScale) && scale != layout.uiScale) {
                 // The width grows with the text, so the panel's lines still fit.
-                layout.width = std::clamp(layout.width * scale / layout.uiScale, PanelLayout::kMinWidth,
-                                          PanelLayout::kMaxWidth);
+                layout.width =
+                    std::clamp(layout.width * scale / layout.uiScale, PanelLayout::kMinWidth, PanelLayout::kMaxWidth);
                 layout.uiScale = scale;
                 state.windowPlaced = false;  // set the new width next frame
                 actions.layoutChanged = true;
@@ -351,8 +360,8 @@ void drawErrorBox(const PanelState& state, const PanelInfo& info, PanelActions& 
 std::string sceneLine(const PanelInfo& info) {
     const BuildStatus& build = info.build;
     // A rebuild of the scene in memory has no path; only a load names the file it reads.
-    const bool loading = !build.scenePath.empty() &&
-                         (build.phase == BuildPhase::Loading || build.phase == BuildPhase::Building);
+    const bool loading =
+        !build.scenePath.empty() && (build.phase == BuildPhase::Loading || build.phase == BuildPhase::Building);
     if (!info.hasBvh) {
         if (loading) return "Scene: loading " + build.scenePath;
         if (!info.failedScene.empty()) return "Scene: none (" + info.failedScene + " failed to load)";
@@ -360,15 +369,19 @@ std::string sceneLine(const PanelInfo& info) {
         return "Scene: none";
     }
     std::string line = "Scene: " + info.scene + " (" + std::to_string(info.triangles) + " triangles)";
-    if (loading) line += "; loading " + build.scenePath;
-    else if (!info.failedScene.empty()) line += "; " + info.failedScene + " failed to load";
+    if (loading)
+        line += "; loading " + build.scenePath;
+    else if (!info.failedScene.empty())
+        line += "; " + info.failedScene + " failed to load";
     return line;
 }
 
 std::string panelTitle(const LiveStatistics& stats) {
     char title[64];
-    if (stats.frameSeconds > 0) std::snprintf(title, sizeof title, "raypack  %.3g fps", 1.0 / stats.frameSeconds);
-    else std::snprintf(title, sizeof title, "raypack");
+    if (stats.frameSeconds > 0)
+        std::snprintf(title, sizeof title, "raypack  %.3g fps", 1.0 / stats.frameSeconds);
+    else
+        std::snprintf(title, sizeof title, "raypack");
     return std::string(title) + "###raypack-panel";  // the part after ### is the window's ID
 }
 

@@ -19,8 +19,8 @@
 #include "renderer/bvh.h"
 #include "renderer/frame.h"
 #include "renderer/settings.h"
-#include "ui/frame_loop.h"
 #include "ui/file_browser.h"
+#include "ui/frame_loop.h"
 #include "ui/viewer_config.h"
 
 #include <vulkan/vulkan.h>
@@ -33,8 +33,8 @@ namespace raypack::ui {
 
 // Live numbers of the newest frames.
 struct LiveStatistics {
-    double frameSeconds = 0.0;          // wall clock between frames, smoothed
-    double nonTracingShare = 0.0;       // share of the frame not spent in the kernels
+    double frameSeconds = 0.0;     // wall clock between frames, smoothed
+    double nonTracingShare = 0.0;  // share of the frame not spent in the kernels
     bool kernelTimesValid = false;
     std::string kernelTimesNote;        // where T_K comes from (which frame, which clock)
     double primaryKernelSeconds = 0.0;  // T_K of primary rays
@@ -72,16 +72,16 @@ struct PanelState {
     bool sideBySide = false;
     TracerChoice sideBySideTracer = TracerChoice::VulkanSingle;
     PacketShape sideBySidePacket;
-    PanelLayout layout;        // width, collapsed, UI scale, overlay: kept in viewer.json
-    FileBrowser fileBrowser;   // Browse...: its choice becomes openPath and the open action
+    PanelLayout layout;       // width, collapsed, UI scale, overlay: kept in viewer.json
+    FileBrowser fileBrowser;  // Browse...: its choice becomes openPath and the open action
 
     // Written by drawPanel each frame: the width in framebuffer pixels of the window's left part
     // that the panel covers (0 when collapsed or overlaying), for framing the image in the rest.
     float coveredWidthPixels = 0.0f;
 
     // drawPanel's own bookkeeping.
-    bool windowPlaced = false;      // the first frame sets the remembered width and collapsed state
-    float appliedUiScale = 0.0f;    // the scale the ImGui style and font carry now
+    bool windowPlaced = false;        // the first frame sets the remembered width and collapsed state
+    float appliedUiScale = 0.0f;      // the scale the ImGui style and font carry now
     bool widthChangePending = false;  // a resize drag not yet reported as layoutChanged
     float lastDisplayWidth = 0.0f;    // the window's width in the previous frame
 };
@@ -107,7 +107,7 @@ struct PanelInfo {
     LiveStatistics stats;
     CompareResult compare;
     std::string lastScreenshot;
-    std::string cameraArguments;  // the view as raypack-cli render arguments
+    std::string cameraArguments;    // the view as raypack-cli render arguments
     std::vector<bool> bookmarkSet;  // 9 entries
     std::vector<VkPresentModeKHR> presentModes;
     VkPresentModeKHR presentMode = VK_PRESENT_MODE_FIFO_KHR;
@@ -117,14 +117,14 @@ struct PanelInfo {
     FrameLoopStatus frameLoop;
     SideBySideTimes sideBySideTimes;
     std::string tracerReason;
-    std::vector<TracerChoice> tracers;  // the tracers this device offers
-    bool orbitCamera = false;       // the orbit camera moves the view (else the fly camera)
+    std::vector<TracerChoice> tracers;     // the tracers this device offers
+    bool orbitCamera = false;              // the orbit camera moves the view (else the fly camera)
     std::vector<std::string> recentFiles;  // RecentFiles::entries() after pruneMissing()
 };
 
 struct PanelActions {
-    bool rebuild = false;     // leaf size or builder changed
-    bool open = false;        // load PanelState::openPath
+    bool rebuild = false;  // leaf size or builder changed
+    bool open = false;     // load PanelState::openPath
     bool screenshot = false;
     bool compare = false;
     bool frameAll = false;
@@ -134,7 +134,7 @@ struct PanelActions {
     // PanelState::layout changed (a resize drag ended, collapsed or expanded, UI scale or overlay
     // changed): the caller saves it to viewer.json.
     bool layoutChanged = false;
-    int saveBookmark = 0;     // 1..9, 0 for none
+    int saveBookmark = 0;  // 1..9, 0 for none
     int recallBookmark = 0;
     std::optional<VkPresentModeKHR> presentMode;
     bool tracerChanged = false;  // PanelState::tracer was changed

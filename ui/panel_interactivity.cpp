@@ -37,7 +37,8 @@ void drawInteractivitySection(PanelState& state, const PanelInfo& info, PanelAct
             if (ImGui::InputInt2("right packet WxH", shape)) {
                 shape[0] = std::clamp(shape[0], 1, 1024);
                 shape[1] = std::clamp(shape[1], 1, 1024);
-                if (state.sideBySideTracer == TracerChoice::CpuPacket || uint32_t(shape[0] * shape[1]) <= info.maxPacketRays)
+                if (state.sideBySideTracer == TracerChoice::CpuPacket ||
+                    uint32_t(shape[0] * shape[1]) <= info.maxPacketRays)
                     state.sideBySidePacket = PacketShape{uint32_t(shape[0]), uint32_t(shape[1])};
             }
         }
@@ -56,7 +57,8 @@ void drawInteractivitySection(PanelState& state, const PanelInfo& info, PanelAct
     const FrameLoopStatus& st = info.frameLoop;
     if (st.lastKind == FrameKind::Moving && st.scale > 1)
         ImGui::Text("moving: 1/%u resolution (%ux%u traced)", st.scale,
-                    (state.settings.width + st.scale - 1) / st.scale, (state.settings.height + st.scale - 1) / st.scale);
+                    (state.settings.width + st.scale - 1) / st.scale,
+                    (state.settings.height + st.scale - 1) / st.scale);
     else if (st.samplesShown > 0 && st.samplesShown < st.samplesWanted)
         ImGui::Text("refining: %u of %u samples", st.samplesShown, st.samplesWanted);
     else if (st.samplesShown > 0)

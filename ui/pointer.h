@@ -25,8 +25,7 @@ struct ShownImage {
 // window coordinates (glfwGetCursorPos) of a window of `windowSize` (glfwGetWindowSize) whose
 // framebuffer is `framebufferSize` (glfwGetFramebufferSize); nullopt when the cursor is outside
 // the shown image.
-std::optional<glm::uvec2> imagePixelUnderCursor(glm::dvec2 cursor, glm::ivec2 windowSize,
-                                                glm::ivec2 framebufferSize,
+std::optional<glm::uvec2> imagePixelUnderCursor(glm::dvec2 cursor, glm::ivec2 windowSize, glm::ivec2 framebufferSize,
                                                 const ShownImage& image);
 
 // Presses of one mouse button, by the time of the press: press() is true for the second of two

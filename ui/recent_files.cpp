@@ -46,8 +46,7 @@ RecentFiles RecentFiles::fromJson(const nlohmann::json& value) {
     for (const nlohmann::json& item : value) {
         if (!item.is_string()) throw Error("recent_files holds " + item.dump() + ", not a path");
         const std::string path = item.get<std::string>();
-        if (path.empty() || std::find(recent.entries_.begin(), recent.entries_.end(), path) !=
-                                recent.entries_.end())
+        if (path.empty() || std::find(recent.entries_.begin(), recent.entries_.end(), path) != recent.entries_.end())
             continue;
         if (recent.entries_.size() < kMaxEntries) recent.entries_.push_back(path);
     }

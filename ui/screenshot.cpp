@@ -7,9 +7,7 @@ namespace raypack::ui {
 
 namespace fs = std::filesystem;
 
-std::string sidecarPath(const std::string& pngPath) {
-    return fs::path(pngPath).replace_extension(".json").string();
-}
+std::string sidecarPath(const std::string& pngPath) { return fs::path(pngPath).replace_extension(".json").string(); }
 
 void writeScreenshot(const std::string& pngPath, const Image& image, const RenderSetup& setup,
                      const nlohmann::json& statistics, const std::string& deviceKind) {

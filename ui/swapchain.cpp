@@ -32,11 +32,11 @@ std::vector<VkPresentModeKHR> supportedPresentModes(const vk::VulkanContext& con
 
 const char* toString(VkPresentModeKHR mode) {
     switch (mode) {
-        case VK_PRESENT_MODE_FIFO_KHR: return "FIFO (vsync)";
-        case VK_PRESENT_MODE_FIFO_RELAXED_KHR: return "FIFO relaxed";
-        case VK_PRESENT_MODE_MAILBOX_KHR: return "mailbox";
-        case VK_PRESENT_MODE_IMMEDIATE_KHR: return "immediate";
-        default: return "other";
+    case VK_PRESENT_MODE_FIFO_KHR: return "FIFO (vsync)";
+    case VK_PRESENT_MODE_FIFO_RELAXED_KHR: return "FIFO relaxed";
+    case VK_PRESENT_MODE_MAILBOX_KHR: return "mailbox";
+    case VK_PRESENT_MODE_IMMEDIATE_KHR: return "immediate";
+    default: return "other";
     }
 }
 
@@ -89,9 +89,9 @@ VkRenderPass createOverlayRenderPass(const vk::VulkanContext& context, VkFormat 
     return pass;
 }
 
-Swapchain createSwapchain(const vk::VulkanContext& context, VkSurfaceKHR surface,
-                          VkRenderPass renderPass, VkSurfaceFormatKHR format, uint32_t width,
-                          uint32_t height, VkPresentModeKHR presentMode, VkSwapchainKHR old) {
+Swapchain createSwapchain(const vk::VulkanContext& context, VkSurfaceKHR surface, VkRenderPass renderPass,
+                          VkSurfaceFormatKHR format, uint32_t width, uint32_t height, VkPresentModeKHR presentMode,
+                          VkSwapchainKHR old) {
     VkSurfaceCapabilitiesKHR caps{};
     check(vkGetPhysicalDeviceSurfaceCapabilitiesKHR(context.physicalDevice, surface, &caps),
           "vkGetPhysicalDeviceSurfaceCapabilitiesKHR");
@@ -127,10 +127,10 @@ Swapchain createSwapchain(const vk::VulkanContext& context, VkSurfaceKHR surface
     info.preTransform = (caps.supportedTransforms & VK_SURFACE_TRANSFORM_IDENTITY_BIT_KHR)
                             ? VK_SURFACE_TRANSFORM_IDENTITY_BIT_KHR
                             : caps.currentTransform;
-    info.compositeAlpha = (caps.supportedCompositeAlpha & VK_COMPOSITE_ALPHA_OPAQUE_BIT_KHR)
-                              ? VK_COMPOSITE_ALPHA_OPAQUE_BIT_KHR
-                              : VkCompositeAlphaFlagBitsKHR(caps.supportedCompositeAlpha &
-                                                            -caps.supportedCompositeAlpha);
+    info.compositeAlpha =
+        (caps.supportedCompositeAlpha & VK_COMPOSITE_ALPHA_OPAQUE_BIT_KHR)
+            ? VK_COMPOSITE_ALPHA_OPAQUE_BIT_KHR
+            : VkCompositeAlphaFlagBitsKHR(caps.supportedCompositeAlpha & -caps.supportedCompositeAlpha);
     info.presentMode = presentMode;
     info.clipped = VK_TRUE;
     info.oldSwapchain = old;
@@ -139,8 +139,7 @@ Swapchain createSwapchain(const vk::VulkanContext& context, VkSurfaceKHR surface
     uint32_t count = 0;
     check(vkGetSwapchainImagesKHR(context.device, sc.swapchain, &count, nullptr), "vkGetSwapchainImagesKHR");
     sc.images.resize(count);
-    check(vkGetSwapchainImagesKHR(context.device, sc.swapchain, &count, sc.images.data()),
-          "vkGetSwapchainImagesKHR");
+    check(vkGetSwapchainImagesKHR(context.device, sc.swapchain, &count, sc.images.data()), "vkGetSwapchainImagesKHR");
     for (VkImage image : sc.images) {
         VkImageViewCreateInfo view{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
         view.image = image;

@@ -43,9 +43,9 @@ struct Swapchain {
 // Creates the swapchain for a framebuffer of width x height (clamped to what the surface allows),
 // with `presentMode` when the surface offers it and FIFO otherwise. `old` (may be null) is passed
 // as oldSwapchain and must be destroyed by the caller afterwards.
-Swapchain createSwapchain(const vk::VulkanContext& context, VkSurfaceKHR surface,
-                          VkRenderPass renderPass, VkSurfaceFormatKHR format, uint32_t width,
-                          uint32_t height, VkPresentModeKHR presentMode, VkSwapchainKHR old);
+Swapchain createSwapchain(const vk::VulkanContext& context, VkSurfaceKHR surface, VkRenderPass renderPass,
+                          VkSurfaceFormatKHR format, uint32_t width, uint32_t height, VkPresentModeKHR presentMode,
+                          VkSwapchainKHR old);
 void destroySwapchain(const vk::VulkanContext& context, Swapchain& swapchain);
 
 }  // namespace raypack::ui

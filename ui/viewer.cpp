@@ -26,16 +26,16 @@
 
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
-#include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_vulkan.h>
+#include <imgui.h>
 
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cinttypes>
 #include <cmath>
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -79,7 +79,8 @@ glm::vec<N, float> parseFloats(const std::string& text, const std::string& what)
     for (int i = 0; i < N; ++i) {
         const size_t comma = text.find(',', start);
         const bool last = i == N - 1;
-        if (last != (comma == std::string::npos)) throw Error(what + ": \"" + text + "\" is not " + std::to_string(N) + " numbers separated by commas");
+        if (last != (comma == std::string::npos))
+            throw Error(what + ": \"" + text + "\" is not " + std::to_string(N) + " numbers separated by commas");
         const std::string part = text.substr(start, last ? std::string::npos : comma - start);
         try {
             size_t used = 0;
@@ -107,7 +108,6 @@ void copyTexels(uint32_t* dst, const uint32_t* src, size_t count, bool bgra) {
         }
     });
 }
-
 
 // A scene spec as the sidecar and the bookmarks keep it: an existing file becomes absolute, so
 // `raypack-cli render --from` works from any folder; a generator spec stays as it is.
@@ -201,9 +201,9 @@ struct Session {
     glm::vec2 orbitPixels{0.0f}, panPixels{0.0f};
     DoubleClickDetector clicks;
     std::optional<glm::dvec2> pivotPick;  // a double-click's cursor position, picked next frame
-    float imageOffsetX = 0.0f;  // framebuffer pixels left of the image (the panel beside it)
-    double firstInputSeconds = -1.0;  // time of the first input event since the last frame
-    int uiFramesPending = 2;          // frames to draw for the panel after an event
+    float imageOffsetX = 0.0f;            // framebuffer pixels left of the image (the panel beside it)
+    double firstInputSeconds = -1.0;      // time of the first input event since the last frame
+    int uiFramesPending = 2;              // frames to draw for the panel after an event
     bool showHelp = false;
     GLFWkeyfun previousKey = nullptr;
     GLFWcharfun previousChar = nullptr;
@@ -218,7 +218,7 @@ struct Session {
     std::string tracedViewKey;  // the view of the image on screen
     std::optional<uint32_t> forcedScale;
     ShownSource shown = ShownSource::Nothing;
-    Image shownHost;  // the image on screen when it came from the host, RGBA8, window-sized
+    Image shownHost;        // the image on screen when it came from the host, RGBA8, window-sized
     vk::Buffer shownImage;  // host-visible copy of it, in the swapchain's byte order
     vk::Buffer screenshotReadback;
     Image referenceImage, differenceImage;  // the compare view
@@ -306,8 +306,10 @@ void onKey(GLFWwindow* window, int key, int scancode, int action, int mods) {
     }
     if (ImGui::GetIO().WantCaptureKeyboard) return;  // typing into the panel
     if (action == GLFW_PRESS) {
-        if (fly && !(mods & GLFW_MOD_CONTROL)) s.keys.press(*fly, now);  // Ctrl+Q quits
-        else s.pressed.push_back({key, mods});
+        if (fly && !(mods & GLFW_MOD_CONTROL))
+            s.keys.press(*fly, now);  // Ctrl+Q quits
+        else
+            s.pressed.push_back({key, mods});
     }
 }
 
@@ -509,10 +511,14 @@ nlohmann::json statisticsJson(const Session& s) {
     }
     if (s.bvh) {
         const BvhStats& b = s.bvh->stats;
-        stats["bvh"] = {{"leaves", b.leafCount},          {"avg_leaf_depth", b.avgLeafDepth},
-                        {"max_leaf_depth", b.maxLeafDepth}, {"avg_prims_per_leaf", b.avgPrimsPerLeaf},
-                        {"build_s", b.buildSeconds},       {"sah_cost", b.sahCost},
-                        {"nodes", b.nodeCount},            {"bytes", b.bytes},
+        stats["bvh"] = {{"leaves", b.leafCount},
+                        {"avg_leaf_depth", b.avgLeafDepth},
+                        {"max_leaf_depth", b.maxLeafDepth},
+                        {"avg_prims_per_leaf", b.avgPrimsPerLeaf},
+                        {"build_s", b.buildSeconds},
+                        {"sah_cost", b.sahCost},
+                        {"nodes", b.nodeCount},
+                        {"bytes", b.bytes},
                         {"triangles", s.scene->triangleCount()}};
     }
     return stats;
@@ -552,8 +558,12 @@ void compareWithReference(Session& s) {
     s.referenceImage = Image{cpuFrame.width, cpuFrame.height, cpuFrame.rgba};
     const ImageDiff diff = diffImages(s.referenceImage, gpuImage, 0, "CPU reference", "GPU image");
     s.differenceImage = diff.difference;
-    s.info.compare = CompareResult{true, diff.differingPixels, diff.pixels, diff.differingShare,
-                                   diff.maxChannelDifference, cpuFrame.timings.totalSeconds};
+    s.info.compare = CompareResult{true,
+                                   diff.differingPixels,
+                                   diff.pixels,
+                                   diff.differingShare,
+                                   diff.maxChannelDifference,
+                                   cpuFrame.timings.totalSeconds};
     if (s.options.frames)
         std::printf("raypack: compare: %llu of %llu pixels differ\n", (unsigned long long)diff.differingPixels,
                     (unsigned long long)diff.pixels);
@@ -626,8 +636,10 @@ void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
     } else if (step.action == "packet") {
         settings.packet = parseShape(step.value, "packet");
     } else if (step.action == "leaf-size" || step.action == "builder") {
-        if (step.action == "leaf-size") s.panel.bvh.leafSize = parseCount(step.value, "leaf-size");
-        else s.panel.bvh.builder = parseBvhBuilder(step.value);
+        if (step.action == "leaf-size")
+            s.panel.bvh.leafSize = parseCount(step.value, "leaf-size");
+        else
+            s.panel.bvh.builder = parseBvhBuilder(step.value);
         s.builder->requestRebuild(s.scene, s.panel.bvh);
     } else if (step.action == "shadows") {
         if (step.value != "on" && step.value != "off") throw Error("shadows: \"" + step.value + "\" is not on or off");
@@ -637,11 +649,13 @@ void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
         if (!kind) throw Error("kernel: \"" + step.value + "\" is not packet or single");
         settings.kernel = *kind;
         if (!isCpuTracer(s.panel.tracer))
-            setTracer(s, *kind == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle, "script");
+            setTracer(s, *kind == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle,
+                      "script");
     } else if (step.action == "tracer") {
         const std::optional<TracerChoice> tracer = parseTracerChoice(step.value);
         if (!tracer)
-            throw Error("tracer: \"" + step.value + "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
+            throw Error("tracer: \"" + step.value +
+                        "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
         setTracer(s, *tracer, "chosen by the script");
     } else if (step.action == "side-by-side") {
         if (step.value == "off") {
@@ -657,8 +671,7 @@ void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
         settings.view = *mode;
     } else if (step.action == "open") {
         const BuildStatus status = s.builder->status();
-        std::printf("raypack: frame %u: worker %s when the load was requested\n", s.frameIndex,
-                    toString(status.phase));
+        std::printf("raypack: frame %u: worker %s when the load was requested\n", s.frameIndex, toString(status.phase));
         s.builder->requestLoad(step.value, s.panel.bvh);  // the step itself was logged above
     } else if (step.action == "wait") {
         s.builder->waitIdle();
@@ -670,8 +683,10 @@ void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
     } else if (step.action == "bookmark" || step.action == "save-bookmark") {
         const uint32_t slot = parseCount(step.value, step.action);
         if (slot > uint32_t(kBookmarkSlots)) throw Error(step.action + ": slot " + step.value + " is not 1..9");
-        if (step.action == "bookmark") recallBookmark(s, int(slot));
-        else saveBookmark(s, int(slot));
+        if (step.action == "bookmark")
+            recallBookmark(s, int(slot));
+        else
+            saveBookmark(s, int(slot));
     } else if (step.action == "frame-all") {
         s.fly.frameAll();
         settings.camera = s.fly.camera();
@@ -711,16 +726,17 @@ void moveCamera(Session& s, FlyInput& input, double frameSeconds) {
     if (!s.scene) return;
     const std::array<double, kFlyKeyCount> held = s.keys.take(s.secondsSinceStart());
     const auto seconds = [&](FlyKey k) { return float(held[uint32_t(k)]); };
-    input.heldSeconds += glm::vec3(seconds(FlyKey::Right) - seconds(FlyKey::Left),
-                                   seconds(FlyKey::Up) - seconds(FlyKey::Down),
-                                   seconds(FlyKey::Forward) - seconds(FlyKey::Back));
+    input.heldSeconds +=
+        glm::vec3(seconds(FlyKey::Right) - seconds(FlyKey::Left), seconds(FlyKey::Up) - seconds(FlyKey::Down),
+                  seconds(FlyKey::Forward) - seconds(FlyKey::Back));
     input.lookPixels += s.lookPixels;
     s.lookPixels = glm::vec2(0.0f);
     if (!s.offscreen) {
         const ImGuiIO& io = ImGui::GetIO();
         if (!io.WantCaptureMouse) input.wheel += io.MouseWheel;
         GLFWwindow* w = s.window.window;
-        input.fast = glfwGetKey(w, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(w, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
+        input.fast =
+            glfwGetKey(w, GLFW_KEY_LEFT_SHIFT) == GLFW_PRESS || glfwGetKey(w, GLFW_KEY_RIGHT_SHIFT) == GLFW_PRESS;
     }
 
     if (s.playing && !s.playbackOver) {
@@ -764,15 +780,22 @@ void moveCamera(Session& s, FlyInput& input, double frameSeconds) {
 
 void handleKeys(Session& s, PanelActions& actions) {
     for (const KeyPress& press : s.pressed) {
-        if (press.key == GLFW_KEY_F) actions.frameAll = true;
-        else if (press.key == GLFW_KEY_F1) s.showHelp = !s.showHelp;
-        else if (press.key == GLFW_KEY_F12) actions.screenshot = true;
-        else if (press.key == GLFW_KEY_TAB) actions.toggleCameraMode = true;
-        else if (press.key == GLFW_KEY_Q && (press.mods & GLFW_MOD_CONTROL)) glfwSetWindowShouldClose(s.window.window, GLFW_TRUE);
+        if (press.key == GLFW_KEY_F)
+            actions.frameAll = true;
+        else if (press.key == GLFW_KEY_F1)
+            s.showHelp = !s.showHelp;
+        else if (press.key == GLFW_KEY_F12)
+            actions.screenshot = true;
+        else if (press.key == GLFW_KEY_TAB)
+            actions.toggleCameraMode = true;
+        else if (press.key == GLFW_KEY_Q && (press.mods & GLFW_MOD_CONTROL))
+            glfwSetWindowShouldClose(s.window.window, GLFW_TRUE);
         else if (press.key >= GLFW_KEY_1 && press.key <= GLFW_KEY_9) {
             const int n = press.key - GLFW_KEY_0;
-            if (press.mods & GLFW_MOD_CONTROL) actions.saveBookmark = n;
-            else actions.recallBookmark = n;
+            if (press.mods & GLFW_MOD_CONTROL)
+                actions.saveBookmark = n;
+            else
+                actions.recallBookmark = n;
         }
     }
     s.pressed.clear();
@@ -781,9 +804,11 @@ void handleKeys(Session& s, PanelActions& actions) {
 void drawHelp(Session& s) {
     if (!s.showHelp) return;
     const ImGuiIO& io = ImGui::GetIO();
-    ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x * 0.5f, io.DisplaySize.y * 0.5f), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
+    ImGui::SetNextWindowPos(ImVec2(io.DisplaySize.x * 0.5f, io.DisplaySize.y * 0.5f), ImGuiCond_Always,
+                            ImVec2(0.5f, 0.5f));
     ImGui::SetNextWindowBgAlpha(0.9f);
-    if (!ImGui::Begin("Controls (F1 or ? closes)", &s.showHelp, ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoCollapse)) {
+    if (!ImGui::Begin("Controls (F1 or ? closes)", &s.showHelp,
+                      ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoCollapse)) {
         ImGui::End();
         return;
     }
@@ -839,7 +864,8 @@ void handleActions(Session& s, const PanelActions& a, const RenderSettings& befo
             // The pivot: the scene point at the image's centre, else (background) the orbit's own.
             const RenderSettings& st = s.panel.settings;
             std::optional<glm::vec3> pivot;
-            if (std::optional<PickHit> hit = pickPixel(*s.scene, *s.bvh, st.camera, st.width, st.height, st.width / 2, st.height / 2))
+            if (std::optional<PickHit> hit =
+                    pickPixel(*s.scene, *s.bvh, st.camera, st.width, st.height, st.width / 2, st.height / 2))
                 pivot = hit->point;
             switchToOrbit(s.fly, s.orbit, s.scene->bounds(), pivot);
         } else {
@@ -861,8 +887,9 @@ void handleActions(Session& s, const PanelActions& a, const RenderSettings& befo
     if (a.tracerChanged) setTracer(s, s.panel.tracer, "chosen in the panel");
     // The kernel radio buttons of the Tracer section pick among the Vulkan kernels.
     if (!isCpuTracer(s.panel.tracer) && s.panel.settings.kernel != kernelOf(s.panel.tracer))
-        setTracer(s, s.panel.settings.kernel == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle,
-                  "chosen in the panel");
+        setTracer(
+            s, s.panel.settings.kernel == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle,
+            "chosen in the panel");
     if (a.compare) {
         try {
             compareWithReference(s);
@@ -900,7 +927,8 @@ std::string describeSize(uint32_t width, uint32_t height) {
 }
 
 // Kernel times T_K of a traced frame into the panel's statistics (and the scripted run's medians).
-void recordKernelTimes(Session& s, const FrameTimings& kernel, uint32_t width, uint32_t height, const std::string& note) {
+void recordKernelTimes(Session& s, const FrameTimings& kernel, uint32_t width, uint32_t height,
+                       const std::string& note) {
     LiveStatistics& st = s.info.stats;
     st.kernelTimesValid = true;
     st.kernelTimesNote = note;
@@ -989,8 +1017,9 @@ void updateCountersNote(Session& s) {
     }
     const double age = std::chrono::duration<double>(Clock::now() - s.countersTime).count();
     char text[160];
-    std::snprintf(text, sizeof text, "from the %s, %.1f s ago%s", s.countersSource.c_str(), age,
-                  s.countedViewKey == s.tracedViewKey || isCpuTracer(s.panel.tracer) ? "" : " (the view changed since)");
+    std::snprintf(
+        text, sizeof text, "from the %s, %.1f s ago%s", s.countersSource.c_str(), age,
+        s.countedViewKey == s.tracedViewKey || isCpuTracer(s.panel.tracer) ? "" : " (the view changed since)");
     st.countersNote = text;
 }
 
@@ -1056,7 +1085,8 @@ void drawSideBySideLabels(const Session& s) {
     const float right = left + float(s.panel.settings.width) / scale;
     const auto drawLabel = [&](float x0, float x1, const std::string& text) {
         draw->PushClipRect(ImVec2(x0, 0), ImVec2(x1 - 2, 24), true);
-        draw->AddRectFilled(ImVec2(x0 + 4, 4), ImVec2(x0 + 8 + ImGui::CalcTextSize(text.c_str()).x, 22), IM_COL32(0, 0, 0, 160));
+        draw->AddRectFilled(ImVec2(x0 + 4, 4), ImVec2(x0 + 8 + ImGui::CalcTextSize(text.c_str()).x, 22),
+                            IM_COL32(0, 0, 0, 160));
         draw->AddText(ImVec2(x0 + 6, 5), IM_COL32(255, 255, 255, 255), text.c_str());
         draw->PopClipRect();
     };
@@ -1095,7 +1125,10 @@ double traceFrame(Session& s, const FramePlan& plan, const FrameTarget* target) 
     if (s.panel.sideBySide) traceRightHalf(s, traced, frame);  // the budget counts both tracers
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     recordKernelTimes(s, frame.timings, traced.width, traced.height,
-                      std::string("T_K: ") + (isCpuTracer(s.panel.tracer) ? "host clock" : s.cpuDevice ? "host clock (CPU device)" : "GPU timestamps") +
+                      std::string("T_K: ") +
+                          (isCpuTracer(s.panel.tracer) ? "host clock"
+                           : s.cpuDevice               ? "host clock (CPU device)"
+                                                       : "GPU timestamps") +
                           ", frame of " + describeSize(traced.width, traced.height));
     if (request.counters) takeCounters(s, frame, "frame shown (" + describeSize(traced.width, traced.height) + ")");
     Image image{frame.width, frame.height, frame.rgba};
@@ -1119,7 +1152,7 @@ double traceFrame(Session& s, const FramePlan& plan, const FrameTarget* target) 
 // Copies what is shown into the acquired swapchain image.
 void presentShown(Session& s, const FrameTarget& target) {
     const RenderSettings& settings = s.panel.settings;
-    const Image* compare = s.panel.showing == Showing::Reference ? &s.referenceImage
+    const Image* compare = s.panel.showing == Showing::Reference    ? &s.referenceImage
                            : s.panel.showing == Showing::Difference ? &s.differenceImage
                                                                     : nullptr;
     if (compare && (compare->width != settings.width || compare->height != settings.height)) {
@@ -1202,7 +1235,8 @@ FrameResult finishOffscreenFrame(Session& s, const FramePlan& plan, const std::s
     ++s.info.frameLoop.framesPresented;
     if (!screenshotPath.empty()) saveScreenshot(s, screenshotPath);
     if (traced) measureCounters(s, key);
-    s.smoothedFrameSeconds = s.smoothedFrameSeconds == 0.0 ? frameSeconds : 0.9 * s.smoothedFrameSeconds + 0.1 * frameSeconds;
+    s.smoothedFrameSeconds =
+        s.smoothedFrameSeconds == 0.0 ? frameSeconds : 0.9 * s.smoothedFrameSeconds + 0.1 * frameSeconds;
     s.info.stats.frameSeconds = s.smoothedFrameSeconds;
     s.frameTimes.push_back(frameSeconds);
     return result;
@@ -1279,9 +1313,9 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
     s.forcedScale.reset();
     const bool nothingNew = plan.kind == FrameKind::Idle;
     const bool wantShot = !screenshotPath.empty() || userScreenshot;
-    const bool present = !nothingNew || (!s.offscreen && (s.uiFramesPending > 0 || !windowShotPath.empty() ||
-                                                          s.shown == ShownSource::Nothing ||
-                                                          s.info.build.phase != BuildPhase::Idle));
+    const bool present =
+        !nothingNew || (!s.offscreen && (s.uiFramesPending > 0 || !windowShotPath.empty() ||
+                                         s.shown == ShownSource::Nothing || s.info.build.phase != BuildPhase::Idle));
     if (!present) {
         if (wantShot) saveScreenshot(s, screenshotPath.empty() ? nextScreenshotName() : screenshotPath);
         return result;
@@ -1328,7 +1362,8 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
         std::printf("raypack: window screenshot %s (%ux%u)\n", windowShotPath.c_str(), w, h);
     }
     if (traced) measureCounters(s, key);
-    s.smoothedFrameSeconds = s.smoothedFrameSeconds == 0.0 ? frameSeconds : 0.9 * s.smoothedFrameSeconds + 0.1 * frameSeconds;
+    s.smoothedFrameSeconds =
+        s.smoothedFrameSeconds == 0.0 ? frameSeconds : 0.9 * s.smoothedFrameSeconds + 0.1 * frameSeconds;
     s.info.stats.frameSeconds = s.smoothedFrameSeconds;
     s.frameTimes.push_back(frameSeconds);
     updateTitle(s);
@@ -1353,7 +1388,10 @@ nlohmann::json summaryJson(const Session& s) {
     for (const auto& [scale, count] : scales) scaleJson[std::to_string(scale)] = count;
     nlohmann::json movingScaleJson = nlohmann::json::object();
     for (const auto& [scale, count] : movingScales) movingScaleJson[std::to_string(scale)] = count;
-    const auto fps = [](const std::vector<double>& v) { const double m = median(v); return m > 0 ? 1.0 / m : 0.0; };
+    const auto fps = [](const std::vector<double>& v) {
+        const double m = median(v);
+        return m > 0 ? 1.0 / m : 0.0;
+    };
     return {
         {"device", s.info.device},
         {"tracer", cliName(s.panel.tracer)},
@@ -1419,8 +1457,10 @@ void chooseStartTracer(Session& s) {
                   std::string("Default on a CPU device: the CPU packet tracer (") + toString(cpuSimdSelected()) +
                       "), the fastest tracer measured on CPU devices (docs/viewer.md).");
     } else {
-        setTracer(s, s.options.settings.kernel == KernelKind::Single ? TracerChoice::VulkanSingle : TracerChoice::VulkanPacket,
-                  "Default on a GPU: the Vulkan packet kernel.");
+        setTracer(
+            s,
+            s.options.settings.kernel == KernelKind::Single ? TracerChoice::VulkanSingle : TracerChoice::VulkanPacket,
+            "Default on a GPU: the Vulkan packet kernel.");
     }
 }
 
@@ -1457,12 +1497,14 @@ int runViewer(const ViewerOptions& options) {
         VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
         poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
         poolInfo.queueFamilyIndex = s.context.queueFamily;
-        vk::check(vkCreateCommandPool(s.context.device, &poolInfo, nullptr, &s.offscreenPool), "vkCreateCommandPool (offscreen)");
+        vk::check(vkCreateCommandPool(s.context.device, &poolInfo, nullptr, &s.offscreenPool),
+                  "vkCreateCommandPool (offscreen)");
         VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
         alloc.commandPool = s.offscreenPool;
         alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
         alloc.commandBufferCount = 1;
-        vk::check(vkAllocateCommandBuffers(s.context.device, &alloc, &s.offscreenCmd), "vkAllocateCommandBuffers (offscreen)");
+        vk::check(vkAllocateCommandBuffers(s.context.device, &alloc, &s.offscreenCmd),
+                  "vkAllocateCommandBuffers (offscreen)");
         VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
         vk::check(vkCreateFence(s.context.device, &fenceInfo, nullptr, &s.offscreenDone), "vkCreateFence (offscreen)");
     } else {
@@ -1541,9 +1583,12 @@ int runViewer(const ViewerOptions& options) {
         if (scripted) {
             for (const ScriptStep& step : options.script) {
                 if (step.frame != s.frameIndex) continue;
-                if (step.action == "screenshot") screenshot = step.value;
-                else if (step.action == "window-screenshot") windowShot = step.value;
-                else applyScriptStep(s, step, scriptedInput);
+                if (step.action == "screenshot")
+                    screenshot = step.value;
+                else if (step.action == "window-screenshot")
+                    windowShot = step.value;
+                else
+                    applyScriptStep(s, step, scriptedInput);
             }
             if (s.frameIndex + 1 == options.frames) {
                 // The last frame shows the last request: wait for the worker once, here only.
@@ -1590,9 +1635,11 @@ int runViewer(const ViewerOptions& options) {
     if (scripted) {
         std::printf("raypack: %u frames (%" PRIu64 " traced), swapchain re-created %u times\n", s.frameIndex,
                     s.info.frameLoop.framesTraced, s.window.swapchainRecreations);
-        std::printf("raypack: second half of the run, medians: frame %.2f ms, T_K primary %.2f ms, "
-                    "T_K shadow %.2f ms\n", steadyMedian(s.frameTimes) * 1e3,
-                    steadyMedian(s.primaryKernelTimes) * 1e3, steadyMedian(s.shadowKernelTimes) * 1e3);
+        std::printf(
+            "raypack: second half of the run, medians: frame %.2f ms, T_K primary %.2f ms, "
+            "T_K shadow %.2f ms\n",
+            steadyMedian(s.frameTimes) * 1e3, steadyMedian(s.primaryKernelTimes) * 1e3,
+            steadyMedian(s.shadowKernelTimes) * 1e3);
         if (s.firstLoadFailed) {
             std::fprintf(stderr, "raypack: the scene %s could not be loaded\n", options.scene.c_str());
             return kViewerExitError;

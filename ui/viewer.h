@@ -36,27 +36,27 @@ struct ViewerOptions {
     std::string scene = "gen:default";  // a file or a generator spec (scenes/load.h)
     uint32_t width = 1280;              // window size; the traced image is the framebuffer's size
     uint32_t height = 800;
-    uint32_t frames = 0;                // 0: interactive until the window closes
-    std::string screenshot;             // after the last frame: traced image + JSON sidecar
-    std::string windowScreenshot;       // after the last frame: the whole window, panel included
-    RenderSettings settings;            // width/height are taken from the window
-    bool cameraGiven = false;           // settings.camera holds --eye/--at/--up/--fov
+    uint32_t frames = 0;           // 0: interactive until the window closes
+    std::string screenshot;        // after the last frame: traced image + JSON sidecar
+    std::string windowScreenshot;  // after the last frame: the whole window, panel included
+    RenderSettings settings;       // width/height are taken from the window
+    bool cameraGiven = false;      // settings.camera holds --eye/--at/--up/--fov
     BvhBuildOptions bvh;
-    std::string device;                 // as raypack-cli --device
-    bool validation = false;            // VK_LAYER_KHRONOS_validation; exit code 3 on any message
+    std::string device;       // as raypack-cli --device
+    bool validation = false;  // VK_LAYER_KHRONOS_validation; exit code 3 on any message
     VkPresentModeKHR presentMode = VK_PRESENT_MODE_FIFO_KHR;
-    bool liveCounters = true;           // N_TR / N_IT in the panel
+    bool liveCounters = true;  // N_TR / N_IT in the panel
     bool hidePanel = false;
     std::vector<ScriptStep> script;
-    std::optional<TracerChoice> tracer;  // default: by device (see runViewer)
+    std::optional<TracerChoice> tracer;      // default: by device (see runViewer)
     std::optional<TracerChoice> sideBySide;  // the right half's tracer
-    bool packetGiven = false;           // settings.packet is --packet, for the tracer that draws first
+    bool packetGiven = false;                // settings.packet is --packet, for the tracer that draws first
     FrameLoopSettings frameLoop;
-    std::string recordPath;   // write the camera of every frame here on exit
-    std::string playPath;     // fly this recorded path
-    bool playFrames = false;  // one recorded key per frame instead of the recorded timing
-    std::string summaryPath;  // a JSON summary of the run on exit
-    bool offscreen = false;   // no window: the same frame loop into an offscreen image
+    std::string recordPath;          // write the camera of every frame here on exit
+    std::string playPath;            // fly this recorded path
+    bool playFrames = false;         // one recorded key per frame instead of the recorded timing
+    std::string summaryPath;         // a JSON summary of the run on exit
+    bool offscreen = false;          // no window: the same frame loop into an offscreen image
     bool exitWhenConverged = false;  // exit once the played path is over and the image converged
 };
 

@@ -18,8 +18,7 @@ namespace {
 
 // Reads one field of the panel object into `value` when present and of the right type, clamped to
 // [lo, hi]; otherwise leaves the default and notes what was wrong in `problems`.
-void readNumber(const json& panel, const char* key, float& value, float lo, float hi,
-                std::string& problems) {
+void readNumber(const json& panel, const char* key, float& value, float lo, float hi, std::string& problems) {
     if (!panel.contains(key)) return;
     const json& field = panel[key];
     if (!field.is_number()) {
@@ -28,8 +27,8 @@ void readNumber(const json& panel, const char* key, float& value, float lo, floa
     }
     const double number = field.get<double>();
     if (!(number >= lo && number <= hi)) {
-        problems += std::string(problems.empty() ? "" : "; ") + "panel." + key + " = " +
-                    field.dump() + " is outside [" + json(lo).dump() + ", " + json(hi).dump() + "]";
+        problems += std::string(problems.empty() ? "" : "; ") + "panel." + key + " = " + field.dump() +
+                    " is outside [" + json(lo).dump() + ", " + json(hi).dump() + "]";
         return;
     }
     value = float(number);
@@ -38,8 +37,7 @@ void readNumber(const json& panel, const char* key, float& value, float lo, floa
 void readBool(const json& panel, const char* key, bool& value, std::string& problems) {
     if (!panel.contains(key)) return;
     if (!panel[key].is_boolean()) {
-        problems +=
-            std::string(problems.empty() ? "" : "; ") + "panel." + key + " is not true or false";
+        problems += std::string(problems.empty() ? "" : "; ") + "panel." + key + " is not true or false";
         return;
     }
     value = panel[key].get<bool>();
@@ -55,14 +53,12 @@ ViewerConfigLoad loadViewerConfig(const std::string& file) {
     if (!fs::exists(file, error)) return result;
     std::ifstream in(file, std::ios::binary);
     if (!in) {
-        result.warning =
-            file + ": cannot be read; using the default panel layout and no recent files";
+        result.warning = file + ": cannot be read; using the default panel layout and no recent files";
         return result;
     }
     const json all = json::parse(in, nullptr, /*allow_exceptions=*/false);
     if (all.is_discarded() || !all.is_object()) {
-        result.warning = file + ": " +
-                         (all.is_discarded() ? "not valid JSON" : "not a JSON object") +
+        result.warning = file + ": " + (all.is_discarded() ? "not valid JSON" : "not a JSON object") +
                          "; using the default panel layout and no recent files";
         return result;
     }
@@ -73,11 +69,9 @@ ViewerConfigLoad loadViewerConfig(const std::string& file) {
             problems = "panel is not an object";
         } else {
             PanelLayout& layout = result.config.panel;
-            readNumber(panel, "width", layout.width, PanelLayout::kMinWidth, PanelLayout::kMaxWidth,
-                       problems);
+            readNumber(panel, "width", layout.width, PanelLayout::kMinWidth, PanelLayout::kMaxWidth, problems);
             readBool(panel, "collapsed", layout.collapsed, problems);
-            readNumber(panel, "ui_scale", layout.uiScale, PanelLayout::kMinUiScale,
-                       PanelLayout::kMaxUiScale, problems);
+            readNumber(panel, "ui_scale", layout.uiScale, PanelLayout::kMinUiScale, PanelLayout::kMaxUiScale, problems);
             readBool(panel, "overlay", layout.overlay, problems);
         }
     }
@@ -88,19 +82,14 @@ ViewerConfigLoad loadViewerConfig(const std::string& file) {
             problems += std::string(problems.empty() ? "" : "; ") + e.what();
         }
     }
-    if (!problems.empty())
-        result.warning = file + ": " + problems + "; using the defaults for those";
+    if (!problems.empty()) result.warning = file + ": " + problems + "; using the defaults for those";
     return result;
 }
 
 void saveViewerConfig(const std::string& file, const ViewerConfig& config) {
     const PanelLayout& p = config.panel;
     const json all = {
-        {"panel",
-         {{"width", p.width},
-          {"collapsed", p.collapsed},
-          {"ui_scale", p.uiScale},
-          {"overlay", p.overlay}}},
+        {"panel", {{"width", p.width}, {"collapsed", p.collapsed}, {"ui_scale", p.uiScale}, {"overlay", p.overlay}}},
         {"recent_files", config.recent.toJson()},
     };
     std::error_code error;

@@ -4,9 +4,9 @@
 
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
-#include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_vulkan.h>
+#include <imgui.h>
 
 #include <cstdio>
 #include <cstring>
@@ -27,8 +27,8 @@ void checkImGuiVk(VkResult result) {
     if (result < 0) throw Error(std::string("ImGui Vulkan backend: ") + vk::resultName(result));
 }
 
-VkImageMemoryBarrier imageBarrier(VkImage image, VkImageLayout from, VkImageLayout to,
-                                  VkAccessFlags srcAccess, VkAccessFlags dstAccess) {
+VkImageMemoryBarrier imageBarrier(VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags srcAccess,
+                                  VkAccessFlags dstAccess) {
     VkImageMemoryBarrier barrier{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
     barrier.srcAccessMask = srcAccess;
     barrier.dstAccessMask = dstAccess;
@@ -44,8 +44,8 @@ VkImageMemoryBarrier imageBarrier(VkImage image, VkImageLayout from, VkImageLayo
 void recreateSwapchain(const vk::VulkanContext& context, ViewerWindow& w, uint32_t width, uint32_t height) {
     check(vkDeviceWaitIdle(context.device), "vkDeviceWaitIdle (swapchain re-creation)");
     Swapchain old = w.swapchain;
-    w.swapchain = createSwapchain(context, w.surface, w.overlayPass, old.format, width, height,
-                                  w.wantedPresentMode, old.swapchain);
+    w.swapchain = createSwapchain(context, w.surface, w.overlayPass, old.format, width, height, w.wantedPresentMode,
+                                  old.swapchain);
     destroySwapchain(context, old);
     ImGui_ImplVulkan_SetMinImageCount(w.swapchain.minImageCount);
     w.swapchainStale = false;
@@ -67,8 +67,7 @@ void initWindowSystem() {
     }
     if (!glfwVulkanSupported()) {
         glfwTerminate();
-        throw Error("cannot open a window: GLFW finds no Vulkan loader able to present (" +
-                    lastGlfwError + ")");
+        throw Error("cannot open a window: GLFW finds no Vulkan loader able to present (" + lastGlfwError + ")");
     }
 }
 
@@ -88,8 +87,9 @@ ViewerWindow createViewerWindow(const vk::VulkanContext& context, const ViewerWi
     glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
     glfwWindowHint(GLFW_VISIBLE, options.visible ? GLFW_TRUE : GLFW_FALSE);
     w.window = glfwCreateWindow(int(options.width), int(options.height), options.title.c_str(), nullptr, nullptr);
-    if (!w.window) throw Error("cannot create a window of " + std::to_string(options.width) + "x" +
-                               std::to_string(options.height) + ": " + lastGlfwError);
+    if (!w.window)
+        throw Error("cannot create a window of " + std::to_string(options.width) + "x" +
+                    std::to_string(options.height) + ": " + lastGlfwError);
     w.surface = createSurface(context.instance, w.window);
     VkBool32 supported = VK_FALSE;
     check(vkGetPhysicalDeviceSurfaceSupportKHR(context.physicalDevice, context.queueFamily, w.surface, &supported),
@@ -104,8 +104,8 @@ ViewerWindow createViewerWindow(const vk::VulkanContext& context, const ViewerWi
     w.wantedPresentMode = options.presentMode;
     int fbWidth = 0, fbHeight = 0;
     glfwGetFramebufferSize(w.window, &fbWidth, &fbHeight);
-    w.swapchain = createSwapchain(context, w.surface, w.overlayPass, format, uint32_t(fbWidth),
-                                  uint32_t(fbHeight), w.wantedPresentMode, VK_NULL_HANDLE);
+    w.swapchain = createSwapchain(context, w.surface, w.overlayPass, format, uint32_t(fbWidth), uint32_t(fbHeight),
+                                  w.wantedPresentMode, VK_NULL_HANDLE);
 
     VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
     poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -189,14 +189,16 @@ std::optional<FrameTarget> beginFrame(const vk::VulkanContext& context, ViewerWi
         recreateSwapchain(context, w, uint32_t(fbWidth), uint32_t(fbHeight));
 
     FrameTarget target;
-    const VkResult acquired = vkAcquireNextImageKHR(context.device, w.swapchain.swapchain, UINT64_MAX,
-                                                    w.imageAcquired, VK_NULL_HANDLE, &target.imageIndex);
+    const VkResult acquired = vkAcquireNextImageKHR(context.device, w.swapchain.swapchain, UINT64_MAX, w.imageAcquired,
+                                                    VK_NULL_HANDLE, &target.imageIndex);
     if (acquired == VK_ERROR_OUT_OF_DATE_KHR) {
         w.swapchainStale = true;
         return std::nullopt;
     }
-    if (acquired == VK_SUBOPTIMAL_KHR) w.swapchainStale = true;  // usable now, re-created next frame
-    else check(acquired, "vkAcquireNextImageKHR");
+    if (acquired == VK_SUBOPTIMAL_KHR)
+        w.swapchainStale = true;  // usable now, re-created next frame
+    else
+        check(acquired, "vkAcquireNextImageKHR");
 
     check(vkResetFences(context.device, 1, &w.frameDone), "vkResetFences (viewer frame)");
     check(vkResetCommandBuffer(w.commandBuffer, 0), "vkResetCommandBuffer (viewer frame)");
@@ -211,11 +213,10 @@ std::optional<FrameTarget> beginFrame(const vk::VulkanContext& context, ViewerWi
 
 void copyImage(ViewerWindow& w, const FrameTarget& target, VkBuffer source) {
     const VkImage image = w.swapchain.images[target.imageIndex];
-    const VkImageMemoryBarrier toTransfer = imageBarrier(image, VK_IMAGE_LAYOUT_UNDEFINED,
-                                                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                                                         VK_ACCESS_TRANSFER_WRITE_BIT);
-    vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
-                         nullptr, 0, nullptr, 1, &toTransfer);
+    const VkImageMemoryBarrier toTransfer = imageBarrier(
+        image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT);
+    vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
+                         nullptr, 1, &toTransfer);
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {target.extent.width, target.extent.height, 1};
@@ -225,21 +226,20 @@ void copyImage(ViewerWindow& w, const FrameTarget& target, VkBuffer source) {
 void copyImage(ViewerWindow& w, const FrameTarget& target, VkBuffer source, const ImageRegion& region) {
     const VkImage image = w.swapchain.images[target.imageIndex];
     RAYPACK_CHECK(region.x + region.width <= target.extent.width && region.height <= target.extent.height);
-    const VkImageMemoryBarrier toTransfer = imageBarrier(image, VK_IMAGE_LAYOUT_UNDEFINED,
-                                                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                                                         VK_ACCESS_TRANSFER_WRITE_BIT);
-    vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
-                         nullptr, 0, nullptr, 1, &toTransfer);
+    const VkImageMemoryBarrier toTransfer = imageBarrier(
+        image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT);
+    vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
+                         nullptr, 1, &toTransfer);
     if (region.x != 0 || region.width != target.extent.width || region.height != target.extent.height) {
         const VkClearColorValue color{{region.background.x, region.background.y, region.background.z, 1.0f}};
         const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
         vkCmdClearColorImage(target.cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &color, 1, &range);
         // The copy below writes what the clear wrote: order them.
-        const VkImageMemoryBarrier afterClear = imageBarrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                                             VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                                             VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
-        vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
-                             nullptr, 0, nullptr, 1, &afterClear);
+        const VkImageMemoryBarrier afterClear =
+            imageBarrier(image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                         VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_TRANSFER_WRITE_BIT);
+        vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr,
+                             0, nullptr, 1, &afterClear);
     }
     VkBufferImageCopy copy{};
     copy.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
@@ -250,18 +250,17 @@ void copyImage(ViewerWindow& w, const FrameTarget& target, VkBuffer source, cons
 
 void clearImage(ViewerWindow& w, const FrameTarget& target, float r, float g, float b) {
     const VkImage image = w.swapchain.images[target.imageIndex];
-    const VkImageMemoryBarrier toTransfer = imageBarrier(image, VK_IMAGE_LAYOUT_UNDEFINED,
-                                                         VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
-                                                         VK_ACCESS_TRANSFER_WRITE_BIT);
-    vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0,
-                         nullptr, 0, nullptr, 1, &toTransfer);
+    const VkImageMemoryBarrier toTransfer = imageBarrier(
+        image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0, VK_ACCESS_TRANSFER_WRITE_BIT);
+    vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
+                         nullptr, 1, &toTransfer);
     const VkClearColorValue color{{r, g, b, 1.0f}};
     const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     vkCmdClearColorImage(target.cmd, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &color, 1, &range);
 }
 
-void finishFrame(const vk::VulkanContext& context, ViewerWindow& w, const FrameTarget& target,
-                 ImDrawData* drawData, bool captureWindow) {
+void finishFrame(const vk::VulkanContext& context, ViewerWindow& w, const FrameTarget& target, ImDrawData* drawData,
+                 bool captureWindow) {
     VkRenderPassBeginInfo pass{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
     pass.renderPass = w.overlayPass;
     pass.framebuffer = w.swapchain.framebuffers[target.imageIndex];
@@ -275,24 +274,23 @@ void finishFrame(const vk::VulkanContext& context, ViewerWindow& w, const FrameT
         const VkDeviceSize bytes = VkDeviceSize(target.extent.width) * target.extent.height * 4;
         if (w.windowReadback.size != bytes) {
             vk::destroyBuffer(context, w.windowReadback);
-            w.windowReadback = vk::createBuffer(context, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                                VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
-                                                    VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                                                "window screenshot");
+            w.windowReadback = vk::createBuffer(
+                context, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "window screenshot");
         }
-        const VkImageMemoryBarrier toSource = imageBarrier(
-            image, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-            VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT);
-        vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT,
-                             VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1, &toSource);
+        const VkImageMemoryBarrier toSource =
+            imageBarrier(image, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                         VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT);
+        vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             0, 0, nullptr, 0, nullptr, 1, &toSource);
         VkBufferImageCopy region{};
         region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
         region.imageExtent = {target.extent.width, target.extent.height, 1};
-        vkCmdCopyImageToBuffer(target.cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                               w.windowReadback.buffer, 1, &region);
-        const VkImageMemoryBarrier toPresent = imageBarrier(
-            image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
-            VK_ACCESS_TRANSFER_READ_BIT, 0);
+        vkCmdCopyImageToBuffer(target.cmd, image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, w.windowReadback.buffer, 1,
+                               &region);
+        const VkImageMemoryBarrier toPresent =
+            imageBarrier(image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR,
+                         VK_ACCESS_TRANSFER_READ_BIT, 0);
         VkBufferMemoryBarrier toHost{VK_STRUCTURE_TYPE_BUFFER_MEMORY_BARRIER};
         toHost.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
         toHost.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
@@ -301,8 +299,8 @@ void finishFrame(const vk::VulkanContext& context, ViewerWindow& w, const FrameT
         toHost.buffer = w.windowReadback.buffer;
         toHost.size = VK_WHOLE_SIZE;
         vkCmdPipelineBarrier(target.cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0,
-                             nullptr, 1, &toHost, 1, &toPresent);
+                             VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 0, nullptr, 1,
+                             &toHost, 1, &toPresent);
     }
     check(vkEndCommandBuffer(target.cmd), "vkEndCommandBuffer (viewer frame)");
 
@@ -326,8 +324,10 @@ void finishFrame(const vk::VulkanContext& context, ViewerWindow& w, const FrameT
     present.pSwapchains = &w.swapchain.swapchain;
     present.pImageIndices = &target.imageIndex;
     const VkResult presented = vkQueuePresentKHR(context.queue, &present);
-    if (presented == VK_ERROR_OUT_OF_DATE_KHR || presented == VK_SUBOPTIMAL_KHR) w.swapchainStale = true;
-    else check(presented, "vkQueuePresentKHR");
+    if (presented == VK_ERROR_OUT_OF_DATE_KHR || presented == VK_SUBOPTIMAL_KHR)
+        w.swapchainStale = true;
+    else
+        check(presented, "vkQueuePresentKHR");
 }
 
 std::vector<uint32_t> readWindowImage(const vk::VulkanContext& context, ViewerWindow& w, uint32_t& width,

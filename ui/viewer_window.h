@@ -8,8 +8,8 @@
 #include "renderer/vk/context.h"
 #include "ui/swapchain.h"
 
-#include <glm/glm.hpp>
 #include <vulkan/vulkan.h>
+#include <glm/glm.hpp>
 
 #include <cstdint>
 #include <optional>
@@ -47,7 +47,7 @@ struct ViewerWindow {
     VkFence frameDone = VK_NULL_HANDLE;
     VkSemaphore imageAcquired = VK_NULL_HANDLE;
     VkDescriptorPool imguiPool = VK_NULL_HANDLE;
-    bool swapchainStale = false;   // resized, or the present mode changed
+    bool swapchainStale = false;  // resized, or the present mode changed
     uint32_t swapchainRecreations = 0;
     // Read-back of the composed window image (traced image + panel), for window screenshots.
     vk::Buffer windowReadback;
@@ -62,8 +62,8 @@ void setPresentMode(ViewerWindow& window, VkPresentModeKHR mode);
 struct FrameTarget {
     VkCommandBuffer cmd = VK_NULL_HANDLE;  // begun; the caller records into it
     uint32_t imageIndex = 0;
-    VkExtent2D extent{};                   // the swapchain image's size: render at this size
-    bool bgra = false;                     // the swapchain wants B8G8R8A8 bytes
+    VkExtent2D extent{};  // the swapchain image's size: render at this size
+    bool bgra = false;    // the swapchain wants B8G8R8A8 bytes
 };
 
 // Waits for the previous frame, re-creates the swapchain if needed and acquires an image. Returns
@@ -94,7 +94,7 @@ void finishFrame(const vk::VulkanContext& context, ViewerWindow& window, const F
                  ImDrawData* drawData, bool captureWindow = false);
 
 // After a finishFrame with captureWindow: waits for it and returns RGBA8 texels, row 0 at the top.
-std::vector<uint32_t> readWindowImage(const vk::VulkanContext& context, ViewerWindow& window,
-                                      uint32_t& width, uint32_t& height);
+std::vector<uint32_t> readWindowImage(const vk::VulkanContext& context, ViewerWindow& window, uint32_t& width,
+                                      uint32_t& height);
 
 }  // namespace raypack::ui

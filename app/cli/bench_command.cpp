@@ -1,7 +1,8 @@
 // `raypack-cli bench`: issue 5's matrix runner. For every scene of a suite: load, build the BVH
 // (Table 1), then one cell per tracer configuration (CPU reference; Embree; GPU packet kernel per
-// packet shape; GPU single-ray kernel), each with untimed warm-up runs (one counting N_TR / N_IT, then 0.3 s of frames back to back on a GPU) and N timed runs, written as one
-// JSON record per cell and ray kind (primary, shadow) with the machine and the date.
+// packet shape; GPU single-ray kernel), each with untimed warm-up runs (one counting N_TR / N_IT, then 0.3 s of frames
+// back to back on a GPU) and N timed runs, written as one JSON record per cell and ray kind (primary, shadow) with the
+// machine and the date.
 #include "app/cli/arguments.h"
 #include "app/cli/bench_suites.h"
 #include "app/cli/commands.h"
@@ -16,8 +17,8 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <memory>
 #include <optional>
@@ -29,8 +30,7 @@ using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 struct BenchFlags {
-    std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets,
-                                          gpu, out, sceneDir;
+    std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
     bool noEmbree = false;
@@ -43,12 +43,12 @@ struct Cell {
     PacketShape packet;
     std::string label() const {
         switch (kind) {
-            case Cpu: return "cpu-reference";
-            case CpuPacket: return "cpu-packet " + toString(packet);
-            case Embree: return "embree";
-            case GpuPacket: return "gpu-packet " + toString(packet);
-            case GpuSingle: return "gpu-single";
-            case DriverRt: return "driver-rt";
+        case Cpu: return "cpu-reference";
+        case CpuPacket: return "cpu-packet " + toString(packet);
+        case Embree: return "embree";
+        case GpuPacket: return "gpu-packet " + toString(packet);
+        case GpuSingle: return "gpu-single";
+        case DriverRt: return "driver-rt";
         }
         return "";
     }
@@ -69,8 +69,8 @@ std::string operatingSystem() {
     return std::string(name.sysname) + " " + name.release + " " + name.machine;
 }
 
-json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& bvh,
-                 const BvhBuildOptions& options, const Camera& camera) {
+json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& bvh, const BvhBuildOptions& options,
+                 const Camera& camera) {
     json j = table1Json(loaded.info, bvh.stats, options);
     j["scene"] = scene.name;
     j["scene_spec"] = scene.spec;
@@ -83,8 +83,8 @@ json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& 
 }
 
 // Two records (primary, shadow) of a raypack cell.
-void addRaypackRecords(json& records, const json& scene, const Cell& cell,
-                       const MeasuredFrames& measured, const std::string& driver) {
+void addRaypackRecords(json& records, const json& scene, const Cell& cell, const MeasuredFrames& measured,
+                       const std::string& driver) {
     const FrameStats& s = measured.stats;
     for (const char* kind : {"primary", "shadow"}) {
         json r = scene;
@@ -94,9 +94,9 @@ void addRaypackRecords(json& records, const json& scene, const Cell& cell,
                                                      : "gpu-single";
         r["device"] = s.device;
         r["driver"] = driver;
-        r["kernel"] = cell.kind == Cell::Cpu ? "reference"
+        r["kernel"] = cell.kind == Cell::Cpu                                         ? "reference"
                       : cell.kind == Cell::CpuPacket || cell.kind == Cell::GpuPacket ? "packet"
-                                                                                   : "single";
+                                                                                     : "single";
         const bool packet = cell.kind == Cell::GpuPacket || cell.kind == Cell::CpuPacket;
         r["packet"] = packet ? json(toString(cell.packet)) : json(nullptr);
         r["ray_kind"] = kind;
@@ -114,19 +114,17 @@ void addRaypackRecords(json& records, const json& scene, const Cell& cell,
 void addEmbreeRecords(json& records, const json& sceneFieldsJson, const EmbreeResults& e,
                       const RenderSettings& settings, uint32_t repeats) {
     for (const EmbreeQualityResults& q : e.qualities) {
-        const std::pair<const char*, const EmbreeRate*> modes[] = {
-            {"rtcIntersect1", &q.intersect1},
-            {"rtcIntersect8", &q.intersect8},
-            {"rtcIntersect16", &q.intersect16},
-            {"rtcOccluded1", &q.occluded1},
-            {"rtcOccluded8", &q.occluded8}};
+        const std::pair<const char*, const EmbreeRate*> modes[] = {{"rtcIntersect1", &q.intersect1},
+                                                                   {"rtcIntersect8", &q.intersect8},
+                                                                   {"rtcIntersect16", &q.intersect16},
+                                                                   {"rtcOccluded1", &q.occluded1},
+                                                                   {"rtcOccluded8", &q.occluded8}};
         for (const auto& [kernel, rate] : modes) {
             const bool shadow = std::string(kernel).rfind("rtcOccluded", 0) == 0;
             if (shadow && !settings.shadows) continue;
             if (rate->rays == 0 && !shadow) continue;  // rtcIntersect16 not in this Embree build
             json r;
-            for (const char* key : {"scene", "scene_spec", "camera", "triangles",
-                                    "degenerate_triangles"})
+            for (const char* key : {"scene", "scene_spec", "camera", "triangles", "degenerate_triangles"})
                 r[key] = sceneFieldsJson[key];
             r["tracer"] = "embree";
             r["device"] = describeCpuDevice();
@@ -145,15 +143,13 @@ void addEmbreeRecords(json& records, const json& sceneFieldsJson, const EmbreeRe
             r["t_k_s"] = rate->seconds.median;
             r["t_k_min_s"] = rate->seconds.min;
             r["t_k_max_s"] = rate->seconds.max;
-            r["t_r_us_per_ray"] =
-                rate->rays ? rate->seconds.median / double(rate->rays) * 1e6 : 0.0;
+            r["t_r_us_per_ray"] = rate->rays ? rate->seconds.median / double(rate->rays) * 1e6 : 0.0;
             r["perf_mrays_s"] = rate->mraysPerSecond();
             r["hits_compared"] = e.comparedRays;
             r["hits_agree_share"] = e.agreementShare();
             r["hits_max_rel_t_error"] = e.maxRelativeTError;
             r["shadows_compared"] = e.comparedShadows;
-            r["shadows_agree_share"] =
-                e.comparedShadows ? double(e.agreeingShadows) / double(e.comparedShadows) : 0.0;
+            r["shadows_agree_share"] = e.comparedShadows ? double(e.agreeingShadows) / double(e.comparedShadows) : 0.0;
             records.push_back(r);
         }
     }
@@ -168,29 +164,27 @@ struct Progress {
         std::string remaining = "unknown";
         if (done > 0) {
             char text[32];
-            std::snprintf(text, sizeof text, "about %.0f s",
-                          elapsed / double(done) * double(total - done));
+            std::snprintf(text, sizeof text, "about %.0f s", elapsed / double(done) * double(total - done));
             remaining = text;
         }
-        std::fprintf(stderr, "bench: cell %zu of %zu (%s, %s): elapsed %.1f s, remaining %s\n",
-                     done + 1, total, scene.c_str(), what.c_str(), elapsed, remaining.c_str());
+        std::fprintf(stderr, "bench: cell %zu of %zu (%s, %s): elapsed %.1f s, remaining %s\n", done + 1, total,
+                     scene.c_str(), what.c_str(), elapsed, remaining.c_str());
         std::fflush(stderr);
     }
 };
 
 int runBench(const BenchFlags& f, const CLI::App& command) {
     const auto given = [&](const char* name) { return command.get_option(name)->count() > 0; };
-    if (given("--scenes") && given("--suite"))
-        throw Error("bench: give either --scenes or --suite, not both");
-    BenchSuite suite = given("--scenes") ? customSuite(splitList(f.scenes))
-                                         : benchSuite(f.suite, resolveSceneDir(f.sceneDir));
+    if (given("--scenes") && given("--suite")) throw Error("bench: give either --scenes or --suite, not both");
+    BenchSuite suite =
+        given("--scenes") ? customSuite(splitList(f.scenes)) : benchSuite(f.suite, resolveSceneDir(f.sceneDir));
     const uint32_t width = given("--width") ? f.width : suite.width;
     const uint32_t height = given("--height") ? f.height : suite.height;
     const uint32_t repeats = given("--repeat") ? f.repeat : suite.repeats;
     const std::vector<PacketShape> packets =
         parsePacketShapes("--packets", given("--packets") ? f.packets : suite.packets);
-    const std::vector<PacketShape> cpuPackets = parsePacketShapes(
-        "--cpu-packets", given("--cpu-packets") ? f.cpuPackets : suite.cpuPackets);
+    const std::vector<PacketShape> cpuPackets =
+        parsePacketShapes("--cpu-packets", given("--cpu-packets") ? f.cpuPackets : suite.cpuPackets);
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
@@ -212,12 +206,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     if (gpu && singleKernel) cells.push_back({Cell::GpuSingle, {}});
 
     std::optional<GpuSession> session;
-    json machine = {{"cpu_model", cpuModel()},
-                    {"cpu_threads", cpuThreads()},
-                    {"os", operatingSystem()},
-                    {"gpu", nullptr},
-                    {"gpu_driver", nullptr},
-                    {"gpu_type", nullptr},
+    json machine = {{"cpu_model", cpuModel()},  {"cpu_threads", cpuThreads()}, {"os", operatingSystem()},
+                    {"gpu", nullptr},           {"gpu_driver", nullptr},       {"gpu_type", nullptr},
                     {"embree_version", nullptr}};
     if (gpu) {
         session.emplace(f.gpu, false, !f.noDriverRt);
@@ -228,8 +218,10 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         std::fprintf(stderr, "bench: GPU %s\n", vk::describe(info).c_str());
         if (!f.noDriverRt) {
             const std::string unsupported = rtPeerUnsupportedReason(session->context);
-            if (unsupported.empty()) cells.push_back({Cell::DriverRt, {}});
-            else skipped.push_back(unsupported);
+            if (unsupported.empty())
+                cells.push_back({Cell::DriverRt, {}});
+            else
+                skipped.push_back(unsupported);
         }
     }
 
@@ -237,8 +229,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     Progress progress;
     progress.total = cells.size() * suite.scenes.size();
     for (const BenchScene& benchScene : suite.scenes) {
-        std::fprintf(stderr, "bench: loading %s (%s) and building its BVH\n",
-                     benchScene.name.c_str(), benchScene.spec.c_str());
+        std::fprintf(stderr, "bench: loading %s (%s) and building its BVH\n", benchScene.name.c_str(),
+                     benchScene.spec.c_str());
         const LoadedScene loaded = loadSceneTimed(benchScene.spec);
         const Bvh bvh = buildBvh(loaded.scene, bvhOptions);
         RenderSettings settings;
@@ -259,8 +251,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 FrameSource source;
                 source.cpu = &view;
                 source.cpuPackets = true;
-                const MeasuredFrames measured =
-                    measureFrames(source, packetSettings, repeats, false);
+                const MeasuredFrames measured = measureFrames(source, packetSettings, repeats, false);
                 addRaypackRecords(records, scene, cell, measured, "");
                 // The packets' hits against the reference's (same rays): triangle, t to the
                 // bit and shadow state of every pixel.
@@ -269,12 +260,10 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                     for (size_t i = 0; i < referenceHits.size(); ++i) {
                         const HitRecord& a = referenceHits[i];
                         const HitRecord& b = measured.frame.hits[i];
-                        same += a.prim == b.prim && std::memcmp(&a.t, &b.t, sizeof a.t) == 0 &&
-                                a.shadow == b.shadow;
+                        same += a.prim == b.prim && std::memcmp(&a.t, &b.t, sizeof a.t) == 0 && a.shadow == b.shadow;
                     }
                     for (size_t k = records.size() - 2; k < records.size(); ++k)
-                        records[k]["hits_identical_to_reference_share"] =
-                            double(same) / double(referenceHits.size());
+                        records[k]["hits_identical_to_reference_share"] = double(same) / double(referenceHits.size());
                 }
             } else if (cell.kind == Cell::Cpu) {
                 const CpuSceneView view = makeCpuSceneView(loaded.scene, bvh);
@@ -284,20 +273,16 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 addRaypackRecords(records, scene, cell, measured, "");
                 referenceHits = std::move(measured.frame.hits);
             } else if (cell.kind == Cell::DriverRt) {
-                const RtPeerResult result =
-                    runRtPeer(session->context, loaded.scene, settings, repeats);
+                const RtPeerResult result = runRtPeer(session->context, loaded.scene, settings, repeats);
                 std::optional<RtPeerAgreement> agreement;
-                if (!referenceHits.empty())
-                    agreement = compareRtPeerHits(result.frame.hits, referenceHits);
+                if (!referenceHits.empty()) agreement = compareRtPeerHits(result.frame.hits, referenceHits);
                 for (json record : rtPeerRecords(result, agreement ? &*agreement : nullptr)) {
-                    for (const char* key : {"scene", "scene_spec", "camera", "triangles",
-                                            "degenerate_triangles"})
+                    for (const char* key : {"scene", "scene_spec", "camera", "triangles", "degenerate_triangles"})
                         record[key] = scene[key];
                     records.push_back(record);
                 }
             } else if (cell.kind == Cell::Embree) {
-                const EmbreeResults results =
-                    runEmbreePeer(loaded.scene, settings, referenceHits, repeats);
+                const EmbreeResults results = runEmbreePeer(loaded.scene, settings, referenceHits, repeats);
                 machine["embree_version"] = results.version;
                 addEmbreeRecords(records, scene, results, settings, repeats);
             } else {
@@ -306,8 +291,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                     uploaded = true;
                 }
                 RenderSettings gpuSettings = settings;
-                gpuSettings.kernel =
-                    cell.kind == Cell::GpuPacket ? KernelKind::Packet : KernelKind::Single;
+                gpuSettings.kernel = cell.kind == Cell::GpuPacket ? KernelKind::Packet : KernelKind::Single;
                 if (cell.kind == Cell::GpuPacket) gpuSettings.packet = cell.packet;
                 FrameSource source;
                 source.gpu = session->tracer.get();
@@ -334,12 +318,14 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
           {"repeats", repeats},
           {"devices", f.device},
           {"kernels", f.kernel},
-          {"packets", [&] {
+          {"packets",
+           [&] {
                json list = json::array();
                for (const PacketShape& p : packets) list.push_back(toString(p));
                return list;
            }()},
-          {"cpu_packets", [&] {
+          {"cpu_packets",
+           [&] {
                json list = json::array();
                for (const PacketShape& p : cpuPackets) list.push_back(toString(p));
                return list;
@@ -351,8 +337,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const std::string out = f.out.empty() ? "bench-" + suite.name + ".json" : f.out;
     writeJsonFile(out, result);
     const double elapsed = std::chrono::duration<double>(Clock::now() - progress.start).count();
-    std::printf("bench: %zu records (%zu cells) written to %s in %.1f s\n", records.size(),
-                progress.total, out.c_str(), elapsed);
+    std::printf("bench: %zu records (%zu cells) written to %s in %.1f s\n", records.size(), progress.total, out.c_str(),
+                elapsed);
     for (const auto& line : skipped) std::printf("bench: skipped: %s\n", line.get<std::string>().c_str());
     return kExitOk;
 }
@@ -371,7 +357,8 @@ CommandRunner addBenchCommand(CLI::App& app) {
         "(t_r_us_per_ray, n_it_tests_per_ray, n_tr_nodes_per_ray, n_q_rays, t_f_s, t_cu_s, "
         "t_k_s with t_k_min_s / t_k_max_s, perf_mrays_s, perf_with_upload_mrays_s), plus the "
         "machine (CPU model, threads, GPU, driver) and the date. Every cell runs once as a "
-        "warm-up that counts N_TR / N_IT, then untimed (once on the CPU, plus 0.3 s of frames back to back on a GPU, so that its clocks are "
+        "warm-up that counts N_TR / N_IT, then untimed (once on the CPU, plus 0.3 s of frames back to back on a GPU, "
+        "so that its clocks are "
         "up), then --repeat times; medians are reported. "
         "Embree (when built in) traces the same rays (rtcIntersect1/8/16, rtcOccluded1/8) at build "
         "qualities medium and high and its "
@@ -391,13 +378,13 @@ CommandRunner addBenchCommand(CLI::App& app) {
                         "Folder of the suite's scene files (default: $RAYPACK_SCENE_DIR, else "
                         "../shared/scenes beside the source tree, else ../shared/scenes from the "
                         "current directory)");
-    command->add_option("--device", f.device,
-                        "Tracers: cpu (reference, CPU packets + Embree), gpu, or all")
+    command->add_option("--device", f.device, "Tracers: cpu (reference, CPU packets + Embree), gpu, or all")
         ->check(CLI::IsMember({"cpu", "gpu", "all"}))
         ->capture_default_str();
-    command->add_option("--kernel", f.kernel,
-                        "Kernels: packet (GPU packets, CPU packets), single (GPU single rays) or "
-                        "all; the CPU reference and Embree always run with --device cpu/all")
+    command
+        ->add_option("--kernel", f.kernel,
+                     "Kernels: packet (GPU packets, CPU packets), single (GPU single rays) or "
+                     "all; the CPU reference and Embree always run with --device cpu/all")
         ->check(CLI::IsMember({"packet", "single", "all"}))
         ->capture_default_str();
     command->add_option("--packets", f.packets,
@@ -410,8 +397,7 @@ CommandRunner addBenchCommand(CLI::App& app) {
         ->check(CLI::Range(1u, 16384u));
     command->add_option("--height", f.height, "Image height in pixels (default: the suite's)")
         ->check(CLI::Range(1u, 16384u));
-    command->add_option("--repeat", f.repeat,
-                        "Timed runs per cell after the warm-up (default: the suite's; report 5)")
+    command->add_option("--repeat", f.repeat, "Timed runs per cell after the warm-up (default: the suite's; report 5)")
         ->check(CLI::Range(1u, 1000u));
     command->add_option("--out", f.out, "Results file (default: bench-SUITE.json)");
     command->add_option("--gpu", f.gpu, "Vulkan device: index or case-insensitive name substring");

@@ -9,8 +9,8 @@
 namespace raypack::cli {
 
 struct BenchScene {
-    std::string name;  // as tables and figures label it ("Sibenik")
-    std::string spec;  // file path (resolved against the scene folder) or generator spec
+    std::string name;              // as tables and figures label it ("Sibenik")
+    std::string spec;              // file path (resolved against the scene folder) or generator spec
     std::optional<Camera> camera;  // nullopt: frameScene over the scene's bounds
 };
 

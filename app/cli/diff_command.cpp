@@ -15,21 +15,19 @@ CommandRunner addDiffCommand(CLI::App& app) {
         uint32_t threshold = 0;
     };
     auto flags = std::make_shared<Flags>();
-    CLI::App* command = app.add_subcommand(
-        "diff",
-        "Compare two PNG images of the same size pixel by pixel. Prints the number and share (%) of "
-        "differing pixels, the largest difference of any channel (0..255) and the PSNR over R, G, B "
-        "(dB, peak 255; inf for identical images). A pixel differs when any channel differs by "
-        "more than --threshold. Exit code: 0 when no pixel differs, 1 when some do, 2 on error "
-        "(missing or unreadable file, different sizes, bad flag).");
+    CLI::App* command =
+        app.add_subcommand("diff",
+                           "Compare two PNG images of the same size pixel by pixel. Prints the number and share (%) of "
+                           "differing pixels, the largest difference of any channel (0..255) and the PSNR over R, G, B "
+                           "(dB, peak 255; inf for identical images). A pixel differs when any channel differs by "
+                           "more than --threshold. Exit code: 0 when no pixel differs, 1 when some do, 2 on error "
+                           "(missing or unreadable file, different sizes, bad flag).");
     command->add_option("A", flags->a, "First PNG image")->required();
     command->add_option("B", flags->b, "Second PNG image")->required();
     command->add_option("--out", flags->out,
                         "Write the difference image (differing pixels red, the rest a dimmed grey "
                         "of A) to this PNG");
-    command
-        ->add_option("--threshold", flags->threshold,
-                     "Largest channel difference (0..255) still counted as equal")
+    command->add_option("--threshold", flags->threshold, "Largest channel difference (0..255) still counted as equal")
         ->check(CLI::Range(0u, 255u))
         ->capture_default_str();
     return [flags] {
@@ -42,8 +40,10 @@ CommandRunner addDiffCommand(CLI::App& app) {
                     (unsigned long long)diff.differingPixels, (unsigned long long)diff.pixels,
                     100.0 * diff.differingShare, flags->threshold);
         std::printf("max channel diff   %u (0..255)\n", diff.maxChannelDifference);
-        if (std::isinf(diff.psnr)) std::printf("PSNR               inf dB (identical)\n");
-        else std::printf("PSNR               %.2f dB\n", diff.psnr);
+        if (std::isinf(diff.psnr))
+            std::printf("PSNR               inf dB (identical)\n");
+        else
+            std::printf("PSNR               %.2f dB\n", diff.psnr);
         if (!flags->out.empty()) std::printf("difference image   %s\n", flags->out.c_str());
         return diff.differingPixels == 0 ? kExitOk : kExitDiffer;
     };

@@ -23,8 +23,7 @@ namespace raypack::cli {
 
 bool embreeAvailable() { return false; }
 
-EmbreeResults runEmbreePeer(const Scene&, const RenderSettings&, const std::vector<HitRecord>&,
-                            uint32_t) {
+EmbreeResults runEmbreePeer(const Scene&, const RenderSettings&, const std::vector<HitRecord>&, uint32_t) {
     throw Error("this raypack-cli was built without Embree (install libembree-dev and rebuild)");
 }
 
@@ -37,17 +36,14 @@ namespace {
 constexpr uint32_t kTile = 8;  // tiles of 8x8 pixels; rtcIntersect8 packets are 4x2 of a tile
 
 using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 struct EmbreeDevice {
     RTCDevice device = nullptr;
     EmbreeDevice() {
         device = rtcNewDevice(nullptr);
         if (!device)
-            throw Error("Embree: rtcNewDevice failed (error " +
-                        std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
+            throw Error("Embree: rtcNewDevice failed (error " + std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
     }
     ~EmbreeDevice() { rtcReleaseDevice(device); }
     EmbreeDevice(const EmbreeDevice&) = delete;
@@ -64,24 +60,21 @@ struct EmbreeScene {
 void checkDevice(RTCDevice device, const char* what) {
     const RTCError error = rtcGetDeviceError(device);
     if (error != RTC_ERROR_NONE)
-        throw Error(std::string("Embree: ") + what + " failed (RTCError " +
-                    std::to_string(int(error)) + ")");
+        throw Error(std::string("Embree: ") + what + " failed (RTCError " + std::to_string(int(error)) + ")");
 }
 
 // Builds the scene at `quality` and returns the seconds rtcCommitScene took (the build proper;
 // filling the vertex and index buffers is not counted, as raypack's T_B does not count loading).
-double buildScene(RTCDevice device, const Scene& scene, RTCBuildQuality quality,
-                  EmbreeScene& out) {
+double buildScene(RTCDevice device, const Scene& scene, RTCBuildQuality quality, EmbreeScene& out) {
     out.scene = rtcNewScene(device);
     rtcSetSceneBuildQuality(out.scene, quality);
     RTCGeometry geometry = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
     rtcSetGeometryBuildQuality(geometry, quality);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-        std::max<size_t>(scene.positions.size(), 1)));
-    auto* indices = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-        geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t),
-        scene.triangles.size()));
+    auto* vertices =
+        static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                    3 * sizeof(float), std::max<size_t>(scene.positions.size(), 1)));
+    auto* indices = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                                   3 * sizeof(uint32_t), scene.triangles.size()));
     checkDevice(device, "allocating the geometry buffers");
     for (size_t i = 0; i < scene.positions.size(); ++i) {
         vertices[3 * i + 0] = scene.positions[i].x;
@@ -104,9 +97,7 @@ struct Rays {
     GpuCamera camera;
     uint32_t width, height;
     glm::vec3 eye;
-    glm::vec3 direction(uint32_t x, uint32_t y) const {
-        return gpu::primaryRayDirection(camera, x, y);
-    }
+    glm::vec3 direction(uint32_t x, uint32_t y) const { return gpu::primaryRayDirection(camera, x, y); }
 };
 
 void setPrimary(RTCRayHit& rh, const Rays& rays, uint32_t x, uint32_t y) {
@@ -129,15 +120,13 @@ double timeTiles(const Rays& rays, TilePass pass) {
     const uint32_t tilesX = (rays.width + kTile - 1) / kTile;
     const uint32_t tilesY = (rays.height + kTile - 1) / kTile;
     const auto start = Clock::now();
-    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, tilesX * tilesY),
-                      [&](const tbb::blocked_range<uint32_t>& range) {
-                          for (uint32_t tile = range.begin(); tile != range.end(); ++tile) {
-                              const uint32_t x0 = (tile % tilesX) * kTile;
-                              const uint32_t y0 = (tile / tilesX) * kTile;
-                              pass(x0, y0, std::min(x0 + kTile, rays.width),
-                                   std::min(y0 + kTile, rays.height));
-                          }
-                      });
+    tbb::parallel_for(tbb::blocked_range<uint32_t>(0, tilesX * tilesY), [&](const tbb::blocked_range<uint32_t>& range) {
+        for (uint32_t tile = range.begin(); tile != range.end(); ++tile) {
+            const uint32_t x0 = (tile % tilesX) * kTile;
+            const uint32_t y0 = (tile / tilesX) * kTile;
+            pass(x0, y0, std::min(x0 + kTile, rays.width), std::min(y0 + kTile, rays.height));
+        }
+    });
     return secondsSince(start);
 }
 
@@ -149,9 +138,8 @@ EmbreeRate timePasses(uint64_t rays, uint32_t repeats, Pass pass) {
     return {rays, spreadOf(seconds)};
 }
 
-EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const Rays& rays,
-                                    const glm::vec3& light, bool shadows, RTCBuildQuality quality,
-                                    const char* qualityName, uint32_t repeats,
+EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const Rays& rays, const glm::vec3& light,
+                                    bool shadows, RTCBuildQuality quality, const char* qualityName, uint32_t repeats,
                                     std::vector<float>* primaryT, std::vector<uint8_t>* occluded) {
     EmbreeQualityResults result;
     result.quality = qualityName;
@@ -170,9 +158,8 @@ EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const 
                 for (uint32_t x = x0; x < x1; ++x) {
                     setPrimary(rh, rays, x, y);
                     rtcIntersect1(embree.scene, &context, &rh);
-                    hitT[size_t(y) * rays.width + x] = rh.hit.geomID == RTC_INVALID_GEOMETRY_ID
-                                                           ? std::numeric_limits<float>::infinity()
-                                                           : rh.ray.tfar;
+                    hitT[size_t(y) * rays.width + x] =
+                        rh.hit.geomID == RTC_INVALID_GEOMETRY_ID ? std::numeric_limits<float>::infinity() : rh.ray.tfar;
                 }
         });
     });
@@ -213,8 +200,7 @@ EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const 
     // Embree traces 16-ray packets natively with AVX-512 only; elsewhere it splits them (the
     // record says which, as embree_native_packet). An Embree built without 16-wide packets
     // reports an error at the first call, and the mode is left out.
-    result.intersect16Native =
-        rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
+    result.intersect16Native = rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
     rtcGetDeviceError(device);  // clears any earlier error
     {
         result.intersect16 = timePasses(pixels, repeats, [&] {
@@ -229,8 +215,7 @@ EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const 
                         for (int lane = 0; lane < 16; ++lane) {
                             const uint32_t x = px + lane % 4, y = py + lane / 4;
                             valid[lane] = (x < x1 && y < y1) ? -1 : 0;
-                            const glm::vec3 d =
-                                valid[lane] ? rays.direction(x, y) : glm::vec3(0, 0, 1);
+                            const glm::vec3 d = valid[lane] ? rays.direction(x, y) : glm::vec3(0, 0, 1);
                             packet.ray.org_x[lane] = rays.eye.x;
                             packet.ray.org_y[lane] = rays.eye.y;
                             packet.ray.org_z[lane] = rays.eye.z;
@@ -270,9 +255,8 @@ EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const 
                         // the hit point, ignoring what lies within kShadowRayGap of the point.
                         // Embree does not skip the hit triangle itself as raypack does; the gap
                         // keeps a planar triangle from occluding its own points all the same.
-                        const gpu::ShadowRay shadow = gpu::makeShadowRay(
-                            light, gpu::hitPosition(rays.eye, rays.direction(x, y), hitT[pixel]),
-                            0);
+                        const gpu::ShadowRay shadow =
+                            gpu::makeShadowRay(light, gpu::hitPosition(rays.eye, rays.direction(x, y), hitT[pixel]), 0);
                         if (gpu::isDegenerateShadowRay(shadow)) continue;  // p == light: lit
                         ray.org_x = shadow.org.x, ray.org_y = shadow.org.y, ray.org_z = shadow.org.z;
                         ray.dir_x = shadow.dir.x, ray.dir_y = shadow.dir.y, ray.dir_z = shadow.dir.z;
@@ -309,11 +293,11 @@ EmbreeQualityResults measureQuality(RTCDevice device, const Scene& scene, const 
                                 const size_t pixel = size_t(y) * rays.width + x;
                                 if (std::isfinite(hitT[pixel])) {
                                     shadow = gpu::makeShadowRay(
-                                        light,
-                                        gpu::hitPosition(rays.eye, rays.direction(x, y), hitT[pixel]),
-                                        0);
-                                    if (!gpu::isDegenerateShadowRay(shadow)) valid[lane] = -1;
-                                    else shadow.dir = glm::vec3(0, 0, 1);
+                                        light, gpu::hitPosition(rays.eye, rays.direction(x, y), hitT[pixel]), 0);
+                                    if (!gpu::isDegenerateShadowRay(shadow))
+                                        valid[lane] = -1;
+                                    else
+                                        shadow.dir = glm::vec3(0, 0, 1);
                                 }
                             }
                             any |= valid[lane];
@@ -346,27 +330,24 @@ EmbreeResults runEmbreePeer(const Scene& scene, const RenderSettings& settings,
                             const std::vector<HitRecord>& referenceHits, uint32_t repeats) {
     const size_t pixels = size_t(settings.width) * settings.height;
     if (!referenceHits.empty() && referenceHits.size() != pixels)
-        throw Error("Embree comparison: " + std::to_string(referenceHits.size()) +
-                    " reference hits for a " + std::to_string(settings.width) + "x" +
-                    std::to_string(settings.height) + " image");
+        throw Error("Embree comparison: " + std::to_string(referenceHits.size()) + " reference hits for a " +
+                    std::to_string(settings.width) + "x" + std::to_string(settings.height) + " image");
     EmbreeResults results;
-    results.version = std::to_string(RTC_VERSION_MAJOR) + "." + std::to_string(RTC_VERSION_MINOR) +
-                      "." + std::to_string(RTC_VERSION_PATCH);
+    results.version = std::to_string(RTC_VERSION_MAJOR) + "." + std::to_string(RTC_VERSION_MINOR) + "." +
+                      std::to_string(RTC_VERSION_PATCH);
     results.threads = uint32_t(tbb::info::default_concurrency());
 
     EmbreeDevice device;
-    const Rays rays{makeGpuCamera(settings.camera, settings.width, settings.height, settings.pixelJitter), settings.width,
-                    settings.height, settings.camera.eye};
+    const Rays rays{makeGpuCamera(settings.camera, settings.width, settings.height, settings.pixelJitter),
+                    settings.width, settings.height, settings.camera.eye};
     const glm::vec3 light = lightPosition(settings.camera, scene.bounds(), settings.lightHeight);
 
     std::vector<float> primaryT;
     std::vector<uint8_t> occluded;
     results.qualities.push_back(measureQuality(device.device, scene, rays, light, settings.shadows,
-                                               RTC_BUILD_QUALITY_MEDIUM, "medium", repeats,
-                                               &primaryT, &occluded));
+                                               RTC_BUILD_QUALITY_MEDIUM, "medium", repeats, &primaryT, &occluded));
     results.qualities.push_back(measureQuality(device.device, scene, rays, light, settings.shadows,
-                                               RTC_BUILD_QUALITY_HIGH, "high", repeats, nullptr,
-                                               nullptr));
+                                               RTC_BUILD_QUALITY_HIGH, "high", repeats, nullptr, nullptr));
 
     for (size_t i = 0; i < referenceHits.size(); ++i) {
         const HitRecord& ref = referenceHits[i];
@@ -377,8 +358,7 @@ EmbreeResults runEmbreePeer(const Scene& scene, const RenderSettings& settings,
             results.agreeingRays += refHit == embreeHit ? 1 : 0;
             continue;
         }
-        const double error = std::abs(double(primaryT[i]) - double(ref.t)) /
-                             std::max(std::abs(double(ref.t)), 1e-30);
+        const double error = std::abs(double(primaryT[i]) - double(ref.t)) / std::max(std::abs(double(ref.t)), 1e-30);
         results.maxRelativeTError = std::max(results.maxRelativeTError, error);
         results.agreeingRays += error <= 1e-4 ? 1 : 0;
         if (settings.shadows && ref.shadow != gpu::kShadowNone) {

@@ -20,9 +20,7 @@ bool embreeAvailable();
 struct EmbreeRate {
     uint64_t rays = 0;
     Spread seconds;
-    double mraysPerSecond() const {
-        return seconds.median > 0.0 ? double(rays) / seconds.median / 1e6 : 0.0;
-    }
+    double mraysPerSecond() const { return seconds.median > 0.0 ? double(rays) / seconds.median / 1e6 : 0.0; }
 };
 
 // One build quality: its build time and the three tracing modes on that tree.
@@ -35,12 +33,12 @@ struct EmbreeQualityResults {
     // 16-ray packets (RTC_DEVICE_PROPERTY_RAY16_SUPPORTED).
     EmbreeRate intersect16;
     bool intersect16Native = false;  // RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED
-    EmbreeRate occluded1;   // shadow rays, rtcOccluded1
-    EmbreeRate occluded8;   // shadow rays, rtcOccluded8 packets of 4x2 pixels
+    EmbreeRate occluded1;            // shadow rays, rtcOccluded1
+    EmbreeRate occluded8;            // shadow rays, rtcOccluded8 packets of 4x2 pixels
 };
 
 struct EmbreeResults {
-    std::string version;  // "3.13.5"
+    std::string version;   // "3.13.5"
     uint32_t threads = 0;  // TBB worker threads tracing the tiles
     std::vector<EmbreeQualityResults> qualities;
     // Embree's primary hits against the given reference hits (same pixel, same ray): a ray agrees
@@ -52,9 +50,7 @@ struct EmbreeResults {
     // shadow ray.
     uint64_t comparedShadows = 0;
     uint64_t agreeingShadows = 0;
-    double agreementShare() const {
-        return comparedRays ? double(agreeingRays) / double(comparedRays) : 0.0;
-    }
+    double agreementShare() const { return comparedRays ? double(agreeingRays) / double(comparedRays) : 0.0; }
 };
 
 // Builds Embree scenes at build qualities medium and high over `scene`'s triangles and traces

@@ -14,18 +14,17 @@ CommandRunner addGenerateCommand(CLI::App& app) {
         std::string spec, out;
     };
     auto flags = std::make_shared<Flags>();
-    CLI::App* command = app.add_subcommand(
-        "generate",
-        "Write the scene SPEC (a generator spec, or any scene file, e.g. to convert it) to OUT as "
-        "binary little-endian PLY. Prints the triangle count and the seconds taken.");
+    CLI::App* command =
+        app.add_subcommand("generate",
+                           "Write the scene SPEC (a generator spec, or any scene file, e.g. to convert it) to OUT as "
+                           "binary little-endian PLY. Prints the triangle count and the seconds taken.");
     command->add_option("SPEC", flags->spec, sceneArgumentHelp())->required();
     command->add_option("OUT", flags->out, "Output .ply file")->required();
     return [flags] {
         const LoadedScene loaded = loadSceneTimed(flags->spec);
         savePly(loaded.scene, flags->out);
-        std::printf("wrote %s: %zu triangles, %zu vertices (generated in %.3f s)\n",
-                    flags->out.c_str(), loaded.scene.triangleCount(), loaded.scene.positions.size(),
-                    loaded.info.loadSeconds);
+        std::printf("wrote %s: %zu triangles, %zu vertices (generated in %.3f s)\n", flags->out.c_str(),
+                    loaded.scene.triangleCount(), loaded.scene.positions.size(), loaded.info.loadSeconds);
         return kExitOk;
     };
 }

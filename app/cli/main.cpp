@@ -56,8 +56,7 @@ int main(int argc, char** argv) {
             names += (names.empty() ? "" : ", ") + subcommand->get_name();
         }
         if (!known) {
-            std::fprintf(stderr, "raypack-cli: unknown subcommand \"%s\" (one of: %s)\n", argv[1],
-                         names.c_str());
+            std::fprintf(stderr, "raypack-cli: unknown subcommand \"%s\" (one of: %s)\n", argv[1], names.c_str());
             return kExitError;
         }
     }

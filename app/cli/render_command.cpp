@@ -42,8 +42,8 @@ struct RenderFlags {
 };
 
 struct RenderOptions {
-    CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize,
-        *builder, *bins, *kernel, *packet, *view, *spp, *scale, *heatScale;
+    CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
+        *kernel, *packet, *view, *spp, *scale, *heatScale;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -52,8 +52,7 @@ bool given(const CLI::Option* option) { return option->count() > 0; }
 // on top of it, then the start view (startCamera) when neither gave a camera.
 // `cpuKernelFromFile`: the --from file is a CPU render's (device_kind "cpu"), so its kernel and
 // packet are what that render traced.
-RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cameraGiven,
-                         bool& cpuKernelFromFile) {
+RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cameraGiven, bool& cpuKernelFromFile) {
     RenderSetup setup;
     cameraGiven = false;
     cpuKernelFromFile = false;
@@ -65,12 +64,10 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
             throw Error(f.from + ": " + e.what());
         }
         cameraGiven = json.is_object() && json.contains("camera");
-        cpuKernelFromFile = json.is_object() && json.value("device_kind", "") == "cpu" &&
-                            json.contains("kernel");
+        cpuKernelFromFile = json.is_object() && json.value("device_kind", "") == "cpu" && json.contains("kernel");
     }
     if (given(o.scene)) setup.scene = f.scene;
-    if (setup.scene.empty())
-        throw Error("render: no scene: give SCENE or a --from file whose \"scene\" names one");
+    if (setup.scene.empty()) throw Error("render: no scene: give SCENE or a --from file whose \"scene\" names one");
     RenderSettings& s = setup.settings;
     if (given(o.width)) s.width = f.width;
     if (given(o.height)) s.height = f.height;
@@ -127,9 +124,8 @@ void checkFrameMemory(const RenderSettings& settings, bool gpu) {
 }
 
 void printCamera(const Camera& c, bool framed) {
-    std::printf("camera     --eye %g,%g,%g --at %g,%g,%g --up %g,%g,%g --fov %g%s\n", c.eye.x,
-                c.eye.y, c.eye.z, c.at.x, c.at.y, c.at.z, c.up.x, c.up.y, c.up.z, c.fovYDegrees,
-                framed ? " (start view)" : "");
+    std::printf("camera     --eye %g,%g,%g --at %g,%g,%g --up %g,%g,%g --fov %g%s\n", c.eye.x, c.eye.y, c.eye.z, c.at.x,
+                c.at.y, c.at.z, c.up.x, c.up.y, c.up.z, c.fovYDegrees, framed ? " (start view)" : "");
 }
 
 }  // namespace
@@ -147,7 +143,8 @@ CommandRunner addRenderCommand(CLI::App& app) {
         "ray), N_TR (nodes visited per ray), N_Q (rays), T_F = T_CU + T_K (s), T_CU (GPU data "
         "creation and upload, s; 0 on the CPU), T_K (tracing time, s: GPU timestamp queries, CPU "
         "wall clock), PERF (Mrays/s = N_Q / T_K, and with T_CU included).\n"
-        "Warm-up runs are not timed: one counts N_TR / N_IT, then untimed frames in the timed configuration (one on the CPU; "
+        "Warm-up runs are not timed: one counts N_TR / N_IT, then untimed frames in the timed configuration (one on "
+        "the CPU; "
         "on a GPU 0.3 s of frames back to back, so that its clocks are up); the --repeat N timed runs give the "
         "median (and min/max).\n"
         "Without --eye/--at (and no --from camera) the camera is the scene's start view: the "
@@ -170,12 +167,11 @@ CommandRunner addRenderCommand(CLI::App& app) {
     o.up = command->add_option("--up", f.up, "Camera up vector x,y,z (default 0,1,0)");
     o.fov = command->add_option("--fov", f.fov, "Vertical field of view in degrees (default 60)")
                 ->check(CLI::Range(0.001f, 179.999f));
-    o.lightHeight =
-        command
-            ->add_option("--light-height", f.lightHeight,
-                         "Point light above the camera, in multiples of the scene's height "
-                         "(report 2.3)")
-            ->capture_default_str();
+    o.lightHeight = command
+                        ->add_option("--light-height", f.lightHeight,
+                                     "Point light above the camera, in multiples of the scene's height "
+                                     "(report 2.3)")
+                        ->capture_default_str();
     o.noShadows = command->add_flag("--no-shadows", f.noShadows, "Trace no shadow rays");
     addBvhFlags(*command, f.bvh);
     o.leafSize = command->get_option("--leaf-size");
@@ -257,8 +253,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
             // The CPU's default kernel is the reference (single rays); its default packet shape
             // is the CPU packet tracer's own.
             if (!given(options->kernel) && !cpuKernelFromFile) settings.kernel = KernelKind::Single;
-            if (settings.kernel == KernelKind::Packet && !given(options->packet) &&
-                !cpuKernelFromFile)
+            if (settings.kernel == KernelKind::Packet && !given(options->packet) && !cpuKernelFromFile)
                 settings.packet = kDefaultCpuPacket;
         }
         if (settings.kernel == KernelKind::Single && given(options->packet))
@@ -324,9 +319,9 @@ CommandRunner addRenderCommand(CLI::App& app) {
             std::printf("samples    %u per pixel (%s)\n", setup.samples, kSamplePatternName);
         }
         if (wantImage && setup.resolutionScale > 1) {
-            const Image scaled = scaleImage(Image{settings.width, settings.height, measured.frame.rgba}, outWidth,
-                                            outHeight,
-                                            settings.view == ViewMode::Shaded ? ScaleFilter::Bilinear : ScaleFilter::Nearest);
+            const Image scaled =
+                scaleImage(Image{settings.width, settings.height, measured.frame.rgba}, outWidth, outHeight,
+                           settings.view == ViewMode::Shaded ? ScaleFilter::Bilinear : ScaleFilter::Nearest);
             measured.frame.width = outWidth;
             measured.frame.height = outHeight;
             measured.frame.rgba = scaled.rgba;
@@ -338,8 +333,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         settings.pixelJitter = glm::vec2(0.0f);
 
         if (source.gpu || source.cpuPackets)
-            std::printf("kernel     %s, packet %s\n", jsonName(settings.kernel),
-                        toString(settings.packet).c_str());
+            std::printf("kernel     %s, packet %s\n", jsonName(settings.kernel), toString(settings.packet).c_str());
         printCamera(settings.camera, !cameraGiven);
         printTable1(stdout, loaded.info, bvh.stats, setup.bvh);
         printTable2(stdout, measured.stats);
@@ -364,8 +358,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         if (session && session->context.validation) {
             const uint32_t messages = vk::validationMessageCount(session->context);
             if (messages > 0)
-                throw Error("Vulkan validation reported " + std::to_string(messages) +
-                            " message(s) (printed above)");
+                throw Error("Vulkan validation reported " + std::to_string(messages) + " message(s) (printed above)");
             std::printf("validation no messages\n");
         }
         return kExitOk;

@@ -11,8 +11,7 @@ LoadedScene loadSceneTimed(const std::string& spec) {
     LoadedScene loaded;
     const auto start = std::chrono::steady_clock::now();
     loaded.scene = openScene(spec);
-    loaded.info.loadSeconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    loaded.info.loadSeconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     loaded.info.spec = spec;
     loaded.info.triangles = loaded.scene.triangleCount();
     loaded.info.degenerateTriangles = loaded.scene.degenerateCount();
@@ -37,11 +36,8 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
                         std::to_string(kMaxLeafPrimitives) + ", what a GPU ray can test within its traversal budget)")
         ->check(CLI::Range(1u, kMaxLeafPrimitives))
         ->capture_default_str();
-    command.add_option("--builder", flags.builder, "BVH builder: " + builders)
-        ->capture_default_str();
-    command
-        .add_option("--bins", flags.binCount,
-                    "Bins per axis of the binned SAH builder (sah-binned only), 2..256")
+    command.add_option("--builder", flags.builder, "BVH builder: " + builders)->capture_default_str();
+    command.add_option("--bins", flags.binCount, "Bins per axis of the binned SAH builder (sah-binned only), 2..256")
         ->check(CLI::Range(2u, 256u))
         ->capture_default_str();
 }
@@ -55,8 +51,7 @@ BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
 }
 
 std::string sceneArgumentHelp() {
-    return std::string("Scene: an .obj, .ply, .gltf or .glb file, or a generator spec.\n") +
-           sceneSpecHelp();
+    return std::string("Scene: an .obj, .ply, .gltf or .glb file, or a generator spec.\n") + sceneSpecHelp();
 }
 
 }  // namespace raypack::cli

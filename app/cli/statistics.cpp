@@ -15,8 +15,7 @@ Spread spreadOf(std::vector<double> values) {
     return s;
 }
 
-nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh,
-                          const BvhBuildOptions& options) {
+nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const BvhBuildOptions& options) {
     const double triangles = double(scene.triangles);
     return {
         {"scene", scene.spec},
@@ -41,22 +40,18 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh,
     };
 }
 
-void printTable1(std::FILE* out, const SceneInfo& scene, const BvhStats& bvh,
-                 const BvhBuildOptions& options) {
+void printTable1(std::FILE* out, const SceneInfo& scene, const BvhStats& bvh, const BvhBuildOptions& options) {
     std::fprintf(out, "scene      %s\n", scene.spec.c_str());
     std::fprintf(out, "triangles  %llu (%llu degenerate)\n", (unsigned long long)scene.triangles,
                  (unsigned long long)scene.degenerateTriangles);
-    std::fprintf(out, "load       %.3f s, %.1f MB/s (%llu bytes)\n", scene.loadSeconds,
-                 scene.loadMegabytesPerSecond(), (unsigned long long)scene.inputBytes);
-    std::fprintf(out, "BVH        builder %s, leaf size %u\n", toString(options.builder),
-                 options.leafSize);
-    std::fprintf(out, "Table 1    %10s %8s %6s %7s %9s\n", "N_L", "D_AVG", "D_MAX", "O_AVG",
-                 "T_B[s]");
-    std::fprintf(out, "           %10u %8.3f %6u %7.3f %9.3f\n", bvh.leafCount, bvh.avgLeafDepth,
-                 bvh.maxLeafDepth, bvh.avgPrimsPerLeaf, bvh.buildSeconds);
-    std::fprintf(out, "           nodes %u, SAH cost %.3f, %.2f MB (%.1f bytes/triangle)\n",
-                 bvh.nodeCount, bvh.sahCost, double(bvh.bytes) / 1e6,
-                 scene.triangles ? double(bvh.bytes) / double(scene.triangles) : 0.0);
+    std::fprintf(out, "load       %.3f s, %.1f MB/s (%llu bytes)\n", scene.loadSeconds, scene.loadMegabytesPerSecond(),
+                 (unsigned long long)scene.inputBytes);
+    std::fprintf(out, "BVH        builder %s, leaf size %u\n", toString(options.builder), options.leafSize);
+    std::fprintf(out, "Table 1    %10s %8s %6s %7s %9s\n", "N_L", "D_AVG", "D_MAX", "O_AVG", "T_B[s]");
+    std::fprintf(out, "           %10u %8.3f %6u %7.3f %9.3f\n", bvh.leafCount, bvh.avgLeafDepth, bvh.maxLeafDepth,
+                 bvh.avgPrimsPerLeaf, bvh.buildSeconds);
+    std::fprintf(out, "           nodes %u, SAH cost %.3f, %.2f MB (%.1f bytes/triangle)\n", bvh.nodeCount, bvh.sahCost,
+                 double(bvh.bytes) / 1e6, scene.triangles ? double(bvh.bytes) / double(scene.triangles) : 0.0);
     std::fprintf(out, "textures   %llu, %.2f MB of RGBA8 texels\n", (unsigned long long)scene.textureCount,
                  double(scene.textureBytes) / 1e6);
 }
@@ -117,27 +112,27 @@ nlohmann::json toJson(const FrameStats& s) {
 
 void printTable2(std::FILE* out, const FrameStats& s) {
     std::fprintf(out, "device     %s\n", s.device.c_str());
-    std::fprintf(out, "image      %ux%u, %u timed run%s after untimed warm-ups; times are medians\n",
-                 s.width, s.height, s.repeats, s.repeats == 1 ? "" : "s");
-    std::fprintf(out, "Table 2    %-8s %12s %8s %8s %10s %9s %9s %9s %12s %12s\n", "rays",
-                 "T_R[us/ray]", "N_IT", "N_TR", "N_Q", "T_F[s]", "T_CU[s]", "T_K[s]",
-                 "PERF[Mray/s]", "+T_CU[Mray/s]");
+    std::fprintf(out, "image      %ux%u, %u timed run%s after untimed warm-ups; times are medians\n", s.width, s.height,
+                 s.repeats, s.repeats == 1 ? "" : "s");
+    std::fprintf(out, "Table 2    %-8s %12s %8s %8s %10s %9s %9s %9s %12s %12s\n", "rays", "T_R[us/ray]", "N_IT",
+                 "N_TR", "N_Q", "T_F[s]", "T_CU[s]", "T_K[s]", "PERF[Mray/s]", "+T_CU[Mray/s]");
     const auto row = [&](const char* name, const RayKindStats& r) {
-        std::fprintf(out, "           %-8s %12.4f %8.2f %8.2f %10llu %9.4f %9.4f %9.4f %12.3f %12.3f\n",
-                     name, r.microsecondsPerRay(), r.testsPerRay, r.nodesPerRay,
-                     (unsigned long long)r.rays, r.traversalSeconds(), r.uploadSeconds,
-                     r.kernelSeconds.median, r.mraysPerSecond(), r.mraysPerSecondWithUpload());
+        std::fprintf(out, "           %-8s %12.4f %8.2f %8.2f %10llu %9.4f %9.4f %9.4f %12.3f %12.3f\n", name,
+                     r.microsecondsPerRay(), r.testsPerRay, r.nodesPerRay, (unsigned long long)r.rays,
+                     r.traversalSeconds(), r.uploadSeconds, r.kernelSeconds.median, r.mraysPerSecond(),
+                     r.mraysPerSecondWithUpload());
     };
     row("primary", s.primary);
-    if (s.shadow.rays) row("shadow", s.shadow);
-    else std::fprintf(out, "           %-8s (no shadow rays)\n", "shadow");
+    if (s.shadow.rays)
+        row("shadow", s.shadow);
+    else
+        std::fprintf(out, "           %-8s (no shadow rays)\n", "shadow");
     if (s.repeats > 1)
         std::fprintf(out,
                      "           T_K min/max [s]: primary %.4f / %.4f, shadow %.4f / %.4f; "
                      "frame %.4f s (min %.4f, max %.4f)\n",
-                     s.primary.kernelSeconds.min, s.primary.kernelSeconds.max,
-                     s.shadow.kernelSeconds.min, s.shadow.kernelSeconds.max,
-                     s.frameSeconds.median, s.frameSeconds.min, s.frameSeconds.max);
+                     s.primary.kernelSeconds.min, s.primary.kernelSeconds.max, s.shadow.kernelSeconds.min,
+                     s.shadow.kernelSeconds.max, s.frameSeconds.median, s.frameSeconds.min, s.frameSeconds.max);
     else
         std::fprintf(out, "           frame %.4f s\n", s.frameSeconds.median);
 }

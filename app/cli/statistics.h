@@ -46,16 +46,13 @@ struct SceneInfo {
     // Decoded textures (Scene::textureBytes), which the GPU holds beside the BVH.
     uint64_t textureCount = 0;
     uint64_t textureBytes = 0;
-    double loadMegabytesPerSecond() const {
-        return loadSeconds > 0.0 ? double(inputBytes) / 1e6 / loadSeconds : 0.0;
-    }
+    double loadMegabytesPerSecond() const { return loadSeconds > 0.0 ? double(inputBytes) / 1e6 / loadSeconds : 0.0; }
 };
 
 // Table 1 row: N_L, D_AVG, D_MAX, O_AVG, T_B, nodes, SAH cost, bytes, triangles, degenerate
 // triangles, load time and MB/s.
 nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const BvhBuildOptions& options);
-void printTable1(std::FILE* out, const SceneInfo& scene, const BvhStats& bvh,
-                 const BvhBuildOptions& options);
+void printTable1(std::FILE* out, const SceneInfo& scene, const BvhStats& bvh, const BvhBuildOptions& options);
 
 // Table 2 quantities of one ray kind.
 struct RayKindStats {
@@ -66,7 +63,7 @@ struct RayKindStats {
     double uploadSeconds = 0.0;  // T_CU
 
     double traversalSeconds() const { return uploadSeconds + kernelSeconds.median; }  // T_F
-    double microsecondsPerRay() const {  // T_R
+    double microsecondsPerRay() const {                                               // T_R
         return rays ? kernelSeconds.median / double(rays) * 1e6 : 0.0;
     }
     double mraysPerSecond() const {  // PERF without T_CU
@@ -80,13 +77,13 @@ struct RayKindStats {
 
 // One frame configuration measured over repeats.
 struct FrameStats {
-    std::string device;      // what traced it, as printed ("cpu: 2 threads", "gpu: llvmpipe ...")
+    std::string device;  // what traced it, as printed ("cpu: 2 threads", "gpu: llvmpipe ...")
     bool gpu = false;
     uint32_t width = 0, height = 0;
-    uint32_t repeats = 0;    // timed runs (after two warm-up runs that are not timed)
+    uint32_t repeats = 0;  // timed runs (after two warm-up runs that are not timed)
     RayKindStats primary;
-    RayKindStats shadow;     // rays == 0 when shadows are off
-    Spread frameSeconds;     // the whole frame as the caller saw it (trace, shade, read back)
+    RayKindStats shadow;            // rays == 0 when shadows are off
+    Spread frameSeconds;            // the whole frame as the caller saw it (trace, shade, read back)
     bool countersMeasured = false;  // N_TR / N_IT come from a counting run
 };
 

@@ -15,13 +15,13 @@ CommandRunner addStatsCommand(CLI::App& app) {
         bool json = false;
     };
     auto flags = std::make_shared<Flags>();
-    CLI::App* command = app.add_subcommand(
-        "stats",
-        "Load SCENE, build its BVH and print one row of the report's Table 1: N_L (leaves), D_AVG "
-        "(average leaf depth, root = 0), D_MAX (maximal leaf depth), O_AVG (average triangles per "
-        "leaf), T_B (build time, seconds), plus node count, SAH cost (relative to the root's "
-        "area), BVH bytes and bytes per triangle, triangles and degenerate (zero-area) triangles, "
-        "load time (seconds) and load speed (MB/s of file, or of scene memory for a generator).");
+    CLI::App* command =
+        app.add_subcommand("stats",
+                           "Load SCENE, build its BVH and print one row of the report's Table 1: N_L (leaves), D_AVG "
+                           "(average leaf depth, root = 0), D_MAX (maximal leaf depth), O_AVG (average triangles per "
+                           "leaf), T_B (build time, seconds), plus node count, SAH cost (relative to the root's "
+                           "area), BVH bytes and bytes per triangle, triangles and degenerate (zero-area) triangles, "
+                           "load time (seconds) and load speed (MB/s of file, or of scene memory for a generator).");
     command->add_option("SCENE", flags->scene, sceneArgumentHelp())->required();
     addBvhFlags(*command, flags->bvh);
     command->add_flag("--json", flags->json,

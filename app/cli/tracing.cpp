@@ -51,9 +51,8 @@ GpuSession::~GpuSession() {
 }
 
 std::string describeCpuPacketDevice(PacketShape packet) {
-    return "CPU packets " + std::to_string(packet.width) + "x" + std::to_string(packet.height) +
-           " (" + toString(cpuSimdSelected()) + "), " + cpuModel() + " (" +
-           std::to_string(cpuThreads()) + " threads)";
+    return "CPU packets " + std::to_string(packet.width) + "x" + std::to_string(packet.height) + " (" +
+           toString(cpuSimdSelected()) + "), " + cpuModel() + " (" + std::to_string(cpuThreads()) + " threads)";
 }
 
 namespace {
@@ -62,8 +61,7 @@ namespace {
 constexpr double kGpuWarmUpSeconds = 0.3;
 constexpr uint32_t kGpuWarmUpMaxFrames = 2000;
 
-Frame renderWith(const FrameSource& source, const RenderSettings& settings,
-                 const FrameRequest& request) {
+Frame renderWith(const FrameSource& source, const RenderSettings& settings, const FrameRequest& request) {
     RAYPACK_CHECK((source.cpu != nullptr) != (source.gpu != nullptr));
     if (source.cpu)
         return source.cpuPackets ? renderCpuPackets(*source.cpu, settings, request)
@@ -73,8 +71,8 @@ Frame renderWith(const FrameSource& source, const RenderSettings& settings,
 
 }  // namespace
 
-MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& settings,
-                             uint32_t repeats, bool wantImage) {
+MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& settings, uint32_t repeats,
+                             bool wantImage) {
     RAYPACK_CHECK(repeats >= 1);
     MeasuredFrames measured;
     // Warm-up: counts N_TR / N_IT, and collects the hits, which also tell which pixels cast a
@@ -102,14 +100,12 @@ MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& se
     // run (nvidia-smi, 2026-11-22), and later cells measured up to 5.7x slower than the same cell
     // in a process of its own. The timed frames follow at once, before the clocks can fall again.
     if (source.gpu) {
-        const double frameSeconds =
-            std::max(first.timings.primarySeconds + first.timings.shadowSeconds, 1e-6);
+        const double frameSeconds = std::max(first.timings.primarySeconds + first.timings.shadowSeconds, 1e-6);
         const double frames = std::ceil(kGpuWarmUpSeconds / frameSeconds);
         source.gpu->traceBackToBack(timed, uint32_t(std::clamp(frames, 1.0, double(kGpuWarmUpMaxFrames))));
     }
     std::vector<FrameTimings> timings;
-    for (uint32_t i = 0; i < repeats; ++i)
-        timings.push_back(renderWith(source, timed, timedRequest).timings);
+    for (uint32_t i = 0; i < repeats; ++i) timings.push_back(renderWith(source, timed, timedRequest).timings);
 
     measured.stats = summarizeRuns(counters, timings, source.uploadSeconds);
     measured.stats.countersMeasured = true;

@@ -1,8 +1,8 @@
 #pragma once
 // The per-frame arrow of raypack's data flow as the CLI measures it: camera + settings -> tracer
 // (CPU reference or Vulkan GPU tracer) -> Frame, one warm-up run that also counts N_TR / N_IT and
-// collects the hits, one untimed run of the timed configuration, then N timed runs that do not count (so that the GPU's statistics variant of
-// the kernel never inflates T_K).
+// collects the hits, one untimed run of the timed configuration, then N timed runs that do not count (so that the GPU's
+// statistics variant of the kernel never inflates T_K).
 #include "app/cli/statistics.h"
 #include "renderer/cpu_packet_tracer.h"
 #include "renderer/cpu_tracer.h"
@@ -55,7 +55,7 @@ struct MeasuredFrames {
 // Renders once with counters and hits (plus the image when `wantImage`), once more untimed without
 // counters (the warm-up of the timed configuration), then `repeats` (>= 1) timed times without
 // counters; summarizes Table 2. Throws raypack::Error from the tracer.
-MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& settings,
-                             uint32_t repeats, bool wantImage);
+MeasuredFrames measureFrames(const FrameSource& source, const RenderSettings& settings, uint32_t repeats,
+                             bool wantImage);
 
 }  // namespace raypack::cli

@@ -33,24 +33,30 @@ PacketShape parsePacket(const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"raypack: fly or orbit through a triangle scene, traced interactively on any device (a frame\n"
-                 "budget with reduced resolution while moving, refinement when still), by the Vulkan packet or\n"
-                 "single-ray kernel or the CPU packet or reference tracer; change the packet shape, kernel and\n"
-                 "BVH live, compare with the CPU reference. F1 in the window lists the controls. With --frames N\n"
-                 "it runs N frames and exits (scripted runs, tests). Needs a display (xvfb-run without one),\n"
-                 "except with --offscreen."};
+    CLI::App app{
+        "raypack: fly or orbit through a triangle scene, traced interactively on any device (a frame\n"
+        "budget with reduced resolution while moving, refinement when still), by the Vulkan packet or\n"
+        "single-ray kernel or the CPU packet or reference tracer; change the packet shape, kernel and\n"
+        "BVH live, compare with the CPU reference. F1 in the window lists the controls. With --frames N\n"
+        "it runs N frames and exits (scripted runs, tests). Needs a display (xvfb-run without one),\n"
+        "except with --offscreen."};
     ui::ViewerOptions options;
     std::string packet, kernel, view, builder, eye, at, up, present = "fifo", tracer;
     std::vector<std::string> script;
     float fov = 0.0f;
     bool noShadows = false, noCounters = false;
-    app.add_option("--scene", options.scene, "scene file (OBJ, PLY, glTF, GLB) or generator spec")->capture_default_str();
+    app.add_option("--scene", options.scene, "scene file (OBJ, PLY, glTF, GLB) or generator spec")
+        ->capture_default_str();
     app.add_option("--width", options.width, "window width in pixels")->capture_default_str();
     app.add_option("--height", options.height, "window height in pixels")->capture_default_str();
-    app.add_option("--frames", options.frames, "run this many frames and exit (0: until closed)")->capture_default_str();
-    app.add_option("--screenshot", options.screenshot, "after the last frame: the image as shown (without the panel) as PNG + JSON sidecar");
+    app.add_option("--frames", options.frames, "run this many frames and exit (0: until closed)")
+        ->capture_default_str();
+    app.add_option("--screenshot", options.screenshot,
+                   "after the last frame: the image as shown (without the panel) as PNG + JSON sidecar");
     app.add_option("--window-screenshot", options.windowScreenshot, "after the last frame: the whole window as PNG");
-    app.add_option("--packet", packet, "packet shape WxH of the packet tracer drawing first (default 8x4 for the Vulkan kernel, 16x16 for the CPU packet tracer)");
+    app.add_option("--packet", packet,
+                   "packet shape WxH of the packet tracer drawing first (default 8x4 for the Vulkan kernel, 16x16 for "
+                   "the CPU packet tracer)");
     app.add_option("--leaf-size", options.bvh.leafSize, "BVH leaf size")->capture_default_str();
     app.add_option("--builder", builder, "BVH builder (sah-exact, sah-binned)");
     app.add_flag("--no-shadows", noShadows, "no shadow rays");
@@ -86,9 +92,11 @@ int main(int argc, char** argv) {
                    "cpu-reference, cpu-packet), both halves labelled with their kernel times");
     bool fullResolution = false;
     app.add_flag("--no-adaptive", fullResolution, "trace every frame at full resolution, also while moving");
-    app.add_option("--record-path", options.recordPath, "write the camera of every frame with its time to this JSON file on exit");
+    app.add_option("--record-path", options.recordPath,
+                   "write the camera of every frame with its time to this JSON file on exit");
     app.add_option("--play-path", options.playPath, "fly the camera path of this JSON file (from --record-path)");
-    app.add_flag("--play-frames", options.playFrames, "with --play-path: one recorded camera per frame, not the recorded timing");
+    app.add_flag("--play-frames", options.playFrames,
+                 "with --play-path: one recorded camera per frame, not the recorded timing");
     app.add_flag("--offscreen", options.offscreen,
                  "no window and no display: the same frame loop (budget, refinement, camera paths) into an offscreen "
                  "image, without the panel or input; without --frames it runs until --play-path is played and the "
@@ -117,7 +125,8 @@ int main(int argc, char** argv) {
         if (!tracer.empty()) {
             options.tracer = ui::parseTracerChoice(tracer);
             if (!options.tracer)
-                throw Error("--tracer: \"" + tracer + "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
+                throw Error("--tracer: \"" + tracer +
+                            "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
         }
         if (options.playFrames && options.playPath.empty()) throw Error("--play-frames needs --play-path");
         if (!sideBySide.empty()) {
@@ -144,10 +153,14 @@ int main(int argc, char** argv) {
         } else if (!up.empty() || fov > 0.0f) {
             throw Error("--up and --fov need --eye and --at");
         }
-        if (present == "fifo") options.presentMode = VK_PRESENT_MODE_FIFO_KHR;
-        else if (present == "mailbox") options.presentMode = VK_PRESENT_MODE_MAILBOX_KHR;
-        else if (present == "immediate") options.presentMode = VK_PRESENT_MODE_IMMEDIATE_KHR;
-        else throw Error("--present: \"" + present + "\" is not fifo, mailbox or immediate");
+        if (present == "fifo")
+            options.presentMode = VK_PRESENT_MODE_FIFO_KHR;
+        else if (present == "mailbox")
+            options.presentMode = VK_PRESENT_MODE_MAILBOX_KHR;
+        else if (present == "immediate")
+            options.presentMode = VK_PRESENT_MODE_IMMEDIATE_KHR;
+        else
+            throw Error("--present: \"" + present + "\" is not fifo, mailbox or immediate");
         for (const std::string& step : script) options.script.push_back(ui::parseScriptStep(step));
         return ui::runViewer(options);
     } catch (const Error& e) {

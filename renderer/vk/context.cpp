@@ -13,8 +13,7 @@ namespace raypack::vk {
 const char* resultName(VkResult result) {
     switch (result) {
 #define RP_CASE(x) \
-    case x:        \
-        return #x;
+    case x: return #x;
         RP_CASE(VK_SUCCESS)
         RP_CASE(VK_NOT_READY)
         RP_CASE(VK_TIMEOUT)
@@ -36,8 +35,7 @@ const char* resultName(VkResult result) {
         RP_CASE(VK_ERROR_OUT_OF_DATE_KHR)
         RP_CASE(VK_SUBOPTIMAL_KHR)
 #undef RP_CASE
-    default:
-        return "VK_ERROR_UNKNOWN";
+    default: return "VK_ERROR_UNKNOWN";
     }
 }
 
@@ -48,23 +46,17 @@ void check(VkResult result, const char* what) {
 
 const char* toString(VkPhysicalDeviceType type) {
     switch (type) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
-        return "discrete GPU";
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
-        return "integrated GPU";
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
-        return "virtual GPU";
-    case VK_PHYSICAL_DEVICE_TYPE_CPU:
-        return "CPU";
-    default:
-        return "other";
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return "discrete GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return "integrated GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "virtual GPU";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "CPU";
+    default: return "other";
     }
 }
 
 std::string describe(const DeviceInfo& info) {
     std::ostringstream s;
-    s << info.name << " (" << toString(info.type) << ", " << info.driver << ", subgroup "
-      << info.subgroupSize << ")";
+    s << info.name << " (" << toString(info.type) << ", " << info.driver << ", subgroup " << info.subgroupSize << ")";
     return s.str();
 }
 
@@ -78,11 +70,9 @@ const char* const kRayTracingExtensions[] = {VK_KHR_ACCELERATION_STRUCTURE_EXTEN
 
 VKAPI_ATTR VkBool32 VKAPI_CALL debugCallback(VkDebugUtilsMessageSeverityFlagBitsEXT severity,
                                              VkDebugUtilsMessageTypeFlagsEXT,
-                                             const VkDebugUtilsMessengerCallbackDataEXT* data,
-                                             void* user) {
+                                             const VkDebugUtilsMessengerCallbackDataEXT* data, void* user) {
     auto* log = static_cast<ValidationLog*>(user);
-    const char* level =
-        (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT) ? "error" : "warning";
+    const char* level = (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT) ? "error" : "warning";
     std::fprintf(stderr, "raypack: validation %s: %s\n", level, data->pMessage);
     std::lock_guard lock(log->mutex);
     ++log->count;
@@ -127,8 +117,7 @@ VkInstance createInstance(const VulkanContextOptions& options, bool withDebugUti
     VkInstance instance = VK_NULL_HANDLE;
     const VkResult result = vkCreateInstance(&info, nullptr, &instance);
     if (result == VK_ERROR_INCOMPATIBLE_DRIVER || result == VK_ERROR_INITIALIZATION_FAILED)
-        throw Error(std::string("Vulkan: no Vulkan 1.2 driver found (vkCreateInstance: ") +
-                    resultName(result) +
+        throw Error(std::string("Vulkan: no Vulkan 1.2 driver found (vkCreateInstance: ") + resultName(result) +
                     "); install a GPU driver or Mesa's lavapipe (mesa-vulkan-drivers)");
     if (result == VK_ERROR_EXTENSION_NOT_PRESENT)
         throw Error("Vulkan: a required instance extension is missing (window system?)");
@@ -170,9 +159,8 @@ DeviceInfo queryDevice(VkPhysicalDevice physical, uint32_t index) {
 
 // Why a device cannot run raypack, or "" when it can. The kernels need Vulkan 1.2, a compute
 // queue and subgroup arithmetic and ballot in compute shaders.
-std::string rejectReason(VkInstance instance, VkPhysicalDevice physical,
-                         const VulkanContextOptions& options, uint32_t* queueFamily,
-                         bool* universal) {
+std::string rejectReason(VkInstance instance, VkPhysicalDevice physical, const VulkanContextOptions& options,
+                         uint32_t* queueFamily, bool* universal) {
     VkPhysicalDeviceProperties props;
     vkGetPhysicalDeviceProperties(physical, &props);
     if (props.apiVersion < VK_API_VERSION_1_2) return "Vulkan 1.2 not supported";
@@ -180,11 +168,9 @@ std::string rejectReason(VkInstance instance, VkPhysicalDevice physical,
     VkPhysicalDeviceProperties2 props2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
     props2.pNext = &subgroup;
     vkGetPhysicalDeviceProperties2(physical, &props2);
-    const VkSubgroupFeatureFlags needed = VK_SUBGROUP_FEATURE_BASIC_BIT |
-                                          VK_SUBGROUP_FEATURE_ARITHMETIC_BIT |
-                                          VK_SUBGROUP_FEATURE_BALLOT_BIT;
-    if (!(subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) ||
-        (subgroup.supportedOperations & needed) != needed)
+    const VkSubgroupFeatureFlags needed =
+        VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT | VK_SUBGROUP_FEATURE_BALLOT_BIT;
+    if (!(subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || (subgroup.supportedOperations & needed) != needed)
         return "no subgroup arithmetic/ballot in compute shaders";
 
     uint32_t extensionCount = 0;
@@ -192,9 +178,8 @@ std::string rejectReason(VkInstance instance, VkPhysicalDevice physical,
     std::vector<VkExtensionProperties> extensions(extensionCount);
     vkEnumerateDeviceExtensionProperties(physical, nullptr, &extensionCount, extensions.data());
     for (const std::string& wanted : options.deviceExtensions) {
-        const bool found = std::any_of(extensions.begin(), extensions.end(), [&](const auto& e) {
-            return wanted == e.extensionName;
-        });
+        const bool found =
+            std::any_of(extensions.begin(), extensions.end(), [&](const auto& e) { return wanted == e.extensionName; });
         if (!found) return "extension " + wanted + " missing";
     }
 
@@ -214,8 +199,7 @@ std::string rejectReason(VkInstance instance, VkPhysicalDevice physical,
             bestUniversal = isUniversal;
         }
     }
-    if (best < 0)
-        return options.presentSupport ? "no compute queue that can present" : "no compute queue";
+    if (best < 0) return options.presentSupport ? "no compute queue that can present" : "no compute queue";
     *queueFamily = uint32_t(best);
     *universal = bestUniversal;
     return "";
@@ -235,9 +219,8 @@ std::string rayTracingMissing(VkPhysicalDevice physical) {
     std::string missing;
     auto note = [&](const std::string& what) { missing += (missing.empty() ? "" : ", ") + what; };
     for (const char* e : kRayTracingExtensions) {
-        const bool found = std::any_of(offered.begin(), offered.end(), [&](const auto& x) {
-            return std::strcmp(x.extensionName, e) == 0;
-        });
+        const bool found = std::any_of(offered.begin(), offered.end(),
+                                       [&](const auto& x) { return std::strcmp(x.extensionName, e) == 0; });
         if (!found) note(e);
     }
     if (!missing.empty()) return missing;
@@ -261,16 +244,11 @@ namespace {
 
 int typeRank(VkPhysicalDeviceType type) {
     switch (type) {
-    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
-        return 4;
-    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
-        return 3;
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
-        return 2;
-    case VK_PHYSICAL_DEVICE_TYPE_CPU:
-        return 1;
-    default:
-        return 0;
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
     }
 }
 
@@ -283,8 +261,7 @@ std::vector<VkPhysicalDevice> enumerate(VkInstance instance) {
     uint32_t count = 0;
     check(vkEnumeratePhysicalDevices(instance, &count, nullptr), "vkEnumeratePhysicalDevices");
     std::vector<VkPhysicalDevice> devices(count);
-    check(vkEnumeratePhysicalDevices(instance, &count, devices.data()),
-          "vkEnumeratePhysicalDevices");
+    check(vkEnumeratePhysicalDevices(instance, &count, devices.data()), "vkEnumeratePhysicalDevices");
     return devices;
 }
 
@@ -307,10 +284,9 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
     try {
         if (options.validation) {
             ctx.validation = std::make_unique<ValidationLog>();
-            VkDebugUtilsMessengerCreateInfoEXT info{
-                VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
-            info.messageSeverity = VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT |
-                                   VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
+            VkDebugUtilsMessengerCreateInfoEXT info{VK_STRUCTURE_TYPE_DEBUG_UTILS_MESSENGER_CREATE_INFO_EXT};
+            info.messageSeverity =
+                VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT | VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT;
             info.messageType = VK_DEBUG_UTILS_MESSAGE_TYPE_GENERAL_BIT_EXT |
                                VK_DEBUG_UTILS_MESSAGE_TYPE_VALIDATION_BIT_EXT |
                                VK_DEBUG_UTILS_MESSAGE_TYPE_PERFORMANCE_BIT_EXT;
@@ -319,8 +295,7 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
             auto create = reinterpret_cast<PFN_vkCreateDebugUtilsMessengerEXT>(
                 vkGetInstanceProcAddr(ctx.instance, "vkCreateDebugUtilsMessengerEXT"));
             RAYPACK_CHECK(create != nullptr);
-            check(create(ctx.instance, &info, nullptr, &ctx.messenger),
-                  "vkCreateDebugUtilsMessengerEXT");
+            check(create(ctx.instance, &info, nullptr, &ctx.messenger), "vkCreateDebugUtilsMessengerEXT");
         }
 
         const std::vector<VkPhysicalDevice> devices = enumerate(ctx.instance);
@@ -342,8 +317,7 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
         auto listing = [&] {
             std::string s;
             for (uint32_t i = 0; i < devices.size(); ++i) {
-                s += "\n  " + std::to_string(i) + ": " + infos[i].name + " (" +
-                     toString(infos[i].type) + ")";
+                s += "\n  " + std::to_string(i) + ": " + infos[i].name + " (" + toString(infos[i].type) + ")";
                 if (!reasons[i].empty()) s += " - unusable: " + reasons[i];
             }
             return s;
@@ -365,19 +339,16 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
                     chosen = int(i);
                     break;
                 }
-            if (chosen < 0)
-                throw Error("Vulkan: no device named \"" + wanted + "\"; devices:" + listing());
+            if (chosen < 0) throw Error("Vulkan: no device named \"" + wanted + "\"; devices:" + listing());
         } else {
             for (uint32_t i = 0; i < devices.size(); ++i) {
                 if (!reasons[i].empty()) continue;
-                if (chosen < 0 || typeRank(infos[i].type) > typeRank(infos[chosen].type))
-                    chosen = int(i);
+                if (chosen < 0 || typeRank(infos[i].type) > typeRank(infos[chosen].type)) chosen = int(i);
             }
             if (chosen < 0) throw Error("Vulkan: no usable device; devices:" + listing());
         }
         if (!reasons[chosen].empty())
-            throw Error("Vulkan: device " + infos[chosen].name + " cannot run raypack: " +
-                        reasons[chosen]);
+            throw Error("Vulkan: device " + infos[chosen].name + " cannot run raypack: " + reasons[chosen]);
 
         ctx.physicalDevice = devices[chosen];
         ctx.info = infos[chosen];
@@ -388,10 +359,8 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
         uint32_t familyCount = 0;
         vkGetPhysicalDeviceQueueFamilyProperties(ctx.physicalDevice, &familyCount, nullptr);
         std::vector<VkQueueFamilyProperties> familyProps(familyCount);
-        vkGetPhysicalDeviceQueueFamilyProperties(ctx.physicalDevice, &familyCount,
-                                                 familyProps.data());
-        ctx.info.timestamps = familyProps[ctx.queueFamily].timestampValidBits > 0 &&
-                              ctx.info.timestampPeriodNs > 0.0f;
+        vkGetPhysicalDeviceQueueFamilyProperties(ctx.physicalDevice, &familyCount, familyProps.data());
+        ctx.info.timestamps = familyProps[ctx.queueFamily].timestampValidBits > 0 && ctx.info.timestampPeriodNs > 0.0f;
 
         const float priority = 1.0f;
         VkDeviceQueueCreateInfo queueInfo{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
@@ -429,8 +398,7 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
         deviceInfo.ppEnabledExtensionNames = extensions.data();
         const VkResult result = vkCreateDevice(ctx.physicalDevice, &deviceInfo, nullptr, &ctx.device);
         if (result < 0)
-            throw Error("Vulkan: could not create a logical device on " + ctx.info.name + ": " +
-                        resultName(result));
+            throw Error("Vulkan: could not create a logical device on " + ctx.info.name + ": " + resultName(result));
         vkGetDeviceQueue(ctx.device, ctx.queueFamily, 0, &ctx.queue);
     } catch (...) {
         destroyVulkanContext(ctx);
@@ -465,13 +433,10 @@ uint32_t validationMessageCount(const VulkanContext& ctx) {
 namespace {
 uint32_t findMemoryType(const VulkanContext& ctx, uint32_t typeBits, VkMemoryPropertyFlags props) {
     for (uint32_t i = 0; i < ctx.memoryProperties.memoryTypeCount; ++i)
-        if ((typeBits & (1u << i)) &&
-            (ctx.memoryProperties.memoryTypes[i].propertyFlags & props) == props)
-            return i;
+        if ((typeBits & (1u << i)) && (ctx.memoryProperties.memoryTypes[i].propertyFlags & props) == props) return i;
     return UINT32_MAX;
 }
-[[noreturn]] void throwOutOfMemory(const VulkanContext& ctx, VkResult result, VkDeviceSize bytes,
-                                   const char* what) {
+[[noreturn]] void throwOutOfMemory(const VulkanContext& ctx, VkResult result, VkDeviceSize bytes, const char* what) {
     char message[512];
     std::snprintf(message, sizeof message, "Vulkan: out of %s memory on %s allocating %.1f MiB for %s",
                   result == VK_ERROR_OUT_OF_DEVICE_MEMORY ? "device" : "host", ctx.info.name.c_str(),
@@ -516,8 +481,7 @@ Buffer createBuffer(const VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFl
     check(result, "vkAllocateMemory");
     check(vkBindBufferMemory(ctx.device, buffer.buffer, buffer.memory, 0), "vkBindBufferMemory");
     if (properties & VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT)
-        check(vkMapMemory(ctx.device, buffer.memory, 0, VK_WHOLE_SIZE, 0, &buffer.mapped),
-              "vkMapMemory");
+        check(vkMapMemory(ctx.device, buffer.memory, 0, VK_WHOLE_SIZE, 0, &buffer.mapped), "vkMapMemory");
     return buffer;
 }
 
@@ -527,8 +491,7 @@ void destroyBuffer(const VulkanContext& ctx, Buffer& buffer) {
     buffer = Buffer{};
 }
 
-void submitAndWait(const VulkanContext& ctx, VkCommandPool pool,
-                   const std::function<void(VkCommandBuffer)>& record) {
+void submitAndWait(const VulkanContext& ctx, VkCommandPool pool, const std::function<void(VkCommandBuffer)>& record) {
     VkCommandBufferAllocateInfo allocate{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
     allocate.commandPool = pool;
     allocate.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
@@ -558,14 +521,13 @@ void submitAndWait(const VulkanContext& ctx, VkCommandPool pool,
     vkFreeCommandBuffers(ctx.device, pool, 1, &cmd);
 }
 
-void uploadToBuffer(const VulkanContext& ctx, VkCommandPool pool, const Buffer& destination,
-                    const void* data, VkDeviceSize bytes) {
+void uploadToBuffer(const VulkanContext& ctx, VkCommandPool pool, const Buffer& destination, const void* data,
+                    VkDeviceSize bytes) {
     if (bytes == 0) return;
     RAYPACK_CHECK(bytes <= destination.size);
-    Buffer staging = createBuffer(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                  VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
-                                      VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                                  "a staging buffer");
+    Buffer staging =
+        createBuffer(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                     VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "a staging buffer");
     std::memcpy(staging.mapped, data, bytes);
     try {
         submitAndWait(ctx, pool, [&](VkCommandBuffer cmd) {
@@ -579,16 +541,15 @@ void uploadToBuffer(const VulkanContext& ctx, VkCommandPool pool, const Buffer& 
     destroyBuffer(ctx, staging);
 }
 
-VkShaderModule createShaderModule(const VulkanContext& ctx, const uint32_t* code, size_t codeBytes,
-                                  const char* name) {
+VkShaderModule createShaderModule(const VulkanContext& ctx, const uint32_t* code, size_t codeBytes, const char* name) {
     VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
     info.codeSize = codeBytes;
     info.pCode = code;
     VkShaderModule module = VK_NULL_HANDLE;
     const VkResult result = vkCreateShaderModule(ctx.device, &info, nullptr, &module);
     if (result < 0)
-        throw Error(std::string("Vulkan: could not load shader ") + name + " on " + ctx.info.name +
-                    ": " + resultName(result));
+        throw Error(std::string("Vulkan: could not load shader ") + name + " on " + ctx.info.name + ": " +
+                    resultName(result));
     return module;
 }
 

@@ -45,14 +45,14 @@ struct DeviceInfo {
     std::string driver;  // driver name and info (VkPhysicalDeviceDriverProperties)
     uint32_t apiVersion = 0;
     uint32_t subgroupSize = 0;
-    uint32_t maxSharedMemoryBytes = 0;            // maxComputeSharedMemorySize
-    uint32_t maxStorageBufferBytes = 0;           // maxStorageBufferRange
-    uint32_t maxWorkgroupInvocations = 0;         // maxComputeWorkGroupInvocations
-    uint32_t maxWorkgroupSize[3] = {0, 0, 0};     // maxComputeWorkGroupSize
-    uint32_t maxWorkgroupCount[3] = {0, 0, 0};    // maxComputeWorkGroupCount
-    float timestampPeriodNs = 0.0f;               // nanoseconds per timestamp tick
-    bool timestamps = false;                      // the queue family writes timestamps
-    uint64_t deviceLocalBytes = 0;                // size of the largest device-local heap
+    uint32_t maxSharedMemoryBytes = 0;          // maxComputeSharedMemorySize
+    uint32_t maxStorageBufferBytes = 0;         // maxStorageBufferRange
+    uint32_t maxWorkgroupInvocations = 0;       // maxComputeWorkGroupInvocations
+    uint32_t maxWorkgroupSize[3] = {0, 0, 0};   // maxComputeWorkGroupSize
+    uint32_t maxWorkgroupCount[3] = {0, 0, 0};  // maxComputeWorkGroupCount
+    float timestampPeriodNs = 0.0f;             // nanoseconds per timestamp tick
+    bool timestamps = false;                    // the queue family writes timestamps
+    uint64_t deviceLocalBytes = 0;              // size of the largest device-local heap
 };
 
 const char* toString(VkPhysicalDeviceType type);
@@ -115,10 +115,10 @@ void submitAndWait(const VulkanContext& context, VkCommandPool pool,
                    const std::function<void(VkCommandBuffer)>& record);
 
 // Copies `bytes` from host memory into a device-local buffer through a staging buffer.
-void uploadToBuffer(const VulkanContext& context, VkCommandPool pool, const Buffer& destination,
-                    const void* data, VkDeviceSize bytes);
+void uploadToBuffer(const VulkanContext& context, VkCommandPool pool, const Buffer& destination, const void* data,
+                    VkDeviceSize bytes);
 
-VkShaderModule createShaderModule(const VulkanContext& context, const uint32_t* code,
-                                  size_t codeBytes, const char* name);
+VkShaderModule createShaderModule(const VulkanContext& context, const uint32_t* code, size_t codeBytes,
+                                  const char* name);
 
 }  // namespace raypack::vk

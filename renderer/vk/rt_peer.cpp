@@ -20,9 +20,7 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-double secondsSince(Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 uint64_t alignUp(uint64_t value, uint64_t alignment) {
     RAYPACK_CHECK(alignment != 0 && (alignment & (alignment - 1)) == 0);
@@ -116,8 +114,7 @@ struct RtPeerObjects {
     VkPipeline pipeline = VK_NULL_HANDLE;
     std::vector<VkShaderModule> modules;
 
-    RtPeerObjects(const vk::VulkanContext& context, const RtFunctions& functions)
-        : ctx(context), fn(functions) {}
+    RtPeerObjects(const vk::VulkanContext& context, const RtFunctions& functions) : ctx(context), fn(functions) {}
     RtPeerObjects(const RtPeerObjects&) = delete;
     RtPeerObjects& operator=(const RtPeerObjects&) = delete;
     ~RtPeerObjects() {
@@ -129,8 +126,8 @@ struct RtPeerObjects {
         if (setLayout) vkDestroyDescriptorSetLayout(d, setLayout, nullptr);
         if (tlas) fn.destroyStructure(d, tlas, nullptr);
         if (blas) fn.destroyStructure(d, blas, nullptr);
-        for (vk::Buffer* b : {&vertices, &indices, &instances, &scratch, &blasStorage, &tlasStorage,
-                              &bindingTable, &hits, &readback})
+        for (vk::Buffer* b :
+             {&vertices, &indices, &instances, &scratch, &blasStorage, &tlasStorage, &bindingTable, &hits, &readback})
             vk::destroyBuffer(ctx, *b);
         if (queries) vkDestroyQueryPool(d, queries, nullptr);
         if (pool) vkDestroyCommandPool(d, pool, nullptr);
@@ -144,9 +141,8 @@ constexpr uint32_t kQueryCount = 7;
 
 std::vector<uint64_t> readQueries(const RtPeerObjects& o, uint32_t first, uint32_t count) {
     std::vector<uint64_t> ticks(count);
-    vk::check(vkGetQueryPoolResults(o.ctx.device, o.queries, first, count,
-                                    count * sizeof(uint64_t), ticks.data(), sizeof(uint64_t),
-                                    VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+    vk::check(vkGetQueryPoolResults(o.ctx.device, o.queries, first, count, count * sizeof(uint64_t), ticks.data(),
+                                    sizeof(uint64_t), VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
               "vkGetQueryPoolResults");
     return ticks;
 }
@@ -164,8 +160,8 @@ void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessF
 }
 
 // A device-local buffer whose device address the builds or the shaders read.
-vk::Buffer createAddressedBuffer(const vk::VulkanContext& ctx, VkDeviceSize size,
-                                 VkBufferUsageFlags usage, const char* what) {
+vk::Buffer createAddressedBuffer(const vk::VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFlags usage,
+                                 const char* what) {
     return vk::createBuffer(ctx, size, usage | VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT,
                             VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
 }
@@ -175,8 +171,8 @@ vk::Buffer createAddressedBuffer(const vk::VulkanContext& ctx, VkDeviceSize size
 // three uint32 indices, so the BLAS's triangle i is the scene's triangle i.
 void uploadGeometry(RtPeerObjects& o, const Scene& scene) {
     static_assert(sizeof(glm::vec3) == 12 && sizeof(glm::uvec3) == 12);
-    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR |
-                                     VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    const VkBufferUsageFlags usage =
+        VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     const VkDeviceSize vertexBytes = scene.positions.size() * sizeof(glm::vec3);
     const VkDeviceSize indexBytes = scene.triangles.size() * sizeof(glm::uvec3);
     o.vertices = createAddressedBuffer(o.ctx, vertexBytes, usage, "the ray tracing peer's vertices");
@@ -187,13 +183,10 @@ void uploadGeometry(RtPeerObjects& o, const Scene& scene) {
 
 // An acceleration structure at offset 0 of a buffer of its own (the offset must be a multiple of
 // 256), sized by vkGetAccelerationStructureBuildSizesKHR.
-VkAccelerationStructureKHR createStructure(RtPeerObjects& o, VkDeviceSize size,
-                                           VkAccelerationStructureTypeKHR type, vk::Buffer& storage,
-                                           const char* what) {
-    storage = createAddressedBuffer(o.ctx, size,
-                                    VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR, what);
-    VkAccelerationStructureCreateInfoKHR create{
-        VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_KHR};
+VkAccelerationStructureKHR createStructure(RtPeerObjects& o, VkDeviceSize size, VkAccelerationStructureTypeKHR type,
+                                           vk::Buffer& storage, const char* what) {
+    storage = createAddressedBuffer(o.ctx, size, VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_STORAGE_BIT_KHR, what);
+    VkAccelerationStructureCreateInfoKHR create{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_CREATE_INFO_KHR};
     create.buffer = storage.buffer;
     create.offset = 0;
     create.size = size;
@@ -211,8 +204,7 @@ struct BuildTimes {
 
 // One BLAS over all triangles (one geometry, opaque, PREFER_FAST_TRACE: the choice for a static
 // scene traced many times) and one TLAS holding it once with the identity transform.
-BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtProperties& props,
-                           RtPeerResult& result) {
+BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtProperties& props, RtPeerResult& result) {
     const VkDevice device = o.ctx.device;
 
     VkAccelerationStructureGeometryKHR triangles{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
@@ -239,17 +231,13 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
     const uint32_t triangleCount = uint32_t(scene.triangles.size());
     if (scene.triangles.size() > props.structure.maxPrimitiveCount)
         throw Error("driver ray tracing: " + o.ctx.info.name + " builds at most " +
-                    std::to_string(props.structure.maxPrimitiveCount) +
-                    " triangles per structure, the scene has " +
+                    std::to_string(props.structure.maxPrimitiveCount) + " triangles per structure, the scene has " +
                     std::to_string(scene.triangles.size()));
-    VkAccelerationStructureBuildSizesInfoKHR blasSizes{
-        VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
-    o.fn.getBuildSizes(device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &blasInfo,
-                       &triangleCount, &blasSizes);
+    VkAccelerationStructureBuildSizesInfoKHR blasSizes{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
+    o.fn.getBuildSizes(device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &blasInfo, &triangleCount, &blasSizes);
 
-    o.blas = createStructure(o, blasSizes.accelerationStructureSize,
-                             VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR, o.blasStorage,
-                             "the bottom-level acceleration structure");
+    o.blas = createStructure(o, blasSizes.accelerationStructureSize, VK_ACCELERATION_STRUCTURE_TYPE_BOTTOM_LEVEL_KHR,
+                             o.blasStorage, "the bottom-level acceleration structure");
 
     // The instance refers to the BLAS by its device address, known once it is created.
     VkAccelerationStructureDeviceAddressInfoKHR blasAddressInfo{
@@ -267,8 +255,7 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
     instance.accelerationStructureReference = o.fn.getStructureAddress(device, &blasAddressInfo);
     o.instances = createAddressedBuffer(
         o.ctx, sizeof instance,
-        VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR |
-            VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        VK_BUFFER_USAGE_ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_BIT_KHR | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
         "the ray tracing peer's instance");
     vk::uploadToBuffer(o.ctx, o.pool, o.instances, &instance, sizeof instance);
     const VkDeviceAddress instanceAddress = bufferAddress(o.ctx, o.instances);
@@ -278,8 +265,7 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
     VkAccelerationStructureGeometryKHR instances{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_KHR};
     instances.geometryType = VK_GEOMETRY_TYPE_INSTANCES_KHR;
     instances.flags = 0;  // opacity is the BLAS geometry's (VK_GEOMETRY_OPAQUE_BIT_KHR above)
-    instances.geometry.instances.sType =
-        VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_INSTANCES_DATA_KHR;
+    instances.geometry.instances.sType = VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_GEOMETRY_INSTANCES_DATA_KHR;
     instances.geometry.instances.arrayOfPointers = VK_FALSE;
     instances.geometry.instances.data.deviceAddress = instanceAddress;
     VkAccelerationStructureBuildGeometryInfoKHR tlasInfo{
@@ -290,13 +276,10 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
     tlasInfo.geometryCount = 1;
     tlasInfo.pGeometries = &instances;
     const uint32_t instanceCount = 1;
-    VkAccelerationStructureBuildSizesInfoKHR tlasSizes{
-        VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
-    o.fn.getBuildSizes(device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &tlasInfo,
-                       &instanceCount, &tlasSizes);
-    o.tlas = createStructure(o, tlasSizes.accelerationStructureSize,
-                             VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR, o.tlasStorage,
-                             "the top-level acceleration structure");
+    VkAccelerationStructureBuildSizesInfoKHR tlasSizes{VK_STRUCTURE_TYPE_ACCELERATION_STRUCTURE_BUILD_SIZES_INFO_KHR};
+    o.fn.getBuildSizes(device, VK_ACCELERATION_STRUCTURE_BUILD_TYPE_DEVICE_KHR, &tlasInfo, &instanceCount, &tlasSizes);
+    o.tlas = createStructure(o, tlasSizes.accelerationStructureSize, VK_ACCELERATION_STRUCTURE_TYPE_TOP_LEVEL_KHR,
+                             o.tlasStorage, "the top-level acceleration structure");
 
     // One scratch buffer for both builds (a barrier orders them), its address rounded up to
     // minAccelerationStructureScratchOffsetAlignment: the allocation is only as aligned as the
@@ -304,8 +287,7 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
     const VkDeviceSize scratchAlignment =
         std::max<VkDeviceSize>(props.structure.minAccelerationStructureScratchOffsetAlignment, 1);
     const VkDeviceSize scratchBytes = std::max(blasSizes.buildScratchSize, tlasSizes.buildScratchSize);
-    o.scratch = createAddressedBuffer(o.ctx, scratchBytes + scratchAlignment,
-                                      VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+    o.scratch = createAddressedBuffer(o.ctx, scratchBytes + scratchAlignment, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                       "the acceleration structure build's scratch memory");
     const VkDeviceAddress scratchAddress = alignUp(bufferAddress(o.ctx, o.scratch), scratchAlignment);
     blasInfo.dstAccelerationStructure = o.blas;
@@ -328,14 +310,11 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
         memoryBarrier(cmd, VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
                       VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR,
                       VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
-                      VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR |
-                          VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR);
+                      VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR);
         // Bottom of pipe: written once every earlier command, the BLAS build, has completed.
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, o.queries,
-                            kQueryBuildStart + 1);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, o.queries, kQueryBuildStart + 1);
         o.fn.cmdBuild(cmd, 1, &tlasInfo, &tlasRanges);
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, o.queries,
-                            kQueryBuildStart + 2);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, o.queries, kQueryBuildStart + 2);
     });
     const std::vector<uint64_t> ticks = readQueries(o, kQueryBuildStart, 3);
     result.blasBytes = blasSizes.accelerationStructureSize;
@@ -364,8 +343,7 @@ void createPipeline(RtPeerObjects& o) {
     VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
     setInfo.bindingCount = 2;
     setInfo.pBindings = bindings;
-    vk::check(vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &o.setLayout),
-              "vkCreateDescriptorSetLayout");
+    vk::check(vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &o.setLayout), "vkCreateDescriptorSetLayout");
 
     VkPushConstantRange pushRange{};
     pushRange.stageFlags = VK_SHADER_STAGE_RAYGEN_BIT_KHR;
@@ -376,8 +354,7 @@ void createPipeline(RtPeerObjects& o) {
     layoutInfo.pSetLayouts = &o.setLayout;
     layoutInfo.pushConstantRangeCount = 1;
     layoutInfo.pPushConstantRanges = &pushRange;
-    vk::check(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &o.pipelineLayout),
-              "vkCreatePipelineLayout");
+    vk::check(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &o.pipelineLayout), "vkCreatePipelineLayout");
 
     struct StageSource {
         VkShaderStageFlagBits stage;
@@ -391,8 +368,7 @@ void createPipeline(RtPeerObjects& o) {
          "rt_peer_primary.rmiss"},
         {VK_SHADER_STAGE_MISS_BIT_KHR, rt_peer_shadow_rmiss_spv, sizeof rt_peer_shadow_rmiss_spv,
          "rt_peer_shadow.rmiss"},
-        {VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR, rt_peer_rchit_spv, sizeof rt_peer_rchit_spv,
-         "rt_peer.rchit"},
+        {VK_SHADER_STAGE_CLOSEST_HIT_BIT_KHR, rt_peer_rchit_spv, sizeof rt_peer_rchit_spv, "rt_peer.rchit"},
     };
     std::vector<VkPipelineShaderStageCreateInfo> stages;
     for (const StageSource& s : sources) {
@@ -429,8 +405,7 @@ void createPipeline(RtPeerObjects& o) {
     // Only the raygen shader traces rays: one level, within the guaranteed maxRayRecursionDepth.
     pipelineInfo.maxPipelineRayRecursionDepth = 1;
     pipelineInfo.layout = o.pipelineLayout;
-    vk::check(o.fn.createPipelines(device, VK_NULL_HANDLE, VK_NULL_HANDLE, 1, &pipelineInfo, nullptr,
-                                   &o.pipeline),
+    vk::check(o.fn.createPipelines(device, VK_NULL_HANDLE, VK_NULL_HANDLE, 1, &pipelineInfo, nullptr, &o.pipeline),
               "vkCreateRayTracingPipelinesKHR");
 }
 
@@ -442,25 +417,23 @@ struct BindingTableRegions {
 // base address rounded up to shaderGroupBaseAlignment.
 BindingTableRegions createBindingTable(RtPeerObjects& o, const RtProperties& props) {
     const VkPhysicalDeviceRayTracingPipelinePropertiesKHR& p = props.pipeline;
-    const ShaderBindingTableLayout layout = layoutShaderBindingTable(
-        p.shaderGroupHandleSize, p.shaderGroupHandleAlignment, p.shaderGroupBaseAlignment,
-        p.maxShaderGroupStride, 2, 1);
+    const ShaderBindingTableLayout layout =
+        layoutShaderBindingTable(p.shaderGroupHandleSize, p.shaderGroupHandleAlignment, p.shaderGroupBaseAlignment,
+                                 p.maxShaderGroupStride, 2, 1);
     std::vector<uint8_t> handles(size_t(gpu::kRtPeerGroupCount) * p.shaderGroupHandleSize);
-    vk::check(o.fn.getGroupHandles(o.ctx.device, o.pipeline, 0, gpu::kRtPeerGroupCount,
-                                   handles.size(), handles.data()),
+    vk::check(o.fn.getGroupHandles(o.ctx.device, o.pipeline, 0, gpu::kRtPeerGroupCount, handles.size(), handles.data()),
               "vkGetRayTracingShaderGroupHandlesKHR");
 
     o.bindingTable = createAddressedBuffer(
         o.ctx, layout.bytes + p.shaderGroupBaseAlignment,
-        VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-        "the shader binding table");
+        VK_BUFFER_USAGE_SHADER_BINDING_TABLE_BIT_KHR | VK_BUFFER_USAGE_TRANSFER_DST_BIT, "the shader binding table");
     const VkDeviceAddress start = bufferAddress(o.ctx, o.bindingTable);
     const VkDeviceAddress base = alignUp(start, p.shaderGroupBaseAlignment);
     const uint64_t shift = base - start;
     std::vector<uint8_t> image(shift + layout.bytes, 0);
     auto put = [&](uint32_t group, uint64_t offset) {
-        std::memcpy(image.data() + shift + offset,
-                    handles.data() + size_t(group) * p.shaderGroupHandleSize, p.shaderGroupHandleSize);
+        std::memcpy(image.data() + shift + offset, handles.data() + size_t(group) * p.shaderGroupHandleSize,
+                    p.shaderGroupHandleSize);
     };
     put(gpu::kRtPeerGroupRaygen, layout.raygen.offset);
     put(gpu::kRtPeerGroupMissPrimary, layout.miss.offset + gpu::kRtPeerMissPrimary * layout.miss.stride);
@@ -484,14 +457,12 @@ void createDescriptorSet(RtPeerObjects& o) {
     poolInfo.maxSets = 1;
     poolInfo.poolSizeCount = 2;
     poolInfo.pPoolSizes = sizes;
-    vk::check(vkCreateDescriptorPool(device, &poolInfo, nullptr, &o.descriptorPool),
-              "vkCreateDescriptorPool");
+    vk::check(vkCreateDescriptorPool(device, &poolInfo, nullptr, &o.descriptorPool), "vkCreateDescriptorPool");
     VkDescriptorSetAllocateInfo allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
     allocate.descriptorPool = o.descriptorPool;
     allocate.descriptorSetCount = 1;
     allocate.pSetLayouts = &o.setLayout;
-    vk::check(vkAllocateDescriptorSets(device, &allocate, &o.descriptorSet),
-              "vkAllocateDescriptorSets");
+    vk::check(vkAllocateDescriptorSets(device, &allocate, &o.descriptorSet), "vkAllocateDescriptorSets");
 
     VkWriteDescriptorSetAccelerationStructureKHR tlasWrite{
         VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET_ACCELERATION_STRUCTURE_KHR};
@@ -520,17 +491,17 @@ void recordTrace(const RtPeerObjects& o, VkCommandBuffer cmd, const BindingTable
     const uint32_t width = params.frame.x, height = params.frame.y;
     vkCmdResetQueryPool(cmd, o.queries, kQueryTraceStart, 4);
     // Earlier submissions built the structures, uploaded the table and read the hits: finish them.
-    memoryBarrier(cmd,
-                  VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR |
-                      VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR,
-                  VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR | VK_ACCESS_TRANSFER_WRITE_BIT |
-                      VK_ACCESS_TRANSFER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT,
-                  VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR,
-                  VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_SHADER_READ_BIT |
-                      VK_ACCESS_SHADER_WRITE_BIT);
+    memoryBarrier(
+        cmd,
+        VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR | VK_PIPELINE_STAGE_TRANSFER_BIT |
+            VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR,
+        VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR | VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_TRANSFER_READ_BIT |
+            VK_ACCESS_SHADER_WRITE_BIT,
+        VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR,
+        VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, o.pipeline);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, o.pipelineLayout, 0, 1,
-                            &o.descriptorSet, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_RAY_TRACING_KHR, o.pipelineLayout, 0, 1, &o.descriptorSet, 0,
+                            nullptr);
 
     // Timestamps at the ray tracing stage around each launch, as raypack's kernels are timed at
     // the compute stage around each dispatch (renderer/gpu_tracer.cpp).
@@ -546,11 +517,9 @@ void recordTrace(const RtPeerObjects& o, VkCommandBuffer cmd, const BindingTable
                       VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         params.frame.z = gpu::kRtPeerPassShadow;
-        vkCmdPushConstants(cmd, o.pipelineLayout, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0, sizeof params,
-                           &params);
+        vkCmdPushConstants(cmd, o.pipelineLayout, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0, sizeof params, &params);
         vkCmdWriteTimestamp(cmd, stage, o.queries, kQueryTraceStart + 2);
-        o.fn.cmdTraceRays(cmd, &table.raygen, &table.miss, &table.hit, &table.callable, width,
-                          height, 1);
+        o.fn.cmdTraceRays(cmd, &table.raygen, &table.miss, &table.hit, &table.callable, width, height, 1);
         vkCmdWriteTimestamp(cmd, stage, o.queries, kQueryTraceStart + 3);
     } else {
         // Keep all four queries written so that one read covers every run.
@@ -562,41 +531,36 @@ void recordTrace(const RtPeerObjects& o, VkCommandBuffer cmd, const BindingTable
                       VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
         const VkBufferCopy region{0, 0, VkDeviceSize(width) * height * sizeof(HitRecord)};
         vkCmdCopyBuffer(cmd, o.hits.buffer, o.readback.buffer, 1, &region);
-        memoryBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
-                      VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_HOST_READ_BIT);
+        memoryBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                      VK_ACCESS_HOST_READ_BIT);
     }
 }
 
 // The launch must fit the device's limits (vkCmdTraceRaysKHR: width and height at most
 // maxComputeWorkGroupCount x maxComputeWorkGroupSize, their product at most
 // maxRayDispatchInvocationCount).
-void checkLaunch(const vk::VulkanContext& ctx, const RtProperties& props, uint32_t width,
-                 uint32_t height) {
-    const uint64_t maxWidth = uint64_t(props.limits.maxComputeWorkGroupCount[0]) *
-                              props.limits.maxComputeWorkGroupSize[0];
-    const uint64_t maxHeight = uint64_t(props.limits.maxComputeWorkGroupCount[1]) *
-                               props.limits.maxComputeWorkGroupSize[1];
+void checkLaunch(const vk::VulkanContext& ctx, const RtProperties& props, uint32_t width, uint32_t height) {
+    const uint64_t maxWidth =
+        uint64_t(props.limits.maxComputeWorkGroupCount[0]) * props.limits.maxComputeWorkGroupSize[0];
+    const uint64_t maxHeight =
+        uint64_t(props.limits.maxComputeWorkGroupCount[1]) * props.limits.maxComputeWorkGroupSize[1];
     const uint64_t invocations = uint64_t(width) * height;
-    if (width > maxWidth || height > maxHeight ||
-        invocations > props.pipeline.maxRayDispatchInvocationCount)
-        throw Error("driver ray tracing: " + ctx.info.name + " cannot launch " +
-                    std::to_string(width) + "x" + std::to_string(height) +
-                    " rays at once (at most " + std::to_string(maxWidth) + "x" +
-                    std::to_string(maxHeight) + ", " +
-                    std::to_string(props.pipeline.maxRayDispatchInvocationCount) + " in all)");
+    if (width > maxWidth || height > maxHeight || invocations > props.pipeline.maxRayDispatchInvocationCount)
+        throw Error("driver ray tracing: " + ctx.info.name + " cannot launch " + std::to_string(width) + "x" +
+                    std::to_string(height) + " rays at once (at most " + std::to_string(maxWidth) + "x" +
+                    std::to_string(maxHeight) + ", " + std::to_string(props.pipeline.maxRayDispatchInvocationCount) +
+                    " in all)");
 }
 
 }  // namespace
 
-ShaderBindingTableLayout layoutShaderBindingTable(uint32_t handleSize, uint32_t handleAlignment,
-                                                  uint32_t baseAlignment, uint32_t maxStride,
-                                                  uint32_t missCount, uint32_t hitCount) {
+ShaderBindingTableLayout layoutShaderBindingTable(uint32_t handleSize, uint32_t handleAlignment, uint32_t baseAlignment,
+                                                  uint32_t maxStride, uint32_t missCount, uint32_t hitCount) {
     RAYPACK_CHECK(handleSize > 0);
     const uint64_t recordStride = alignUp(handleSize, handleAlignment);
     if (recordStride > maxStride)
-        throw Error("driver ray tracing: a shader binding table record of " +
-                    std::to_string(recordStride) + " bytes exceeds maxShaderGroupStride (" +
-                    std::to_string(maxStride) + ")");
+        throw Error("driver ray tracing: a shader binding table record of " + std::to_string(recordStride) +
+                    " bytes exceeds maxShaderGroupStride (" + std::to_string(maxStride) + ")");
     ShaderBindingTableLayout l;
     // vkCmdTraceRaysKHR: the raygen region's size must equal its stride.
     l.raygen = {0, recordStride, recordStride};
@@ -614,21 +578,18 @@ std::string rtPeerUnsupportedReason(const vk::VulkanContext& context) {
     const std::string device = context.info.name;
     if (!context.rayTracing) {
         const std::string missing = vk::rayTracingMissing(context.physicalDevice);
-        if (!missing.empty())
-            return "driver ray tracing unavailable: " + device + " lacks " + missing;
+        if (!missing.empty()) return "driver ray tracing unavailable: " + device + " lacks " + missing;
         return "driver ray tracing unavailable: " + device +
                " offers it, but the Vulkan context was created without enableRayTracing";
     }
     if (!context.info.timestamps)
-        return "driver ray tracing unavailable: the queue of " + device +
-               " writes no timestamps to time it with";
+        return "driver ray tracing unavailable: the queue of " + device + " writes no timestamps to time it with";
     return "";
 }
 
-RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene,
-                       const RenderSettings& settings, uint32_t repeats) {
-    if (const std::string reason = rtPeerUnsupportedReason(context); !reason.empty())
-        throw RtPeerUnsupported(reason);
+RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene, const RenderSettings& settings,
+                       uint32_t repeats) {
+    if (const std::string reason = rtPeerUnsupportedReason(context); !reason.empty()) throw RtPeerUnsupported(reason);
     if (repeats == 0) throw Error("driver ray tracing: at least one timed repetition is needed");
     const RtProperties props = queryRtProperties(context.physicalDevice);
     gpu::RtPeerParams params{};
@@ -669,19 +630,16 @@ RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene,
     const BindingTableRegions table = createBindingTable(o, props);
     const VkDeviceSize pixels = VkDeviceSize(settings.width) * settings.height;
     const VkDeviceSize hitBytes = pixels * sizeof(HitRecord);
-    o.hits = vk::createBuffer(context, hitBytes,
-                              VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+    o.hits = vk::createBuffer(context, hitBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                               VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "the peer's hit records");
     o.readback = vk::createBuffer(context, hitBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                  VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
-                                      VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                  VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
                                   "the peer's hit records on the host");
     createDescriptorSet(o);
 
     // Warm-up launch (first-use costs out of the timings); its hits are the result's.
-    vk::submitAndWait(context, o.pool, [&](VkCommandBuffer cmd) {
-        recordTrace(o, cmd, table, params, settings.shadows, true);
-    });
+    vk::submitAndWait(context, o.pool,
+                      [&](VkCommandBuffer cmd) { recordTrace(o, cmd, table, params, settings.shadows, true); });
     Frame& frame = result.frame;
     frame.width = settings.width;
     frame.height = settings.height;
@@ -697,9 +655,8 @@ RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene,
 
     std::vector<double> primary, shadow;
     for (uint32_t r = 0; r < repeats; ++r) {
-        vk::submitAndWait(context, o.pool, [&](VkCommandBuffer cmd) {
-            recordTrace(o, cmd, table, params, settings.shadows, false);
-        });
+        vk::submitAndWait(context, o.pool,
+                          [&](VkCommandBuffer cmd) { recordTrace(o, cmd, table, params, settings.shadows, false); });
         const std::vector<uint64_t> ticks = readQueries(o, kQueryTraceStart, 4);
         primary.push_back(tickSeconds(context, ticks[0], ticks[1]));
         if (settings.shadows) shadow.push_back(tickSeconds(context, ticks[2], ticks[3]));
@@ -712,8 +669,8 @@ RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene,
     return result;
 }
 
-RtPeerResult runRtPeerOnDevice(vk::VulkanContextOptions options, const Scene& scene,
-                               const RenderSettings& settings, uint32_t repeats) {
+RtPeerResult runRtPeerOnDevice(vk::VulkanContextOptions options, const Scene& scene, const RenderSettings& settings,
+                               uint32_t repeats) {
     options.enableRayTracing = true;
     vk::VulkanContext context = vk::createVulkanContext(options);
     try {
@@ -726,11 +683,10 @@ RtPeerResult runRtPeerOnDevice(vk::VulkanContextOptions options, const Scene& sc
     }
 }
 
-RtPeerAgreement compareRtPeerHits(const std::vector<HitRecord>& peer,
-                                  const std::vector<HitRecord>& reference) {
+RtPeerAgreement compareRtPeerHits(const std::vector<HitRecord>& peer, const std::vector<HitRecord>& reference) {
     if (peer.size() != reference.size())
-        throw Error("driver ray tracing: cannot compare " + std::to_string(peer.size()) +
-                    " hits with " + std::to_string(reference.size()) + " reference hits");
+        throw Error("driver ray tracing: cannot compare " + std::to_string(peer.size()) + " hits with " +
+                    std::to_string(reference.size()) + " reference hits");
     RtPeerAgreement a;
     for (size_t i = 0; i < peer.size(); ++i) {
         const HitRecord& p = peer[i];
@@ -756,8 +712,7 @@ RtPeerAgreement compareRtPeerHits(const std::vector<HitRecord>& peer,
 
 nlohmann::json rtPeerRecords(const RtPeerResult& result, const RtPeerAgreement* agreement) {
     nlohmann::json records = nlohmann::json::array();
-    const std::pair<const char*, bool> kinds[] = {{"primary", true},
-                                                  {"shadow", result.shadowsTraced}};
+    const std::pair<const char*, bool> kinds[] = {{"primary", true}, {"shadow", result.shadowsTraced}};
     for (const auto& [kind, traced] : kinds) {
         if (!traced) continue;
         const bool isPrimary = std::string(kind) == "primary";
@@ -782,8 +737,7 @@ nlohmann::json rtPeerRecords(const RtPeerResult& result, const RtPeerAgreement* 
         r["blas_bytes"] = result.blasBytes;
         r["tlas_bytes"] = result.tlasBytes;
         r["scratch_bytes"] = result.scratchBytes;
-        r["bytes_per_triangle"] =
-            result.triangles ? double(result.blasBytes) / double(result.triangles) : 0.0;
+        r["bytes_per_triangle"] = result.triangles ? double(result.blasBytes) / double(result.triangles) : 0.0;
         r["n_q_rays"] = rays;
         r["t_k_s"] = seconds.median;
         r["t_k_min_s"] = seconds.min;
@@ -810,14 +764,12 @@ std::string describeRtPeer(const RtPeerResult& r) {
                   "%.3f + TLAS %.3f; host %.3f ms), BLAS %.1f MiB\n"
                   "driver ray tracing %ux%u: primary %.3f ms median (%.3f-%.3f) = %.1f Mrays/s, "
                   "shadow %.3f ms median (%.3f-%.3f) = %.1f Mrays/s, %u repeats",
-                  r.device.c_str(), static_cast<unsigned long long>(r.triangles),
-                  r.uploadSeconds * 1e3, r.buildSeconds() * 1e3, r.blasBuildSeconds * 1e3,
-                  r.tlasBuildSeconds * 1e3, r.buildHostSeconds * 1e3,
-                  double(r.blasBytes) / (1024.0 * 1024.0), r.width, r.height,
-                  r.primarySeconds.median * 1e3, r.primarySeconds.min * 1e3,
-                  r.primarySeconds.max * 1e3, r.primaryMraysPerSecond(),
-                  r.shadowSeconds.median * 1e3, r.shadowSeconds.min * 1e3,
-                  r.shadowSeconds.max * 1e3, r.shadowMraysPerSecond(), r.repeats);
+                  r.device.c_str(), static_cast<unsigned long long>(r.triangles), r.uploadSeconds * 1e3,
+                  r.buildSeconds() * 1e3, r.blasBuildSeconds * 1e3, r.tlasBuildSeconds * 1e3, r.buildHostSeconds * 1e3,
+                  double(r.blasBytes) / (1024.0 * 1024.0), r.width, r.height, r.primarySeconds.median * 1e3,
+                  r.primarySeconds.min * 1e3, r.primarySeconds.max * 1e3, r.primaryMraysPerSecond(),
+                  r.shadowSeconds.median * 1e3, r.shadowSeconds.min * 1e3, r.shadowSeconds.max * 1e3,
+                  r.shadowMraysPerSecond(), r.repeats);
     return text;
 }
 

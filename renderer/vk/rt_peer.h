@@ -57,12 +57,12 @@ struct RtPeerResult {
     // Host wall time from the size query to the finished builds: allocation of the structures and
     // the scratch buffer, the instance upload, the builds and the wait.
     double buildHostSeconds = 0.0;
-    uint64_t blasBytes = 0;     // VkAccelerationStructureBuildSizesInfoKHR::accelerationStructureSize
+    uint64_t blasBytes = 0;  // VkAccelerationStructureBuildSizesInfoKHR::accelerationStructureSize
     uint64_t tlasBytes = 0;
     uint64_t scratchBytes = 0;  // the one scratch buffer both builds share
 
     // Tracing: kernel times from timestamps around each vkCmdTraceRaysKHR.
-    uint64_t primaryRays = 0;  // one per pixel
+    uint64_t primaryRays = 0;    // one per pixel
     bool shadowsTraced = false;  // settings.shadows: the shadow pass ran
     uint64_t shadowRays = 0;     // one per primary hit (0 when settings.shadows is off)
     RtPeerSpread primarySeconds;
@@ -88,14 +88,14 @@ struct RtPeerResult {
 // shadows of `settings` matter (no shading, kernels or packets: the driver chooses).
 // Throws RtPeerUnsupported (see rtPeerUnsupportedReason) and raypack::Error for repeats == 0, an
 // image the device cannot launch, or too little device memory.
-RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene,
-                       const RenderSettings& settings, uint32_t repeats);
+RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene, const RenderSettings& settings,
+                       uint32_t repeats);
 
 // The hook for `raypack-cli bench --peer rt`: creates a context from `options` with
 // enableRayTracing set (device choice and validation as given), runs runRtPeer and destroys the
 // context. Throws what runRtPeer throws, and raypack::Error when no context can be created.
-RtPeerResult runRtPeerOnDevice(vk::VulkanContextOptions options, const Scene& scene,
-                               const RenderSettings& settings, uint32_t repeats);
+RtPeerResult runRtPeerOnDevice(vk::VulkanContextOptions options, const Scene& scene, const RenderSettings& settings,
+                               uint32_t repeats);
 
 // The peer's hits against reference hits (raypack's, same pixels, same rays), with the bar the
 // Embree comparison uses: a ray agrees when both miss, or both hit with
@@ -109,13 +109,10 @@ struct RtPeerAgreement {
     uint64_t comparedShadows = 0;
     uint64_t agreeingShadows = 0;
     double rayShare() const { return comparedRays ? double(agreeingRays) / double(comparedRays) : 0.0; }
-    double shadowShare() const {
-        return comparedShadows ? double(agreeingShadows) / double(comparedShadows) : 0.0;
-    }
+    double shadowShare() const { return comparedShadows ? double(agreeingShadows) / double(comparedShadows) : 0.0; }
 };
 // Throws raypack::Error when the two differ in pixel count.
-RtPeerAgreement compareRtPeerHits(const std::vector<HitRecord>& peer,
-                                  const std::vector<HitRecord>& reference);
+RtPeerAgreement compareRtPeerHits(const std::vector<HitRecord>& peer, const std::vector<HitRecord>& reference);
 
 // The bench records of a run (issue 5's field names, as the Embree peer writes them): one for
 // primary rays and, when shadow rays were traced, one for shadow rays, with tracer "driver-rt",
@@ -142,8 +139,7 @@ struct ShaderBindingTableLayout {
 };
 // Throws raypack::Error when a stride would exceed maxShaderGroupStride. Alignments must be powers
 // of two (the spec promises it).
-ShaderBindingTableLayout layoutShaderBindingTable(uint32_t handleSize, uint32_t handleAlignment,
-                                                  uint32_t baseAlignment, uint32_t maxStride,
-                                                  uint32_t missCount, uint32_t hitCount);
+ShaderBindingTableLayout layoutShaderBindingTable(uint32_t handleSize, uint32_t handleAlignment, uint32_t baseAlignment,
+                                                  uint32_t maxStride, uint32_t missCount, uint32_t hitCount);
 
 }  // namespace raypack
