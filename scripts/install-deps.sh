@@ -8,7 +8,7 @@ packages=(
   libvulkan-dev mesa-vulkan-drivers glslang-tools vulkan-validationlayers
   libglfw3-dev libimgui-dev xvfb xauth xdotool
   libembree-dev python3 python3-matplotlib ccache
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev clang-format
 )
 missing=()
 for p in "${packages[@]}"; do
