@@ -3,6 +3,7 @@
 #include "renderer/camera.h"
 #include "renderer/error.h"
 #include "renderer/gpu_layout.h"
+#include "shaders/bindings.h"
 #include "shaders/gpu_types.h"
 
 #include "trace.spv.h"
@@ -26,36 +27,6 @@ constexpr uint32_t kQuerySlots = 4;
 constexpr uint32_t kQueriesPerFrame = 4;  // primary begin/end, shadow begin/end
 // Shared memory of the packet kernel besides its stack: four rotating uvec4 vote sums.
 constexpr uint32_t kVoteBytes = 4 * 16;
-
-enum Binding : uint32_t {
-    kBindNodes,
-    kBindTriangles,
-    kBindNormals,
-    kBindMaterials,
-    kBindPrimaryHits,
-    kBindOutput,
-    kBindHits,
-    kBindCounters,
-    kBindStatus,
-    kBindUvs,
-    kBindColors,
-    kBindTextures,
-    kBindTexels,
-    kBindingCount
-};
-
-// The specialization constants of shaders/trace.comp, in constant_id order.
-struct SpecializationData {
-    uint32_t packetWidth;
-    uint32_t packetHeight;
-    uint32_t kernel;
-    uint32_t pass;
-    VkBool32 statistics;
-    uint32_t view;
-    uint32_t packetStackEntries;
-    uint32_t rayStackEntries;
-    VkBool32 packetIsOneSubgroup;
-};
 
 // One pipeline per combination, built on first use.
 struct PipelineKey {
@@ -136,11 +107,11 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
         poolInfo.queueFamilyIndex = context.queueFamily;
         vk::check(vkCreateCommandPool(device, &poolInfo, nullptr, &s.pool), "vkCreateCommandPool");
 
-        std::array<VkDescriptorSetLayoutBinding, kBindingCount> bindings{};
-        for (uint32_t b = 0; b < kBindingCount; ++b)
+        std::array<VkDescriptorSetLayoutBinding, gpu::kBindingCount> bindings{};
+        for (uint32_t b = 0; b < gpu::kBindingCount; ++b)
             bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
         VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-        setInfo.bindingCount = kBindingCount;
+        setInfo.bindingCount = gpu::kBindingCount;
         setInfo.pBindings = bindings.data();
         vk::check(vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &s.setLayout), "vkCreateDescriptorSetLayout");
 
@@ -152,7 +123,7 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
         layoutInfo.pPushConstantRanges = &push;
         vk::check(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &s.pipelineLayout), "vkCreatePipelineLayout");
 
-        VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, kBindingCount};
+        VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::kBindingCount};
         VkDescriptorPoolCreateInfo descriptorPoolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
         descriptorPoolInfo.maxSets = 1;
         descriptorPoolInfo.poolSizeCount = 1;
@@ -299,22 +270,24 @@ uint32_t GpuTracer::sharedMemoryBytes(PacketShape shape) const {
 namespace {
 
 void writeDescriptors(GpuTracer::State& s) {
-    const vk::Buffer* buffers[kBindingCount] = {&s.nodes,
-                                                &s.triangles,
-                                                s.hasNormals ? &s.normals : &s.dummy,
-                                                s.hasMaterials ? &s.materials : &s.dummy,
-                                                &s.primaryHits,
-                                                &s.output,
-                                                &s.hits,
-                                                &s.counters,
-                                                &s.status,
-                                                s.hasUvs ? &s.uvs : &s.dummy,
-                                                s.hasColors ? &s.colors : &s.dummy,
-                                                s.hasUvs ? &s.textures : &s.dummy,
-                                                s.hasUvs ? &s.texels : &s.dummy};
-    std::array<VkDescriptorBufferInfo, kBindingCount> infos{};
-    std::array<VkWriteDescriptorSet, kBindingCount> writes{};
-    for (uint32_t b = 0; b < kBindingCount; ++b) {
+    std::array<const vk::Buffer*, gpu::kBindingCount> buffers{};
+    buffers[gpu::kBindNodes] = &s.nodes;
+    buffers[gpu::kBindTriangles] = &s.triangles;
+    buffers[gpu::kBindNormals] = s.hasNormals ? &s.normals : &s.dummy;
+    buffers[gpu::kBindMaterials] = s.hasMaterials ? &s.materials : &s.dummy;
+    buffers[gpu::kBindPrimaryHits] = &s.primaryHits;
+    buffers[gpu::kBindOutput] = &s.output;
+    buffers[gpu::kBindHits] = &s.hits;
+    buffers[gpu::kBindCounters] = &s.counters;
+    buffers[gpu::kBindStatus] = &s.status;
+    buffers[gpu::kBindUvs] = s.hasUvs ? &s.uvs : &s.dummy;
+    buffers[gpu::kBindColors] = s.hasColors ? &s.colors : &s.dummy;
+    buffers[gpu::kBindTextures] = s.hasUvs ? &s.textures : &s.dummy;
+    buffers[gpu::kBindTexels] = s.hasUvs ? &s.texels : &s.dummy;
+    std::array<VkDescriptorBufferInfo, gpu::kBindingCount> infos{};
+    std::array<VkWriteDescriptorSet, gpu::kBindingCount> writes{};
+    for (uint32_t b = 0; b < gpu::kBindingCount; ++b) {
+        RAYPACK_CHECK_MSG(buffers[b], "every binding of trace.comp has a buffer");
         infos[b] = {buffers[b]->buffer, 0, VK_WHOLE_SIZE};
         writes[b] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
         writes[b].dstSet = s.descriptorSet;
@@ -323,7 +296,7 @@ void writeDescriptors(GpuTracer::State& s) {
         writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
         writes[b].pBufferInfo = &infos[b];
     }
-    vkUpdateDescriptorSets(s.ctx.device, kBindingCount, writes.data(), 0, nullptr);
+    vkUpdateDescriptorSets(s.ctx.device, gpu::kBindingCount, writes.data(), 0, nullptr);
 }
 
 // (Re-)creates the per-pixel buffers for a width x height frame.
@@ -362,18 +335,23 @@ void ensureReadback(GpuTracer::State& s, VkDeviceSize bytes) {
 VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     if (auto found = s.pipelines.find(key); found != s.pipelines.end()) return found->second;
     const bool packet = key.kernel == KernelKind::Packet;
-    const SpecializationData data{
-        key.packetWidth,
-        key.packetHeight,
-        packet ? gpu::kKernelPacket : gpu::kKernelSingle,
-        key.pass,
-        key.statistics ? VK_TRUE : VK_FALSE,
-        key.view,
-        packet ? key.stackEntries : 1u,
-        packet ? 1u : key.stackEntries,
-        packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE};
-    std::array<VkSpecializationMapEntry, 9> entries{};
-    for (uint32_t i = 0; i < entries.size(); ++i) entries[i] = {i, i * 4u, 4u};
+    gpu::TraceSpecialization data{};
+    data.packetWidth = key.packetWidth;
+    data.packetHeight = key.packetHeight;
+    data.kernel = packet ? gpu::kKernelPacket : gpu::kKernelSingle;
+    data.pass = key.pass;
+    data.statistics = key.statistics ? VK_TRUE : VK_FALSE;
+    data.view = key.view;
+    data.packetStackEntries = packet ? key.stackEntries : 1u;
+    data.rayStackEntries = packet ? 1u : key.stackEntries;
+    data.packetIsOneSubgroup =
+        packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
+    static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
+    std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
+    for (size_t i = 0; i < entries.size(); ++i) {
+        const gpu::SpecializationEntry& e = gpu::kTraceSpecializationEntries[i];
+        entries[i] = {e.constantId, e.offset, e.size};
+    }
     VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
     VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};

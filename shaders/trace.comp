@@ -18,42 +18,43 @@
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_vote : require
 
+#include "bindings.h"
 #include "gpu_types.h"
 #include "frame_types.h"
 #include "intersect.h"
 #include "shading.h"
 
 // Packet shape PW x PH: one workgroup is one packet covering a PW x PH tile, one invocation a ray.
-layout(local_size_x_id = 0, local_size_y_id = 1, local_size_z = 1) in;
-layout(constant_id = 2) const uint kKernel = kKernelPacket;
-layout(constant_id = 3) const uint kPass = kPassPrimaryShade;
-layout(constant_id = 4) const bool kStatistics = false;  // per-ray N_TR / N_IT counters
-layout(constant_id = 5) const uint kView = kViewShaded;
+layout(local_size_x_id = kSpecPacketWidth, local_size_y_id = kSpecPacketHeight, local_size_z = 1) in;
+layout(constant_id = kSpecKernel) const uint kKernel = kKernelPacket;
+layout(constant_id = kSpecPass) const uint kPass = kPassPrimaryShade;
+layout(constant_id = kSpecStatistics) const bool kStatistics = false;  // per-ray N_TR / N_IT counters
+layout(constant_id = kSpecView) const uint kView = kViewShaded;
 // The packet's shared stack; 1 for the single-ray kernel. Sized by the host from the tree's
 // maximal depth (the report's fixed 50 entries overflow on deep trees).
-layout(constant_id = 6) const uint kPacketStackEntries = 64;
+layout(constant_id = kSpecPacketStackEntries) const uint kPacketStackEntries = 64;
 // Each ray's own stack in the single-ray kernel; 1 for the packet kernel.
-layout(constant_id = 7) const uint kRayStackEntries = 1;
+layout(constant_id = kSpecRayStackEntries) const uint kRayStackEntries = 1;
 // Whether one packet is exactly one subgroup (decided by the host, GpuTracer): then the vote needs
 // neither shared memory nor a barrier. Checked once per packet (kStatusSubgroupMismatch).
-layout(constant_id = 8) const bool kPacketIsOneSubgroup = false;
+layout(constant_id = kSpecPacketIsOneSubgroup) const bool kPacketIsOneSubgroup = false;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
-layout(std430, set = 0, binding = 0) readonly buffer Nodes { GpuNode nodes[]; };
-layout(std430, set = 0, binding = 1) readonly buffer Triangles { GpuTriangle triangles[]; };
-layout(std430, set = 0, binding = 2) readonly buffer Normals { GpuTriangleNormals normals[]; };
-layout(std430, set = 0, binding = 3) readonly buffer Materials { GpuMaterial materials[]; };
-layout(std430, set = 0, binding = 4) buffer PrimaryHits { GpuPrimaryHit primaryHits[]; };
-layout(std430, set = 0, binding = 5) writeonly buffer Output { uint outputRgba[]; };
-layout(std430, set = 0, binding = 6) writeonly buffer Hits { HitRecord hitRecords[]; };
-layout(std430, set = 0, binding = 7) buffer Counters { RayCounters counters[]; };
-layout(std430, set = 0, binding = 8) buffer Status { uint status; };
+layout(std430, set = 0, binding = kBindNodes) readonly buffer Nodes { GpuNode nodes[]; };
+layout(std430, set = 0, binding = kBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
+layout(std430, set = 0, binding = kBindNormals) readonly buffer Normals { GpuTriangleNormals normals[]; };
+layout(std430, set = 0, binding = kBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
+layout(std430, set = 0, binding = kBindPrimaryHits) buffer PrimaryHits { GpuPrimaryHit primaryHits[]; };
+layout(std430, set = 0, binding = kBindOutput) writeonly buffer Output { uint outputRgba[]; };
+layout(std430, set = 0, binding = kBindHits) writeonly buffer Hits { HitRecord hitRecords[]; };
+layout(std430, set = 0, binding = kBindCounters) buffer Counters { RayCounters counters[]; };
+layout(std430, set = 0, binding = kBindStatus) buffer Status { uint status; };
 // Present only when the scene has UVs and textures (kFrameHasUvs), vertex colours (kFrameHasColors).
-layout(std430, set = 0, binding = 9) readonly buffer Uvs { GpuTriangleUvs uvs[]; };
-layout(std430, set = 0, binding = 10) readonly buffer Colors { GpuTriangleColors colors[]; };
-layout(std430, set = 0, binding = 11) readonly buffer Textures { GpuTexture textures[]; };
-layout(std430, set = 0, binding = 12) readonly buffer Texels { uint texels[]; };
+layout(std430, set = 0, binding = kBindUvs) readonly buffer Uvs { GpuTriangleUvs uvs[]; };
+layout(std430, set = 0, binding = kBindColors) readonly buffer Colors { GpuTriangleColors colors[]; };
+layout(std430, set = 0, binding = kBindTextures) readonly buffer Textures { GpuTexture textures[]; };
+layout(std430, set = 0, binding = kBindTexels) readonly buffer Texels { uint texels[]; };
 
 // One bilinear lookup in mip level `level` (shaders/texture.h; the CPU's sampleLevel).
 vec4 sampleLevel(GpuTexture tex, uint level, vec2 uv) {

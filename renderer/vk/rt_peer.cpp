@@ -1,6 +1,7 @@
 #include "renderer/vk/rt_peer.h"
 
 #include "renderer/camera.h"
+#include "shaders/bindings.h"
 #include "shaders/rt/rt_peer_params.glsl"
 
 #include "rt_peer_primary_rmiss.spv.h"
@@ -331,17 +332,17 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
 // rt_peer_params.glsl's kRtPeerGroup*.
 void createPipeline(RtPeerObjects& o) {
     const VkDevice device = o.ctx.device;
-    VkDescriptorSetLayoutBinding bindings[2] = {};
-    bindings[0].binding = 0;
-    bindings[0].descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
-    bindings[0].descriptorCount = 1;
-    bindings[0].stageFlags = VK_SHADER_STAGE_RAYGEN_BIT_KHR;
-    bindings[1].binding = 1;
-    bindings[1].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    bindings[1].descriptorCount = 1;
-    bindings[1].stageFlags = VK_SHADER_STAGE_RAYGEN_BIT_KHR;
+    VkDescriptorSetLayoutBinding bindings[gpu::kRtBindingCount] = {};
+    bindings[gpu::kRtBindTlas].binding = gpu::kRtBindTlas;
+    bindings[gpu::kRtBindTlas].descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
+    bindings[gpu::kRtBindTlas].descriptorCount = 1;
+    bindings[gpu::kRtBindTlas].stageFlags = VK_SHADER_STAGE_RAYGEN_BIT_KHR;
+    bindings[gpu::kRtBindHits].binding = gpu::kRtBindHits;
+    bindings[gpu::kRtBindHits].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    bindings[gpu::kRtBindHits].descriptorCount = 1;
+    bindings[gpu::kRtBindHits].stageFlags = VK_SHADER_STAGE_RAYGEN_BIT_KHR;
     VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-    setInfo.bindingCount = 2;
+    setInfo.bindingCount = gpu::kRtBindingCount;
     setInfo.pBindings = bindings;
     vk::check(vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &o.setLayout), "vkCreateDescriptorSetLayout");
 
@@ -473,11 +474,11 @@ void createDescriptorSet(RtPeerObjects& o) {
                                       {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET}};
     writes[0].pNext = &tlasWrite;
     writes[0].dstSet = o.descriptorSet;
-    writes[0].dstBinding = 0;
+    writes[0].dstBinding = gpu::kRtBindTlas;
     writes[0].descriptorCount = 1;
     writes[0].descriptorType = VK_DESCRIPTOR_TYPE_ACCELERATION_STRUCTURE_KHR;
     writes[1].dstSet = o.descriptorSet;
-    writes[1].dstBinding = 1;
+    writes[1].dstBinding = gpu::kRtBindHits;
     writes[1].descriptorCount = 1;
     writes[1].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
     writes[1].pBufferInfo = &hitsInfo;
