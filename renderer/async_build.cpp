@@ -102,9 +102,9 @@ BuildStatus AsyncSceneBuilder::status() const {
         status.phase = running_->phase;
         status.requestId = running_->id;
         status.scenePath = running_->path;
-        const uint64_t loadTotal = running_->loadProgress.bytesTotal.load();
-        status.loadFraction = loadTotal ? double(running_->loadProgress.bytesDone.load()) / double(loadTotal) : 0.0;
-        status.placed = running_->buildProgress.placed.load();
+        const uint64_t loadTotal = running_->loadProgress.total.load();
+        status.loadFraction = loadTotal ? double(running_->loadProgress.done.load()) / double(loadTotal) : 0.0;
+        status.placed = running_->buildProgress.done.load();
         status.total = running_->buildProgress.total.load();
         status.elapsedSeconds = secondsSince(running_->start);
     }

@@ -9,8 +9,8 @@
 // BuildCancelled soon after) and takes the waiting slot, so rapid slider changes end in the tree
 // of the last request, and nothing in between is handed back once it is superseded.
 #include "renderer/bvh.h"
+#include "renderer/progress.h"
 #include "renderer/scene.h"
-#include "scenes/load.h"  // LoadProgress only: the loader itself is passed in
 
 #include <atomic>
 #include <chrono>

@@ -133,7 +133,7 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
         throw Error("BVH build: " + std::to_string(primitiveBounds.size()) + " primitives do not fit 32-bit indices");
     if (progress) {
         progress->total.store(primitiveBounds.size());
-        progress->placed.store(0);
+        progress->done.store(0);
     }
     throwIfCancelled(progress);
 

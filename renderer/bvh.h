@@ -2,6 +2,7 @@
 // The canonical BVH: what the builders return and what the CPU reference traces. The GPU traces a
 // layout converted from it explicitly (renderer/gpu_layout.h).
 #include "renderer/aabb.h"
+#include "renderer/progress.h"  // BuildProgress, BuildCancelled
 
 #include <atomic>
 #include <cstdint>
@@ -70,16 +71,9 @@ struct Bvh {
     BvhStats stats;
 };
 
-// Progress and cancellation for a build on a worker thread. `placed` counts primitives that have
-// reached a leaf; `total` is set by the builder at its start. Setting `cancel` makes the builder
-// throw BuildCancelled soon after.
-struct BuildProgress {
-    std::atomic<uint64_t> placed{0};
-    std::atomic<uint64_t> total{0};
-    std::atomic<bool> cancel{false};
-};
-
-struct BuildCancelled {};
+// A build on a worker thread reports through BuildProgress (renderer/progress.h): `done` counts
+// primitives that have reached a leaf, `total` is set by the builder at its start; setting `cancel`
+// makes the builder throw BuildCancelled soon after.
 
 // Builds over the given primitive bounds (one per triangle, in triangle order). Deterministic: the
 // same input and options give the same tree on any thread count.

@@ -77,7 +77,7 @@ inline void throwIfInterrupted(BuildProgress* progress) {
     throwIfCancelled(progress);
 }
 inline void addPlaced(BuildProgress* progress, uint64_t count) {
-    if (progress) progress->placed.fetch_add(count, std::memory_order_relaxed);
+    if (progress) progress->done.fetch_add(count, std::memory_order_relaxed);
 }
 // Loops over large ranges check for cancellation once per this many elements.
 inline constexpr uint32_t kCancelCheckInterval = 16384;

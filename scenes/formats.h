@@ -26,7 +26,7 @@ struct FileBytes {
     const char* end() const { return data.get() + size; }
 };
 
-// Reads `path`, reporting the first half of LoadProgress (bytesTotal = 2 * size). Throws
+// Reads `path`, reporting the first half of LoadProgress (total = 2 * size). Throws
 // raypack::Error for a missing, unreadable or empty file, LoadCancelled when cancelled.
 FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progress);
 

@@ -56,8 +56,8 @@ FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progres
     adviseHugePages(file.data.get(), capacity);
     file.size = size_t(size);
     if (progress) {
-        progress->bytesTotal = 2 * uint64_t(size);
-        progress->bytesDone = 0;
+        progress->total = 2 * uint64_t(size);
+        progress->done = 0;
     }
     // Large reads with a cancel check in between: 64 MiB runs at disk speed and keeps the viewer's
     // cancel button responsive.
@@ -70,7 +70,7 @@ FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progres
         if (size_t(stream.gcount()) != chunk)
             throwFileError(path, "read failed at byte offset " + std::to_string(done));
         done += chunk;
-        if (progress) progress->bytesDone = done;
+        if (progress) progress->done = done;
     }
     return file;
 }
@@ -78,7 +78,7 @@ FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progres
 void reportParsed(LoadProgress* progress, const std::filesystem::path& path, uint64_t fileSize, uint64_t parsedBytes) {
     if (!progress) return;
     if (progress->cancel) throw LoadCancelled(path.string() + ": loading cancelled");
-    progress->bytesDone = fileSize + std::min(parsedBytes, fileSize);
+    progress->done = fileSize + std::min(parsedBytes, fileSize);
 }
 
 Scene loadScene(const std::filesystem::path& path, LoadProgress* progress) {

@@ -10,31 +10,20 @@
 // unknown formats, empty files) throws one raypack::Error naming the file and what is wrong, with
 // a line number for text formats and a byte offset for binary ones. Degenerate triangles are kept.
 #include "renderer/error.h"
+#include "renderer/progress.h"  // LoadProgress, LoadCancelled
 #include "renderer/scene.h"
 
-#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <string>
 
 namespace raypack {
 
-// Shared with a loading thread so that a viewer can draw a progress bar and cancel. bytesTotal is
-// set once the file's size is known; bytesDone grows to it. The units are bytes of work: every
-// byte of the file is counted once when read and once when parsed, so bytesTotal = 2 * file size.
-// Setting cancel makes the loader throw LoadCancelled at its next check (at least every few MiB).
-struct LoadProgress {
-    std::atomic<uint64_t> bytesDone{0};
-    std::atomic<uint64_t> bytesTotal{0};
-    std::atomic<bool> cancel{false};
-};
-
-// Thrown when LoadProgress::cancel was set. It is a raypack::Error, so code that only shows errors
-// still does the right thing; a viewer that wants to stay quiet about a cancel catches it first.
-class LoadCancelled : public Error {
-public:
-    using Error::Error;
-};
+// A loading thread reports through LoadProgress (renderer/progress.h) so that a viewer can draw a
+// progress bar and cancel: `total` is set once the file's size is known and `done` grows to it, in
+// bytes of work (every byte of the file counted once when read and once when parsed, so total = 2 *
+// file size). Setting cancel makes the loader throw LoadCancelled at its next check (at least every
+// few MiB).
 
 // Loads .obj, .ply, .gltf or .glb (extension compared case-insensitively); anything else throws.
 Scene loadScene(const std::filesystem::path& path, LoadProgress* progress = nullptr);

@@ -475,7 +475,7 @@ TEST(BvhProgress, PlacedReachesTotal) {
         BuildProgress progress;
         buildBvh(bounds, optionsFor(builder), &progress);
         EXPECT_EQ(progress.total.load(), bounds.size());
-        EXPECT_EQ(progress.placed.load(), bounds.size());
+        EXPECT_EQ(progress.done.load(), bounds.size());
     }
 }
 

@@ -529,8 +529,8 @@ TEST(LoadProgressTest, ReachesTotalAndCancels) {
     const fs::path path = kShared / "stanford/bun_zipper.ply";
     LoadProgress progress;
     loadScene(path, &progress);
-    EXPECT_EQ(progress.bytesTotal.load(), 2 * fs::file_size(path));
-    EXPECT_EQ(progress.bytesDone.load(), progress.bytesTotal.load());
+    EXPECT_EQ(progress.total.load(), 2 * fs::file_size(path));
+    EXPECT_EQ(progress.done.load(), progress.total.load());
 
     for (const char* file : {"stanford/bun_zipper.ply", "stanford/stanford-bunny.obj", "gltf/Duck/Duck.glb"}) {
         LoadProgress cancelled;
