@@ -15,26 +15,9 @@
 #include <cstdio>
 #include <string>
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
-
 namespace raypack {
 
 namespace bvh_detail {
-
-void adviseHugePages(const void* data, size_t bytes) {
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    constexpr uintptr_t kHugePage = uintptr_t(2) << 20;
-    if (bytes < kHugePage) return;
-    const uintptr_t begin = (uintptr_t(data) + kHugePage - 1) & ~(kHugePage - 1);
-    const uintptr_t end = (uintptr_t(data) + bytes) & ~(kHugePage - 1);
-    if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-#else
-    (void)data;
-    (void)bytes;
-#endif
-}
 
 std::vector<BvhNode> assembleFragments(Fragment& root) {
     // Depth-first placement: each fragment's non-root nodes get a contiguous block; its root goes to
@@ -187,28 +170,18 @@ BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options) {
 
     uint64_t depthSum = 0, primSum = 0;
     double innerMeasureSum = 0.0, leafMeasureSum = 0.0;
-    struct Entry {
-        uint32_t node, depth;
-    };
-    std::vector<Entry> stack{{0, 0}};
-    while (!stack.empty()) {
-        const Entry entry = stack.back();
-        stack.pop_back();
-        const BvhNode& node = bvh.nodes[entry.node];
+    walkBvh(bvh, [&](uint32_t, const BvhNode& node, uint32_t depth) {
         const double nodeMeasure = measure.of(boxOf(node));
         if (node.isLeaf()) {
             ++stats.leafCount;
-            depthSum += entry.depth;
-            stats.maxLeafDepth = std::max(stats.maxLeafDepth, entry.depth);
+            depthSum += depth;
+            stats.maxLeafDepth = std::max(stats.maxLeafDepth, depth);
             primSum += node.count;
             leafMeasureSum += double(node.count) * nodeMeasure;
         } else {
-            RAYPACK_CHECK_MSG(node.index + 1 < bvh.nodes.size(), "BVH child index out of range");
             innerMeasureSum += nodeMeasure;
-            stack.push_back({node.index + 1, entry.depth + 1});
-            stack.push_back({node.index, entry.depth + 1});
         }
-    }
+    });
     stats.avgLeafDepth = double(depthSum) / double(stats.leafCount);
     stats.avgPrimsPerLeaf = double(primSum) / double(stats.leafCount);
     // Sum over inner nodes of C_trav·A(n)/A(root) plus over leaves of C_isect·count·A(n)/A(root).
@@ -219,6 +192,12 @@ BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options) {
                   rootMeasure
             : 0.0;
     return stats;
+}
+
+uint32_t bvhMaxDepth(const Bvh& bvh) {
+    uint32_t maxDepth = 0;
+    walkBvh(bvh, [&](uint32_t, const BvhNode&, uint32_t depth) { maxDepth = std::max(maxDepth, depth); });
+    return maxDepth;
 }
 
 const char* toString(BvhBuilder builder) {

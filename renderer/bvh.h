@@ -2,6 +2,7 @@
 // The canonical BVH: what the builders return and what the CPU reference traces. The GPU traces a
 // layout converted from it explicitly (renderer/gpu_layout.h).
 #include "renderer/aabb.h"
+#include "renderer/error.h"     // RAYPACK_CHECK_MSG
 #include "renderer/progress.h"  // BuildProgress, BuildCancelled
 
 #include <atomic>
@@ -88,6 +89,41 @@ std::vector<Aabb> trianglePrimitiveBounds(const Scene& scene);
 
 // Statistics of a built tree (everything but buildSeconds).
 BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options);
+
+// Calls visit(nodeIndex, node, depth) for every node of the tree, the root at depth 0, depth first
+// with the left child before the right: the order in which it meets the leaves is the GPU layout's
+// leaf order (renderer/gpu_layout.h), and the statistics sum in it. The one walk over a whole tree
+// (the statistics, the depth that sizes the traversal stacks and the GPU layout conversion all use
+// it). Checks that children lie after their parent inside the node array (a child pointing back
+// would make the walk endless) and that leaf ranges lie inside primIndices.
+template <class Visit>
+void walkBvh(const Bvh& bvh, Visit&& visit) {
+    RAYPACK_CHECK_MSG(!bvh.nodes.empty(), "a Bvh has at least its root");
+    struct Pending {
+        uint32_t node;
+        uint32_t depth;
+    };
+    std::vector<Pending> stack{{0u, 0u}};
+    while (!stack.empty()) {
+        const Pending item = stack.back();
+        stack.pop_back();
+        const BvhNode& node = bvh.nodes[item.node];
+        if (node.isLeaf()) {
+            RAYPACK_CHECK_MSG(uint64_t(node.index) + node.count <= bvh.primIndices.size(),
+                              "leaf range inside primIndices");
+        } else {
+            RAYPACK_CHECK_MSG(node.index > item.node && uint64_t(node.index) + 1 < bvh.nodes.size(),
+                              "children after their parent, inside the node array");
+            stack.push_back({node.index + 1, item.depth + 1});
+            stack.push_back({node.index, item.depth + 1});
+        }
+        visit(item.node, node, item.depth);
+    }
+}
+
+// The depth of the deepest leaf (the root at 0), by walkBvh: a traversal stack of depth + 1 entries
+// never overflows.
+uint32_t bvhMaxDepth(const Bvh& bvh);
 
 // "sah-exact", "sah-binned".
 const char* toString(BvhBuilder builder);

@@ -3,6 +3,7 @@
 // progress, and the node fragments that let independent subtrees be built on different threads and
 // still be spliced into one array in an order that does not depend on the thread count.
 #include "renderer/bvh.h"
+#include "renderer/huge_pages.h"
 
 #include <oneapi/tbb/task_group.h>
 
@@ -119,14 +120,8 @@ std::vector<BvhNode> assembleFragments(Fragment& root);
 // Subtrees with more primitives than this get a fragment (and a task) of their own.
 inline constexpr uint32_t kFragmentMinPrimitives = 4096;
 
-// Asks the kernel to back a large buffer with transparent huge pages (Linux, THP in "madvise" mode).
-// On the virtual machines raypack is measured on, first touching a 4 KiB page costs about 10 us, a
-// third of the exact builder's time on Conference before this; 2 MiB pages make that negligible.
-// A hint only: nothing changes where it is not honoured.
-void adviseHugePages(const void* data, size_t bytes);
-
 // A vector of `count` value-initialised elements whose storage is advised to use huge pages before
-// it is first written.
+// it is first written (renderer/huge_pages.h).
 template <typename T>
 std::vector<T> makeLargeVector(size_t count, const T& value = T()) {
     std::vector<T> vector;

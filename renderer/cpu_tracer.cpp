@@ -67,7 +67,7 @@ glm::vec4 sampleLevel(const Texture& texture, const gpu::GpuTexture& descriptor,
 glm::vec3 diffuseAt(const Scene& scene, uint32_t prim, glm::vec2 bary, glm::vec3 rayDir, float hitT,
                     float pixelSpread) {
     const glm::uvec3 tri = scene.triangles[prim];
-    glm::vec3 materialColor = scene.hasVertexColors() ? glm::vec3(1.0f) : Material().diffuse;
+    glm::vec3 materialColor = gpu::defaultMaterialColor(scene.hasVertexColors());
     uint32_t texture = kNoTexture;
     if (scene.hasMaterials()) {
         const Material& material = scene.materials[scene.triangleMaterial[prim]];
@@ -243,33 +243,6 @@ bool anyHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRa
     return occluded;
 }
 
-// Maximal leaf depth (root at 0), walking the tree; also checks child and leaf ranges.
-uint32_t treeDepth(const Bvh& bvh) {
-    RAYPACK_CHECK_MSG(!bvh.nodes.empty(), "a Bvh has at least its root");
-    struct Item {
-        uint32_t node;
-        uint32_t depth;
-    };
-    std::vector<Item> pending{{0, 0}};
-    uint32_t maxDepth = 0;
-    while (!pending.empty()) {
-        const Item item = pending.back();
-        pending.pop_back();
-        const BvhNode& node = bvh.nodes[item.node];
-        if (node.isLeaf()) {
-            RAYPACK_CHECK_MSG(uint64_t(node.index) + node.count <= bvh.primIndices.size(),
-                              "leaf range inside primIndices");
-            maxDepth = std::max(maxDepth, item.depth);
-        } else {
-            RAYPACK_CHECK_MSG(node.index > item.node && uint64_t(node.index) + 1 < bvh.nodes.size(),
-                              "children after their parent, inside the node array");
-            pending.push_back({node.index, item.depth + 1});
-            pending.push_back({node.index + 1, item.depth + 1});
-        }
-    }
-    return maxDepth;
-}
-
 // Stack storage for the single-ray entry points: on the call stack for trees up to 255 levels.
 class SmallStack {
 public:
@@ -288,7 +261,7 @@ private:
 uint32_t depthFromStatsOrWalk(const Bvh& bvh) {
     // The builder's statistics are trusted only when present and plausible; otherwise walk.
     if (bvh.stats.nodeCount == bvh.nodes.size() && bvh.stats.nodeCount > 0) return bvh.stats.maxLeafDepth;
-    return treeDepth(bvh);
+    return bvhMaxDepth(bvh);
 }
 
 void checkRay(glm::vec3 dir) { RAYPACK_CHECK_MSG(dir != glm::vec3(0.0f), "a ray direction must not be zero"); }
@@ -299,7 +272,7 @@ CpuSceneView makeCpuSceneView(const Scene& scene, const Bvh& bvh) {
     CpuSceneView view;
     view.scene = &scene;
     view.bvh = &bvh;
-    view.stackEntries = treeDepth(bvh) + 1;
+    view.stackEntries = bvhMaxDepth(bvh) + 1;
     const size_t entries = bvh.primIndices.size();
     view.leafVertices.resize(3 * entries);
     tbb::parallel_for(tbb::blocked_range<size_t>(0, entries, 4096), [&](const tbb::blocked_range<size_t>& range) {
@@ -362,18 +335,7 @@ HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm
         counters->primaryNodes += counts.nodes;
         counters->primaryTests += counts.tests;
     }
-    HitRecord record;
-    record.orgX = origin.x;
-    record.orgY = origin.y;
-    record.orgZ = origin.z;
-    record.dirX = dir.x;
-    record.dirY = dir.y;
-    record.dirZ = dir.z;
-    record.t = hit.t;
-    record.prim = hit.prim;
-    record.shadow = gpu::kShadowNone;
-    record.reserved = 0;
-    return record;
+    return gpu::makeHitRecord(origin, dir, hit.t, hit.prim, gpu::kShadowNone);
 }
 
 bool traceOccluded(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax, uint32_t skipPrim,
@@ -415,28 +377,13 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
                     const size_t pixel = size_t(y) * width + x;
                     const ClosestHit& hit = hits[pixel];
                     const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
-                    if (request.hits) {
-                        HitRecord& record = frame.hits[pixel];
-                        record.orgX = eye.x;
-                        record.orgY = eye.y;
-                        record.orgZ = eye.z;
-                        record.dirX = dir.x;
-                        record.dirY = dir.y;
-                        record.dirZ = dir.z;
-                        record.t = hit.t;
-                        record.prim = hit.prim;
-                        record.shadow = shadowState[pixel];
-                        record.reserved = 0;
-                    }
+                    if (request.hits)
+                        frame.hits[pixel] = gpu::makeHitRecord(eye, dir, hit.t, hit.prim, shadowState[pixel]);
                     if (!request.image) continue;
                     glm::vec3 color;
                     if (heatView) {
-                        const RayCounters& c = counters[pixel];
-                        color = settings.view == ViewMode::HeatTraversal
-                                    ? gpu::heatColorForCount(c.primaryNodes + c.shadowNodes,
-                                                             gpu::heatFullScaleOf(settings.heatFullScale, true))
-                                    : gpu::heatColorForCount(c.primaryTests + c.shadowTests,
-                                                             gpu::heatFullScaleOf(settings.heatFullScale, false));
+                        color = gpu::heatViewColor(settings.view == ViewMode::HeatTraversal, counters[pixel],
+                                                   settings.heatFullScale);
                     } else if (!hit.hit()) {
                         color = settings.background;
                     } else {
@@ -449,11 +396,8 @@ void shadeCpuFrame(const Scene& scene, const RenderSettings& settings, const gpu
                             normal = gpu::interpolatedNormal(scene.normals[tri.x], scene.normals[tri.y],
                                                              scene.normals[tri.z], hit.bary, normal, dir);
                         const glm::vec3 diffuse = diffuseAt(scene, hit.prim, hit.bary, dir, hit.t, pixelSpread);
-                        const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
-                        const glm::vec3 toLight = light - point;
-                        const bool lit = shadowState[pixel] != gpu::kShadowOccluded && toLight != glm::vec3(0.0f);
-                        color =
-                            gpu::shadePhong(phong, diffuse, normal, -dir, lit ? glm::normalize(toLight) : normal, lit);
+                        color = gpu::shadeHit(phong, eye, dir, hit.t, normal, diffuse, light,
+                                              shadowState[pixel] == gpu::kShadowOccluded);
                     }
                     frame.rgba[pixel] = gpu::packRgba8(glm::vec4(color, 1.0f));
                 }

@@ -49,23 +49,17 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
     const bool uvs = scene.hasUvs();
     const bool colors = scene.hasVertexColors();
 
-    // 1. A depth-first walk from the root with an explicit stack converts every node and gives each
-    //    leaf its first slot in leaf order: the order the walk meets the leaves.
+    // 1. The depth-first walk from the root (walkBvh, left child first) converts every node and gives
+    //    each leaf its first slot in leaf order: the order the walk meets the leaves.
     struct LeafSlot {
         uint32_t node;
         uint32_t first;
     };
     std::vector<LeafSlot> leaves;
     uint32_t placed = 0;
-    std::vector<std::pair<uint32_t, uint32_t>> stack{{0u, 0u}};  // (node, depth)
-    while (!stack.empty()) {
-        const auto [index, depth] = stack.back();
-        stack.pop_back();
-        RAYPACK_CHECK(index < bvh.nodes.size());
+    walkBvh(bvh, [&](uint32_t index, const BvhNode& node, uint32_t depth) {
         layout.maxDepth = std::max(layout.maxDepth, depth);
-        const BvhNode& node = bvh.nodes[index];
         if (node.isLeaf()) {
-            RAYPACK_CHECK(uint64_t(node.index) + node.count <= bvh.primIndices.size());
             layout.nodes[index] = {withBits(node.lo, placed), withBits(node.hi, node.count)};
             if (node.count == 0) {
                 // Only an empty scene has an empty leaf: give it a box no ray can hit.
@@ -74,12 +68,9 @@ GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
             leaves.push_back({index, placed});
             placed += node.count;
         } else {
-            RAYPACK_CHECK(node.index + 1 < bvh.nodes.size());
             layout.nodes[index] = {withBits(node.lo, node.index), withBits(node.hi, 0u)};
-            stack.push_back({node.index + 1, depth + 1});
-            stack.push_back({node.index, depth + 1});
         }
-    }
+    });
 
     // 2. The leaves' triangles, gathered in parallel into their slots (the gather reads vertices
     //    scattered over the scene). Measured here (2 threads, 2M-triangle terrain, 2026-11-22):

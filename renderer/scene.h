@@ -5,6 +5,7 @@
 // are empty when absent, and UVs are kept only when a material has a texture.
 #include "renderer/aabb.h"
 #include "renderer/camera.h"
+#include "shaders/texture.h"  // kDefaultDiffuse
 
 #include <glm/glm.hpp>
 
@@ -49,8 +50,8 @@ struct Texture {
 
 struct Material {
     std::string name;
-    glm::vec3 diffuse{0.8f, 0.8f, 0.8f};  // multiplies the texture, when there is one
-    uint32_t texture = kNoTexture;        // index into Scene::textures
+    glm::vec3 diffuse{gpu::kDefaultDiffuse};  // multiplies the texture, when there is one
+    uint32_t texture = kNoTexture;            // index into Scene::textures
 };
 
 struct Scene {

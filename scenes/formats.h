@@ -1,6 +1,7 @@
 #pragma once
 // The per-format loaders behind loadScene, and what they share: reading a whole file into memory
 // with progress and cancellation, and error messages that name the file.
+#include "renderer/huge_pages.h"  // adviseHugePages, for the loaders
 #include "scenes/load.h"
 
 #include <cstddef>
@@ -33,12 +34,6 @@ FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progres
 // Reports that the parser has consumed `parsedBytes` of a file of `fileSize` bytes (the second half
 // of LoadProgress) and throws LoadCancelled when cancel is set.
 void reportParsed(LoadProgress* progress, const std::filesystem::path& path, uint64_t fileSize, uint64_t parsedBytes);
-
-// Asks the kernel to back [data, data + bytes) with huge pages before it is first written. On a
-// virtual machine every 4 KiB page fault is expensive, and loading a 13M-triangle PLY writes about
-// 500 MB of fresh memory (file buffer, positions, triangles): with 2 MiB pages that costs 512 times
-// fewer faults. A no-op where transparent huge pages are unavailable.
-void adviseHugePages(void* data, size_t bytes);
 
 // "PATH: what" — every loader error starts with the file it is about.
 [[noreturn]] void throwFileError(const std::filesystem::path& path, const std::string& what);

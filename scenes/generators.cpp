@@ -56,7 +56,7 @@ private:
     Scene scene_;
     uint32_t current_ = kPending;
     std::string pendingName_ = "default";
-    glm::vec3 pendingColour_{0.8f};
+    glm::vec3 pendingColour_{gpu::kDefaultDiffuse};
 };
 
 // ---- Terrain: fractal value noise (Perlin 1985's sum of octaves, with value instead of gradient

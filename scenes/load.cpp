@@ -11,26 +11,9 @@
 #include <string_view>
 #include <system_error>
 
-#ifdef __linux__
-#include <sys/mman.h>
-#endif
-
 namespace raypack {
 
 void FreeDeleter::operator()(char* p) const { std::free(p); }
-
-void adviseHugePages(void* data, size_t bytes) {
-#ifdef __linux__
-    // madvise needs a page-aligned start; advise the aligned interior of the range.
-    constexpr uintptr_t kPage = 4096;
-    const uintptr_t begin = (reinterpret_cast<uintptr_t>(data) + kPage - 1) & ~(kPage - 1);
-    const uintptr_t end = (reinterpret_cast<uintptr_t>(data) + bytes) & ~(kPage - 1);
-    if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-#else
-    (void)data;
-    (void)bytes;
-#endif
-}
 
 void throwFileError(const std::filesystem::path& path, const std::string& what) {
     throw Error(path.string() + ": " + what);
@@ -48,7 +31,7 @@ FileBytes readWholeFile(const std::filesystem::path& path, LoadProgress* progres
     std::ifstream stream(path, std::ios::binary);
     if (!stream) throwFileError(path, "cannot open for reading");
     FileBytes file;
-    // Huge-page aligned and advised before the read touches it (see adviseHugePages).
+    // Huge-page aligned and advised before the read touches it (renderer/huge_pages.h).
     constexpr size_t kHugePage = size_t(2) << 20;
     const size_t capacity = (size_t(size) + kHugePage - 1) / kHugePage * kHugePage;
     file.data.reset(static_cast<char*>(std::aligned_alloc(kHugePage, capacity)));

@@ -397,7 +397,7 @@ Scene loadObj(const std::filesystem::path& path, LoadProgress* progress) {
             }
         }
     }
-    if (usedDefaultMaterial) scene.materials.push_back(Material{"default", glm::vec3(0.8f)});
+    if (usedDefaultMaterial) scene.materials.push_back(Material{"default", glm::vec3(gpu::kDefaultDiffuse)});
     scene.sourceBytes = file.size;  // the MTL, which tinyobjloader reads, is not counted
     for (const Texture& texture : scene.textures) scene.sourceBytes += texture.fileBytes;
     reportParsed(progress, path, file.size, file.size);

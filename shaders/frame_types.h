@@ -24,6 +24,23 @@ struct HitRecord {
 };
 RP_CHECK_SIZE(HitRecord, 40);
 
+// The record of a ray from org along dir: t (+inf on a miss), prim (file order, kNoHit on a miss)
+// and its shadow state (kShadow*). Every tracer fills its records through this.
+RP_FUNC HitRecord makeHitRecord(vec3 org, vec3 dir, float t, uint prim, uint shadow) {
+    HitRecord h;
+    h.orgX = org.x;
+    h.orgY = org.y;
+    h.orgZ = org.z;
+    h.dirX = dir.x;
+    h.dirY = dir.y;
+    h.dirZ = dir.z;
+    h.t = t;
+    h.prim = prim;
+    h.shadow = shadow;
+    h.reserved = 0u;
+    return h;
+}
+
 // Per-ray traversal counters (the report's N_TR and N_IT), primary and shadow apart.
 struct RayCounters {
     uint primaryNodes;  // N_TR of the primary ray: nodes visited

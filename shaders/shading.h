@@ -5,8 +5,9 @@
 #ifndef RAYPACK_SHADERS_SHADING_H
 #define RAYPACK_SHADERS_SHADING_H
 #include "common.h"
-#include "intersect.h"  // RP_PRECISE
-#include "texture.h"    // RGBA8 packing, texture sampling
+#include "frame_types.h"  // RayCounters
+#include "intersect.h"    // RP_PRECISE, hitPosition
+#include "texture.h"      // RGBA8 packing, texture sampling
 
 RP_BEGIN_NAMESPACE
 
@@ -80,6 +81,24 @@ RP_FUNC float heatFullScaleOf(float requested, bool nodes) {
 }
 
 RP_FUNC vec3 heatColorForCount(uint count, float fullScale) { return heatColor(float(count) / fullScale); }
+
+// The colour of a heat-map view: the pixel's nodes visited (N_TR, `nodes`) or triangle tests
+// (N_IT), primary and shadow ray together, at full scale `requested` (0: the view's default).
+RP_FUNC vec3 heatViewColor(bool nodes, RayCounters c, float requested) {
+    const uint count = nodes ? c.primaryNodes + c.shadowNodes : c.primaryTests + c.shadowTests;
+    return heatColorForCount(count, heatFullScaleOf(requested, nodes));
+}
+
+// The shaded colour of a hit at distance t along the ray from eye in direction dir: Phong with the
+// point light at `light`, lit unless the shadow ray found an occluder. A point at the light itself
+// is not lit (it has no direction to the light). The kernels and the CPU reference both end here.
+RP_FUNC vec3 shadeHit(vec4 phong, vec3 eye, vec3 dir, float t, vec3 normal, vec3 diffuseColor, vec3 light,
+                      bool occluded) {
+    const vec3 p = hitPosition(eye, dir, t);
+    const vec3 toLight = light - p;
+    const bool lit = !occluded && toLight != vec3(0.0f);
+    return shadePhong(phong, diffuseColor, normal, -dir, lit ? normalize(toLight) : normal, lit);
+}
 
 RP_END_NAMESPACE
 

@@ -178,6 +178,20 @@ RP_FUNC vec3 interpolateColor(uint c0, uint c1, uint c2, vec2 bary) {
     return vec3(c.x, c.y, c.z);
 }
 
+// The default material's diffuse grey (Material::diffuse; the OBJ loader's and the generators'
+// default material): the colour of a surface that names no material.
+const float kDefaultDiffuse = 0.8f;
+
+// The material colour of a triangle before its material (if any) is applied: the default grey, or
+// white where vertex colours give the colour (they are multiplied in by surfaceColor).
+RP_FUNC vec3 defaultMaterialColor(bool hasVertexColors) { return hasVertexColors ? vec3(1.0f) : vec3(kDefaultDiffuse); }
+
+// RGBA8 <-> BGRA8 (one packed texel, R in the low byte): swaps bytes 0 and 2, keeps G and A. For
+// a B8G8R8A8 swapchain and its read-back.
+RP_FUNC uint swapRedBlue(uint texel) {
+    return (texel & 0xFF00FF00u) | ((texel & 0xFFu) << 16u) | ((texel >> 16u) & 0xFFu);
+}
+
 // The diffuse colour of a surface point: the material's colour times the texel (rgb; alpha is
 // not used) times the vertex colour, each vec3(1) where the scene has none.
 RP_FUNC vec3 surfaceColor(vec3 materialColor, vec4 texel, vec3 vertexColor) {

@@ -440,10 +440,8 @@ void main() {
 
     // Shading (shaders/shading.h, the CPU reference's text).
     vec3 color = params.background.xyz;
-    if (kView == kViewHeatTraversal) {
-        color = heatColorForCount(counts.primaryNodes + counts.shadowNodes, heatFullScaleOf(params.background.w, true));
-    } else if (kView == kViewHeatIntersections) {
-        color = heatColorForCount(counts.primaryTests + counts.shadowTests, heatFullScaleOf(params.background.w, false));
+    if (kView == kViewHeatTraversal || kView == kViewHeatIntersections) {
+        color = heatViewColor(kView == kViewHeatTraversal, counts, params.background.w);
     } else if (leafTri != kNoHit) {
         const GpuTriangle tri = triangles[leafTri];
         const vec3 geometric = geometricNormal(tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, dir);
@@ -454,7 +452,7 @@ void main() {
         }
         // Material x texture x vertex colour, as the CPU's diffuseAt (renderer/cpu_tracer.cpp).
         const bool hasColors = (params.frame.z & kFrameHasColors) != 0u;
-        vec3 materialColor = hasColors ? vec3(1.0f) : vec3(0.8f, 0.8f, 0.8f);  // Material's default
+        vec3 materialColor = defaultMaterialColor(hasColors);
         uint texture = kNoTextureIndex;
         if ((params.frame.z & kFrameHasMaterials) != 0u) {
             const GpuMaterial m = materials[floatBitsToUint(tri.v1.w)];
@@ -479,30 +477,15 @@ void main() {
             vertexColor = interpolateColor(c.x, c.y, c.z, bary);
         }
         const vec3 diffuse = surfaceColor(materialColor, texel, vertexColor);
-        const vec3 p = hitPosition(eye, dir, t);
-        const vec3 toLight = params.light.xyz - p;
-        // A point at the light itself is not lit (and has no direction to it), as on the CPU.
-        const bool lit = shadow != kShadowOccluded && toLight != vec3(0.0f);
-        color = shadePhong(params.phong, diffuse, normal, -dir, lit ? normalize(toLight) : normal, lit);
+        color = shadeHit(params.phong, eye, dir, t, normal, diffuse, params.light.xyz, shadow == kShadowOccluded);
     }
     uint rgba = packRgba8(vec4(color, 1.0f));
-    if ((params.frame.z & kFrameBgra) != 0u)
-        rgba = (rgba & 0xFF00FF00u) | ((rgba & 0xFFu) << 16u) | ((rgba >> 16u) & 0xFFu);
+    if ((params.frame.z & kFrameBgra) != 0u) rgba = swapRedBlue(rgba);
     outputRgba[index] = rgba;
 
     if ((params.frame.z & kFrameWriteHits) != 0u) {
-        HitRecord h;
-        h.orgX = eye.x;
-        h.orgY = eye.y;
-        h.orgZ = eye.z;
-        h.dirX = dir.x;
-        h.dirY = dir.y;
-        h.dirZ = dir.z;
-        h.t = t;
-        h.prim = leafTri == kNoHit ? kNoHit : floatBitsToUint(triangles[leafTri].v0.w);
-        h.shadow = shadow;
-        h.reserved = 0u;
-        hitRecords[index] = h;
+        const uint prim = leafTri == kNoHit ? kNoHit : floatBitsToUint(triangles[leafTri].v0.w);
+        hitRecords[index] = makeHitRecord(eye, dir, t, prim, shadow);
     }
     if (kStatistics) counters[index] = counts;
 }

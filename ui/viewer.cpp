@@ -104,7 +104,7 @@ void copyTexels(uint32_t* dst, const uint32_t* src, size_t count, bool bgra) {
     tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
         for (size_t i = r.begin(); i != r.end(); ++i) {
             const uint32_t t = src[i];
-            dst[i] = (t & 0xFF00FF00u) | ((t & 0xFFu) << 16) | ((t >> 16) & 0xFFu);
+            dst[i] = gpu::swapRedBlue(t);
         }
     });
 }

@@ -1,6 +1,7 @@
 #include "ui/viewer_window.h"
 
 #include "renderer/error.h"
+#include "shaders/texture.h"  // swapRedBlue
 
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
@@ -341,7 +342,7 @@ std::vector<uint32_t> readWindowImage(const vk::VulkanContext& context, ViewerWi
     std::memcpy(texels.data(), w.windowReadback.mapped, texels.size() * 4);
     if (w.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM)
         for (uint32_t& t : texels)  // BGRA -> RGBA: swap the low and third bytes
-            t = (t & 0xFF00FF00u) | ((t & 0xFFu) << 16) | ((t >> 16) & 0xFFu);
+            t = gpu::swapRedBlue(t);
     return texels;
 }
 

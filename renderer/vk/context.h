@@ -121,4 +121,10 @@ void uploadToBuffer(const VulkanContext& context, VkCommandPool pool, const Buff
 VkShaderModule createShaderModule(const VulkanContext& context, const uint32_t* code, size_t codeBytes,
                                   const char* name);
 
+// Records a global memory barrier: the writes `srcAccess` of stages `srcStage` are made available
+// and visible to the accesses `dstAccess` of stages `dstStage`. Every buffer the tracers share
+// between passes is covered by one such barrier (no per-buffer or image barriers needed there).
+void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,
+                   VkPipelineStageFlags dstStage, VkAccessFlags dstAccess);
+
 }  // namespace raypack::vk

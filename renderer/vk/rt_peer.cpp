@@ -152,14 +152,6 @@ double tickSeconds(const vk::VulkanContext& ctx, uint64_t from, uint64_t to) {
     return double(to - from) * double(ctx.info.timestampPeriodNs) * 1e-9;
 }
 
-void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,
-                   VkPipelineStageFlags dstStage, VkAccessFlags dstAccess) {
-    VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
-    barrier.srcAccessMask = srcAccess;
-    barrier.dstAccessMask = dstAccess;
-    vkCmdPipelineBarrier(cmd, srcStage, dstStage, 0, 1, &barrier, 0, nullptr, 0, nullptr);
-}
-
 // A device-local buffer whose device address the builds or the shaders read.
 vk::Buffer createAddressedBuffer(const vk::VulkanContext& ctx, VkDeviceSize size, VkBufferUsageFlags usage,
                                  const char* what) {
@@ -308,10 +300,10 @@ BuildTimes buildStructures(RtPeerObjects& o, const Scene& scene, const RtPropert
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, o.queries, kQueryBuildStart);
         o.fn.cmdBuild(cmd, 1, &blasInfo, &blasRanges);
         // The TLAS build reads the BLAS and reuses the scratch memory.
-        memoryBarrier(cmd, VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
-                      VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR,
-                      VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
-                      VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR);
+        vk::memoryBarrier(
+            cmd, VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR, VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR,
+            VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR,
+            VK_ACCESS_ACCELERATION_STRUCTURE_READ_BIT_KHR | VK_ACCESS_ACCELERATION_STRUCTURE_WRITE_BIT_KHR);
         // Bottom of pipe: written once every earlier command, the BLAS build, has completed.
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, o.queries, kQueryBuildStart + 1);
         o.fn.cmdBuild(cmd, 1, &tlasInfo, &tlasRanges);
@@ -492,7 +484,7 @@ void recordTrace(const RtPeerObjects& o, VkCommandBuffer cmd, const BindingTable
     const uint32_t width = params.frame.x, height = params.frame.y;
     vkCmdResetQueryPool(cmd, o.queries, kQueryTraceStart, 4);
     // Earlier submissions built the structures, uploaded the table and read the hits: finish them.
-    memoryBarrier(
+    vk::memoryBarrier(
         cmd,
         VK_PIPELINE_STAGE_ACCELERATION_STRUCTURE_BUILD_BIT_KHR | VK_PIPELINE_STAGE_TRANSFER_BIT |
             VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR,
@@ -514,9 +506,9 @@ void recordTrace(const RtPeerObjects& o, VkCommandBuffer cmd, const BindingTable
     vkCmdWriteTimestamp(cmd, stage, o.queries, kQueryTraceStart + 1);
     if (shadows) {
         // The shadow pass reads the primary pass's hit records.
-        memoryBarrier(cmd, VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR, VK_ACCESS_SHADER_WRITE_BIT,
-                      VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR,
-                      VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR, VK_ACCESS_SHADER_WRITE_BIT,
+                          VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR,
+                          VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         params.frame.z = gpu::kRtPeerPassShadow;
         vkCmdPushConstants(cmd, o.pipelineLayout, VK_SHADER_STAGE_RAYGEN_BIT_KHR, 0, sizeof params, &params);
         vkCmdWriteTimestamp(cmd, stage, o.queries, kQueryTraceStart + 2);
@@ -528,12 +520,12 @@ void recordTrace(const RtPeerObjects& o, VkCommandBuffer cmd, const BindingTable
         vkCmdWriteTimestamp(cmd, stage, o.queries, kQueryTraceStart + 3);
     }
     if (readBack) {
-        memoryBarrier(cmd, VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR, VK_ACCESS_SHADER_WRITE_BIT,
-                      VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
+        vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_RAY_TRACING_SHADER_BIT_KHR, VK_ACCESS_SHADER_WRITE_BIT,
+                          VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_READ_BIT);
         const VkBufferCopy region{0, 0, VkDeviceSize(width) * height * sizeof(HitRecord)};
         vkCmdCopyBuffer(cmd, o.hits.buffer, o.readback.buffer, 1, &region);
-        memoryBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
-                      VK_ACCESS_HOST_READ_BIT);
+        vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_HOST_BIT,
+                          VK_ACCESS_HOST_READ_BIT);
     }
 }
 
