@@ -53,47 +53,6 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-PacketShape parseShape(const std::string& text, const std::string& what) {
-    unsigned w = 0, h = 0;
-    char x = 0, extra = 0;
-    if (std::sscanf(text.c_str(), "%u%c%u%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || !w || !h)
-        throw Error(what + ": \"" + text + "\" is not WIDTHxHEIGHT");
-    return {w, h};
-}
-
-uint32_t parseCount(const std::string& text, const std::string& what) {
-    try {
-        size_t used = 0;
-        const unsigned long value = std::stoul(text, &used);
-        if (used == text.size() && value > 0 && value <= 0xFFFFFFFFul) return uint32_t(value);
-    } catch (const std::exception&) {
-    }
-    throw Error(what + ": \"" + text + "\" is not a positive integer");
-}
-
-// "x,y" or "x,y,z" of finite floats.
-template <int N>
-glm::vec<N, float> parseFloats(const std::string& text, const std::string& what) {
-    glm::vec<N, float> v(0.0f);
-    size_t start = 0;
-    for (int i = 0; i < N; ++i) {
-        const size_t comma = text.find(',', start);
-        const bool last = i == N - 1;
-        if (last != (comma == std::string::npos))
-            throw Error(what + ": \"" + text + "\" is not " + std::to_string(N) + " numbers separated by commas");
-        const std::string part = text.substr(start, last ? std::string::npos : comma - start);
-        try {
-            size_t used = 0;
-            v[i] = std::stof(part, &used);
-            if (used != part.size() || !std::isfinite(v[i])) throw std::invalid_argument(part);
-        } catch (const std::exception&) {
-            throw Error(what + ": \"" + part + "\" is not a finite number");
-        }
-        start = comma + 1;
-    }
-    return v;
-}
-
 // Copies `count` 4-byte texels from `src` to `dst` (distinct), swapping bytes 0 and 2 (RGBA8 <->
 // BGRA8) when the swapchain's format is B8G8R8A8.
 void copyTexels(uint32_t* dst, const uint32_t* src, size_t count, bool bgra) {
@@ -626,81 +585,43 @@ void saveBookmark(Session& s, int slot) {
     }
 }
 
-void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
-    RenderSettings& settings = s.panel.settings;
-    std::printf("raypack: frame %u: %s %s\n", s.frameIndex, step.action.c_str(), step.value.c_str());
-    if (step.action == "resize") {
-        const PacketShape size = parseShape(step.value, "resize");
+void handleActions(Session& s, const PanelActions& a, const RenderSettings& before);
+
+// This frame's script steps, applied through the panel's own path (handleActions) and the
+// session's effects, in a fixed order: the panel's edits, then loads and rebuilds, then a wait.
+void applyScriptSteps(Session& s, std::string& screenshot, std::string& windowShot, FlyInput& input) {
+    const RenderSettings before = s.panel.settings;
+    PanelActions actions;
+    ScriptEffects effects;
+    bool any = false;
+    for (const ScriptStep& step : s.options.script) {
+        if (step.frame != s.frameIndex) continue;
+        any = true;
+        std::printf("raypack: frame %u: %s %s\n", s.frameIndex, toString(step.action), step.value.c_str());
+        applyScriptStep(step, s.panel, actions, effects);
+    }
+    if (!any) return;
+    if (effects.resize) {
         if (s.offscreen) throw Error("resize: an offscreen run has a fixed size (--width, --height)");
-        glfwSetWindowSize(s.window.window, int(size.width), int(size.height));
-    } else if (step.action == "packet") {
-        settings.packet = parseShape(step.value, "packet");
-    } else if (step.action == "leaf-size" || step.action == "builder") {
-        if (step.action == "leaf-size")
-            s.panel.bvh.leafSize = parseCount(step.value, "leaf-size");
-        else
-            s.panel.bvh.builder = parseBvhBuilder(step.value);
-        s.builder->requestRebuild(s.scene, s.panel.bvh);
-    } else if (step.action == "shadows") {
-        if (step.value != "on" && step.value != "off") throw Error("shadows: \"" + step.value + "\" is not on or off");
-        settings.shadows = step.value == "on";
-    } else if (step.action == "kernel") {
-        const std::optional<KernelKind> kind = parseKernelKind(step.value);
-        if (!kind) throw Error("kernel: \"" + step.value + "\" is not packet or single");
-        settings.kernel = *kind;
-        if (!isCpuTracer(s.panel.tracer))
-            setTracer(s, *kind == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle,
-                      "script");
-    } else if (step.action == "tracer") {
-        const std::optional<TracerChoice> tracer = parseTracerChoice(step.value);
-        if (!tracer)
-            throw Error("tracer: \"" + step.value +
-                        "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
-        setTracer(s, *tracer, "chosen by the script");
-    } else if (step.action == "side-by-side") {
-        if (step.value == "off") {
-            s.panel.sideBySide = false;
-        } else {
-            const std::optional<TracerChoice> tracer = parseTracerChoice(step.value);
-            if (!tracer) throw Error("side-by-side: \"" + step.value + "\" is not off or a tracer name");
-            setSideBySide(s, *tracer);
-        }
-    } else if (step.action == "view") {
-        const std::optional<ViewMode> mode = parseViewMode(step.value);
-        if (!mode) throw Error("view: \"" + step.value + "\" is not shaded, nodes or tests");
-        settings.view = *mode;
-    } else if (step.action == "open") {
+        glfwSetWindowSize(s.window.window, int(effects.resize->width), int(effects.resize->height));
+    }
+    if (effects.tracer) setTracer(s, *effects.tracer, "chosen by the script");
+    if (effects.sideBySide) setSideBySide(s, *effects.sideBySide);
+    if (!effects.open.empty()) {
         const BuildStatus status = s.builder->status();
         std::printf("raypack: frame %u: worker %s when the load was requested\n", s.frameIndex, toString(status.phase));
-        s.builder->requestLoad(step.value, s.panel.bvh);  // the step itself was logged above
-    } else if (step.action == "wait") {
+        s.builder->requestLoad(effects.open, s.panel.bvh);  // the step itself was logged above
+    }
+    handleActions(s, actions, before);
+    if (effects.wait) {
         s.builder->waitIdle();
         takeWorkerResults(s);
-    } else if (step.action == "move") {
-        input.heldSeconds += parseFloats<3>(step.value, "move");
-    } else if (step.action == "look") {
-        input.lookPixels += parseFloats<2>(step.value, "look");
-    } else if (step.action == "bookmark" || step.action == "save-bookmark") {
-        const uint32_t slot = parseCount(step.value, step.action);
-        if (slot > uint32_t(kBookmarkSlots)) throw Error(step.action + ": slot " + step.value + " is not 1..9");
-        if (step.action == "bookmark")
-            recallBookmark(s, int(slot));
-        else
-            saveBookmark(s, int(slot));
-    } else if (step.action == "frame-all") {
-        s.fly.frameAll();
-        settings.camera = s.fly.camera();
-    } else if (step.action == "scale") {
-        const uint32_t scale = parseCount(step.value, "scale");
-        if (scale > 64) throw Error("scale: " + step.value + " is above 64");
-        s.forcedScale = scale;
-    } else if (step.action == "samples") {
-        s.panel.frameLoop.samples = std::min(parseCount(step.value, "samples"), kMaxSamplesPerPixel);
-    } else if (step.action == "budget") {
-        s.panel.frameLoop.frameBudgetMs = float(parseCount(step.value, "budget"));
-    } else {
-        throw Error("script: unknown action \"" + step.action + "\"");
     }
+    if (effects.scale) s.forcedScale = *effects.scale;
+    input.heldSeconds += effects.input.heldSeconds;
+    input.lookPixels += effects.input.lookPixels;
+    if (!effects.screenshot.empty()) screenshot = effects.screenshot;
+    if (!effects.windowScreenshot.empty()) windowShot = effects.windowScreenshot;
 }
 
 // The scene point under the cursor: the primary ray of that pixel of the image (at full
@@ -1466,21 +1387,6 @@ void chooseStartTracer(Session& s) {
 
 }  // namespace
 
-ScriptStep parseScriptStep(const std::string& text) {
-    const size_t first = text.find(':');
-    if (first == std::string::npos) throw Error("script step \"" + text + "\": expected FRAME:ACTION[:VALUE]");
-    ScriptStep step;
-    const std::string frame = text.substr(0, first);
-    if (frame.empty() || frame.find_first_not_of("0123456789") != std::string::npos || frame.size() > 9)
-        throw Error("script step \"" + text + "\": \"" + frame + "\" is not a frame number");
-    step.frame = uint32_t(std::stoul(frame));
-    const size_t second = text.find(':', first + 1);
-    step.action = text.substr(first + 1, second == std::string::npos ? std::string::npos : second - first - 1);
-    if (second != std::string::npos) step.value = text.substr(second + 1);
-    if (step.action.empty()) throw Error("script step \"" + text + "\": no action");
-    return step;
-}
-
 int runViewer(const ViewerOptions& options) {
     std::optional<CameraPath> path;
     if (!options.playPath.empty()) path = readCameraPath(options.playPath);  // before any window opens
@@ -1581,15 +1487,7 @@ int runViewer(const ViewerOptions& options) {
         std::string screenshot, windowShot;
         FlyInput scriptedInput;
         if (scripted) {
-            for (const ScriptStep& step : options.script) {
-                if (step.frame != s.frameIndex) continue;
-                if (step.action == "screenshot")
-                    screenshot = step.value;
-                else if (step.action == "window-screenshot")
-                    windowShot = step.value;
-                else
-                    applyScriptStep(s, step, scriptedInput);
-            }
+            applyScriptSteps(s, screenshot, windowShot, scriptedInput);
             if (s.frameIndex + 1 == options.frames) {
                 // The last frame shows the last request: wait for the worker once, here only.
                 s.builder->waitIdle();
