@@ -15,6 +15,7 @@
 #include "ui/panel.h"
 #include "ui/pointer.h"
 #include "ui/recent_files.h"
+#include "ui/run_statistics.h"
 #include "ui/script.h"
 #include "ui/viewer_config.h"
 
@@ -855,5 +856,46 @@ TEST(ScriptSteps, StepsEditThePanelAndSetItsActionsAsItsControlsWould) {
     EXPECT_FALSE(cpu.sideBySide);
 }
 
+// ---- Run statistics (ui/run_statistics.h): what --summary reports.
+
+TEST(RunStatistics, FramesLatencyIdleShareAndTheTimesAfterAStop) {
+    ui::RunStatistics run;
+    const auto frame = [&](double start, double end, ui::FrameKind kind, uint32_t scale, uint32_t samples,
+                           double input = -1.0) {
+        ui::FrameOutcome f;
+        f.startSeconds = start;
+        f.endSeconds = end;
+        f.traced = f.presented = kind != ui::FrameKind::Idle;
+        f.kind = kind;
+        f.scale = scale;
+        f.samplesShown = samples;
+        f.samplesWanted = 4;
+        f.firstInputSeconds = input;
+        if (!f.presented) f.idleWallSeconds = end - start, f.idleCpuSeconds = 0.25 * (end - start);
+        run.record(f);
+    };
+    frame(0.0, 0.05, ui::FrameKind::Moving, 4, 1, 0.0);
+    frame(0.1, 0.15, ui::FrameKind::Moving, 2, 1, 0.12);
+    frame(0.2, 0.3, ui::FrameKind::Full, 1, 1);
+    frame(0.3, 0.35, ui::FrameKind::Refine, 1, 2);
+    frame(0.4, 0.5, ui::FrameKind::Refine, 1, 4);
+    frame(0.5, 1.5, ui::FrameKind::Idle, 1, 4);
+    const nlohmann::json summary = run.summary();
+    EXPECT_EQ(summary["frames"], 6);
+    EXPECT_EQ(summary["frames_traced"], 5);
+    EXPECT_EQ(summary["frames_presented"], 5);
+    EXPECT_EQ(summary["frames_moving"], 2);
+    EXPECT_NEAR(summary["fps_moving_median"].get<double>(), 10.0, 1e-9) << "frames start 0.1 s apart";
+    EXPECT_EQ(summary["resolution_scales_moving"], (nlohmann::json{{"2", 1}, {"4", 1}}));
+    EXPECT_EQ(summary["input_frames"], 2);
+    EXPECT_NEAR(summary["input_to_photon_ms_median"].get<double>(), 50.0, 1e-9);
+    EXPECT_EQ(summary["idle_frames"], 1);
+    EXPECT_NEAR(summary["idle_cpu_share"].get<double>(), 0.25, 1e-12);
+    EXPECT_NEAR(run.fullAfterChangeSeconds(), 0.15, 1e-12) << "from the last moving frame's end";
+    EXPECT_NEAR(run.convergedAfterChangeSeconds(), 0.35, 1e-12);
+    frame(1.5, 1.6, ui::FrameKind::Moving, 2, 1);
+    EXPECT_EQ(run.fullAfterChangeSeconds(), -1.0) << "a new change starts the clocks again";
+    EXPECT_EQ(run.convergedAfterChangeSeconds(), -1.0);
+}
 }  // namespace
 }  // namespace raypack

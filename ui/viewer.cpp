@@ -20,6 +20,8 @@
 #include "ui/orbit_camera.h"
 #include "ui/panel.h"
 #include "ui/pointer.h"
+#include "ui/readback.h"
+#include "ui/run_statistics.h"
 #include "ui/screenshot.h"
 #include "ui/viewer_config.h"
 #include "ui/viewer_window.h"
@@ -53,21 +55,6 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-// Copies `count` 4-byte texels from `src` to `dst` (distinct), swapping bytes 0 and 2 (RGBA8 <->
-// BGRA8) when the swapchain's format is B8G8R8A8.
-void copyTexels(uint32_t* dst, const uint32_t* src, size_t count, bool bgra) {
-    if (!bgra) {
-        std::memcpy(dst, src, count * 4);
-        return;
-    }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i != r.end(); ++i) {
-            const uint32_t t = src[i];
-            dst[i] = (t & 0xFF00FF00u) | ((t & 0xFFu) << 16) | ((t >> 16) & 0xFFu);
-        }
-    });
-}
-
 // A scene spec as the sidecar and the bookmarks keep it: an existing file becomes absolute, so
 // `raypack-cli render --from` works from any folder; a generator spec stays as it is.
 std::string canonicalSpec(const std::string& spec) {
@@ -88,27 +75,10 @@ double steadyMedian(std::vector<double> values) {
     return median(std::move(values));
 }
 
-double processCpuSeconds() {
-    rusage usage{};
-    getrusage(RUSAGE_SELF, &usage);
-    return double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-           1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
-
 std::string bookmarksFile() { return (fs::path(configDirectory()) / "bookmarks.json").string(); }
 
 // Where the image on screen came from, so that it can be presented again without tracing.
 enum class ShownSource { Nothing, TracerOutput, Host };
-
-// One frame of the run, for the summary.
-struct FrameRecord {
-    double startSeconds = 0.0;  // since the run started
-    double seconds = 0.0;       // until the next frame started
-    FrameKind kind = FrameKind::Idle;
-    uint32_t scale = 1;
-    bool presented = false;
-    double inputLatencySeconds = -1.0;  // from the first input event to the present, when input came
-};
 
 // A key pressed since the last frame that acts once (F, F1, F12, bookmarks), from the callback.
 struct KeyPress {
@@ -122,11 +92,9 @@ struct Session {
     const ViewerOptions& options;
     vk::VulkanContext context;
     ViewerWindow window;
-    // --offscreen: no window; frames that stay on the GPU are recorded into this command buffer.
+    // --offscreen: no window; frames that stay on the GPU are recorded from this pool and waited for.
     bool offscreen = false;
     VkCommandPool offscreenPool = VK_NULL_HANDLE;
-    VkCommandBuffer offscreenCmd = VK_NULL_HANDLE;
-    VkFence offscreenDone = VK_NULL_HANDLE;
     std::unique_ptr<GpuTracer> tracer;
     std::unique_ptr<AsyncSceneBuilder> builder;
     bool cpuDevice = false;
@@ -206,10 +174,7 @@ struct Session {
     double smoothedFrameSeconds = 0.0;
     uint32_t frameIndex = 0;
     std::vector<double> frameTimes, primaryKernelTimes, shadowKernelTimes;
-    std::vector<FrameRecord> records;
-    double idleWallSeconds = 0.0, idleCpuSeconds = 0.0;
-    uint64_t idleFrames = 0;  // frames that traced and presented nothing
-    double lastChangeSeconds = -1.0, fullAfterChangeSeconds = -1.0, convergedAfterChangeSeconds = -1.0;
+    RunStatistics run;  // every frame, for --summary
 
     explicit Session(const ViewerOptions& o) : options(o) {}
     ~Session() {
@@ -218,7 +183,6 @@ struct Session {
         tracer.reset();
         vk::destroyBuffer(context, shownImage);
         vk::destroyBuffer(context, screenshotReadback);
-        if (offscreenDone) vkDestroyFence(context.device, offscreenDone, nullptr);
         if (offscreenPool) vkDestroyCommandPool(context.device, offscreenPool, nullptr);
         if (!offscreen) destroyViewerWindow(context, window);
         destroyVulkanContext(context);
@@ -483,14 +447,6 @@ nlohmann::json statisticsJson(const Session& s) {
     return stats;
 }
 
-void ensureHostBuffer(Session& s, vk::Buffer& buffer, VkDeviceSize bytes, VkBufferUsageFlags usage, const char* what) {
-    if (buffer.size == bytes) return;
-    vkDeviceWaitIdle(s.context.device);
-    vk::destroyBuffer(s.context, buffer);
-    buffer = vk::createBuffer(s.context, bytes, usage,
-                              VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, what);
-}
-
 const CpuSceneView& cpuViewOf(Session& s) {
     if (!s.cpuView) s.cpuView.emplace(makeCpuSceneView(*s.scene, *s.bvh));
     return *s.cpuView;
@@ -532,19 +488,11 @@ void compareWithReference(Session& s) {
 Image shownImageNow(Session& s) {
     if (s.shown == ShownSource::Host) return s.shownHost;
     if (s.shown != ShownSource::TracerOutput) throw Error("screenshot: no image shown yet");
-    const VkDeviceSize bytes = s.tracer->outputBytes();
-    ensureHostBuffer(s, s.screenshotReadback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, "screenshot");
-    vk::check(vkDeviceWaitIdle(s.context.device), "vkDeviceWaitIdle (screenshot)");
-    vk::submitAndWait(s.context, s.offscreen ? s.offscreenPool : s.window.commandPool, [&](VkCommandBuffer cmd) {
-        const VkBufferCopy region{0, 0, bytes};
-        vkCmdCopyBuffer(cmd, s.tracer->outputBuffer(), s.screenshotReadback.buffer, 1, &region);
-    });
     const uint32_t width = s.panel.settings.width, height = s.panel.settings.height;
-    RAYPACK_CHECK(bytes == VkDeviceSize(width) * height * 4);
-    Image image{width, height, std::vector<uint32_t>(size_t(width) * height)};
-    copyTexels(image.rgba.data(), static_cast<const uint32_t*>(s.screenshotReadback.mapped), image.rgba.size(),
-               !s.offscreen && s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM);
-    return image;
+    RAYPACK_CHECK(s.tracer->outputBytes() == VkDeviceSize(width) * height * 4);
+    return readBackImage(s.context, s.offscreen ? s.offscreenPool : s.window.commandPool, s.tracer->outputBuffer(),
+                         width, height, !s.offscreen && s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM,
+                         s.screenshotReadback);
 }
 
 void saveScreenshot(Session& s, const std::string& path) {
@@ -1084,7 +1032,7 @@ void presentShown(Session& s, const FrameTarget& target) {
     const ImageRegion region{uint32_t(s.imageOffsetX), settings.width, settings.height, settings.background};
     if (host && host->width == region.width && host->height == region.height) {
         const VkDeviceSize bytes = VkDeviceSize(host->width) * host->height * 4;
-        ensureHostBuffer(s, s.shownImage, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "image shown");
+        ensureHostBuffer(s.context, s.shownImage, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "image shown");
         copyTexels(static_cast<uint32_t*>(s.shownImage.mapped), host->rgba.data(), host->rgba.size(), target.bgra);
         copyImage(s.window, target, s.shownImage.buffer, region);
     } else if (s.shown == ShownSource::TracerOutput && !compare &&
@@ -1128,22 +1076,12 @@ FrameResult finishOffscreenFrame(Session& s, const FramePlan& plan, const std::s
     }
     if (!traced) {
         try {
-            vk::check(vkResetFences(s.context.device, 1, &s.offscreenDone), "vkResetFences (offscreen)");
-            vk::check(vkResetCommandBuffer(s.offscreenCmd, 0), "vkResetCommandBuffer (offscreen)");
-            VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-            begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-            vk::check(vkBeginCommandBuffer(s.offscreenCmd, &begin), "vkBeginCommandBuffer (offscreen)");
-            FrameTarget target;
-            target.cmd = s.offscreenCmd;
-            target.extent = {s.panel.settings.width, s.panel.settings.height};
-            traceSeconds = traceFrame(s, plan, &target);
-            vk::check(vkEndCommandBuffer(s.offscreenCmd), "vkEndCommandBuffer (offscreen)");
-            VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-            submit.commandBufferCount = 1;
-            submit.pCommandBuffers = &s.offscreenCmd;
-            vk::check(vkQueueSubmit(s.context.queue, 1, &submit, s.offscreenDone), "vkQueueSubmit (offscreen)");
-            vk::check(vkWaitForFences(s.context.device, 1, &s.offscreenDone, VK_TRUE, UINT64_MAX),
-                      "vkWaitForFences (offscreen)");
+            vk::submitAndWait(s.context, s.offscreenPool, [&](VkCommandBuffer cmd) {
+                FrameTarget target;
+                target.cmd = cmd;
+                target.extent = {s.panel.settings.width, s.panel.settings.height};
+                traceSeconds = traceFrame(s, plan, &target);
+            });
             traced = true;
         } catch (const Error& e) {
             s.report(e.what());
@@ -1292,77 +1230,35 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
 }
 
 nlohmann::json summaryJson(const Session& s) {
-    std::vector<double> moving, still, latency;
-    std::map<uint32_t, uint64_t> scales, movingScales;
-    uint64_t traced = 0, presented = 0;
-    for (const FrameRecord& r : s.records) {
-        if (r.kind != FrameKind::Idle) {
-            ++traced;
-            (r.kind == FrameKind::Moving ? moving : still).push_back(r.seconds);
-            ++scales[r.scale];
-            if (r.kind == FrameKind::Moving) ++movingScales[r.scale];
-        }
-        presented += r.presented;
-        if (r.inputLatencySeconds >= 0.0) latency.push_back(r.inputLatencySeconds);
-    }
-    nlohmann::json scaleJson = nlohmann::json::object();
-    for (const auto& [scale, count] : scales) scaleJson[std::to_string(scale)] = count;
-    nlohmann::json movingScaleJson = nlohmann::json::object();
-    for (const auto& [scale, count] : movingScales) movingScaleJson[std::to_string(scale)] = count;
-    const auto fps = [](const std::vector<double>& v) {
-        const double m = median(v);
-        return m > 0 ? 1.0 / m : 0.0;
-    };
-    return {
-        {"device", s.info.device},
-        {"tracer", cliName(s.panel.tracer)},
-        {"scene", s.sceneSpec},
-        {"window", {s.panel.settings.width, s.panel.settings.height}},
-        {"frame_budget_ms", s.panel.frameLoop.frameBudgetMs},
-        {"samples_wanted", s.panel.frameLoop.samples},
-        {"frames", s.records.size()},
-        {"frames_traced", traced},
-        {"frames_presented", presented},
-        {"frames_moving", moving.size()},
-        {"fps_moving_median", fps(moving)},
-        {"fps_still_median", fps(still)},
-        {"resolution_scales", scaleJson},
-        {"resolution_scales_moving", movingScaleJson},
-        {"input_to_photon_ms_median", median(latency) * 1e3},
-        {"input_frames", latency.size()},
-        {"idle_frames", s.idleFrames},
-        {"idle_wall_s", s.idleWallSeconds},
-        {"idle_cpu_share", s.idleWallSeconds > 0 ? s.idleCpuSeconds / s.idleWallSeconds : 0.0},
-        {"full_resolution_after_stop_s", s.fullAfterChangeSeconds},
-        {"converged_after_stop_s", s.convergedAfterChangeSeconds},
-    };
+    nlohmann::json summary = s.run.summary();
+    summary["device"] = s.info.device;
+    summary["tracer"] = cliName(s.panel.tracer);
+    summary["scene"] = s.sceneSpec;
+    summary["window"] = {s.panel.settings.width, s.panel.settings.height};
+    summary["frame_budget_ms"] = s.panel.frameLoop.frameBudgetMs;
+    summary["samples_wanted"] = s.panel.frameLoop.samples;
+    return summary;
 }
 
-// After a frame: the run's record, the times from the last change to full resolution and to
-// convergence.
-void recordFrame(Session& s, const FrameResult& result, double startSeconds) {
-    FrameRecord record;
-    record.startSeconds = startSeconds;
-    record.kind = result.traced ? result.kind : FrameKind::Idle;
-    record.scale = s.info.frameLoop.scale;
-    record.presented = result.presented;
-    const double end = s.secondsSinceStart();
-    if (result.presented && s.firstInputSeconds >= 0.0) record.inputLatencySeconds = end - s.firstInputSeconds;
+// After a frame: the run's record (ui/run_statistics.h) and the camera path being recorded.
+void recordFrame(Session& s, const FrameResult& result, double startSeconds, double idleWallSeconds,
+                 double idleCpuSeconds) {
+    FrameOutcome frame;
+    frame.startSeconds = startSeconds;
+    frame.endSeconds = s.secondsSinceStart();
+    frame.traced = result.traced;
+    frame.presented = result.presented;
+    frame.kind = result.kind;
+    frame.scale = s.info.frameLoop.scale;
+    frame.samplesShown = s.info.frameLoop.samplesShown;
+    frame.samplesWanted = s.panel.frameLoop.samples;
+    frame.firstInputSeconds = s.firstInputSeconds;
+    frame.idleWallSeconds = idleWallSeconds;
+    frame.idleCpuSeconds = idleCpuSeconds;
+    s.run.record(frame);
     if (result.presented) s.firstInputSeconds = -1.0;
-    if (!s.records.empty()) s.records.back().seconds = startSeconds - s.records.back().startSeconds;
-    s.records.push_back(record);
-    if (result.traced && result.kind == FrameKind::Moving) {
-        s.lastChangeSeconds = end;
-        s.fullAfterChangeSeconds = s.convergedAfterChangeSeconds = -1.0;
-    }
-    if (s.lastChangeSeconds >= 0.0 && result.traced) {
-        if (result.kind == FrameKind::Full || (result.kind == FrameKind::Moving && record.scale == 1))
-            s.fullAfterChangeSeconds = end - s.lastChangeSeconds;
-        if (result.kind == FrameKind::Refine && s.info.frameLoop.samplesShown >= s.panel.frameLoop.samples)
-            s.convergedAfterChangeSeconds = end - s.lastChangeSeconds;
-    }
-    if (!result.presented) ++s.idleFrames;
-    if (!s.options.recordPath.empty() && s.scene) s.recording.keys.push_back({end, s.panel.settings.camera});
+    if (!s.options.recordPath.empty() && s.scene)
+        s.recording.keys.push_back({frame.endSeconds, s.panel.settings.camera});
 }
 
 // Where the viewer starts: the tracer by device, the camera path to play.
@@ -1400,19 +1296,7 @@ int runViewer(const ViewerOptions& options) {
     s.context = vk::createVulkanContext(contextOptions);
     s.cpuDevice = s.context.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
     if (s.offscreen) {
-        VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-        poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-        poolInfo.queueFamilyIndex = s.context.queueFamily;
-        vk::check(vkCreateCommandPool(s.context.device, &poolInfo, nullptr, &s.offscreenPool),
-                  "vkCreateCommandPool (offscreen)");
-        VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-        alloc.commandPool = s.offscreenPool;
-        alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-        alloc.commandBufferCount = 1;
-        vk::check(vkAllocateCommandBuffers(s.context.device, &alloc, &s.offscreenCmd),
-                  "vkAllocateCommandBuffers (offscreen)");
-        VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-        vk::check(vkCreateFence(s.context.device, &fenceInfo, nullptr, &s.offscreenDone), "vkCreateFence (offscreen)");
+        s.offscreenPool = createCommandPool(s.context);
     } else {
         ViewerWindowOptions windowOptions;
         windowOptions.width = options.width;
@@ -1499,11 +1383,9 @@ int runViewer(const ViewerOptions& options) {
         const double startSeconds = s.secondsSinceStart(iterationStart);
         const FrameResult result = drawFrame(s, screenshot, windowShot, scriptedInput);
         idle = !result.presented;
-        if (idle) {
-            s.idleWallSeconds += std::chrono::duration<double>(Clock::now() - iterationStart).count();
-            s.idleCpuSeconds += processCpuSeconds() - cpuStart;
-        }
-        recordFrame(s, result, startSeconds);
+        const double idleWall = idle ? std::chrono::duration<double>(Clock::now() - iterationStart).count() : 0.0;
+        const double idleCpu = idle ? processCpuSeconds() - cpuStart : 0.0;
+        recordFrame(s, result, startSeconds, idleWall, idleCpu);
         ++s.frameIndex;
     }
     vkDeviceWaitIdle(s.context.device);
