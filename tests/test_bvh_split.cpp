@@ -3,12 +3,14 @@
 // inside a leaf that references it, SAH cost recomputed), hits equal to brute force and to the
 // sah-exact tree (closest hit and prim ties, occlusion), the GPU layout's duplicated triangles,
 // determinism across thread counts, degenerate inputs, bad options, progress and cancellation.
+#include "cli_runner.h"
 #include "renderer/bvh.h"
 #include "renderer/bvh_build.h"
 #include "renderer/cpu_tracer.h"
 #include "renderer/error.h"
 #include "renderer/gpu_layout.h"
 #include "renderer/scene.h"
+#include "renderer/settings_json.h"
 #include "scenes/generators.h"
 #include "scenes/load.h"
 #include "shaders/intersect.h"
@@ -590,4 +592,37 @@ TEST(BvhSplit, SharedScenes) {
     std::printf("  Sibenik: SAH cost sah-exact %.3f, sah-split %.3f, %.3f references per triangle\n",
                 exact.stats.sahCost, bvh.stats.sahCost, double(bvh.primIndices.size()) / scene.triangleCount());
     EXPECT_LT(bvh.stats.sahCost, exact.stats.sahCost);
+}
+
+// The options travel through the settings JSON exactly and are checked there; the CLI's stats
+// command takes the builder and both flags and reports references apart from triangles.
+TEST(BvhSplit, OptionsInSettingsJsonAndCli) {
+    BvhBuildOptions options = splitOptions(2, 3e-4f, 1.7f);
+    const BvhBuildOptions back = bvhBuildOptionsFromJson(toJson(options));
+    EXPECT_EQ(back.builder, BvhBuilder::SahSplit);
+    EXPECT_EQ(back.splitAlpha, options.splitAlpha);
+    EXPECT_EQ(back.splitBudget, options.splitBudget);
+    for (const char* bad :
+         {R"({"split_alpha": -1})", R"({"split_alpha": 2})", R"({"split_budget": 0.5})", R"({"split_budget": 9})"}) {
+        try {
+            bvhBuildOptionsFromJson(nlohmann::json::parse(bad));
+            ADD_FAILURE() << bad << " must throw";
+        } catch (const Error& error) {
+            EXPECT_NE(std::string(error.what()).find("bvh.split_"), std::string::npos) << error.what();
+        }
+    }
+
+    const test::CliResult result =
+        test::runCli("stats gen:sphereflake:20000 --builder sah-split --split-alpha 0 --split-budget 1.5 --json");
+    ASSERT_EQ(result.exitCode, 0) << result.output;
+    const nlohmann::json row = nlohmann::json::parse(result.output);
+    EXPECT_EQ(row.at("builder"), "sah-split");
+    const uint64_t triangles = row.at("triangles").get<uint64_t>();
+    const uint64_t references = row.at("triangle_references").get<uint64_t>();
+    EXPECT_GE(references, triangles);
+    EXPECT_LE(double(references), std::floor(double(triangles) * 1.5));
+    EXPECT_DOUBLE_EQ(row.at("references_per_triangle").get<double>(), double(references) / double(triangles));
+    EXPECT_EQ(row.at("bvh_bytes").get<uint64_t>(), row.at("nodes").get<uint64_t>() * 32 + references * 4);
+    EXPECT_EQ(test::runCli("stats gen:sphereflake:2000 --builder sah-split --split-budget 0.5").exitCode, 2);
+    EXPECT_EQ(test::runCli("stats gen:sphereflake:2000 --builder sah-split --split-alpha 3").exitCode, 2);
 }
