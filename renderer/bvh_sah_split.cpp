@@ -30,6 +30,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_group.h>
 
@@ -47,6 +48,8 @@ namespace {
 // Spatial bins per axis. Measured here (docs/bvh.md): 64 and 128 bins lower Sibenik's SAH cost by
 // 0.4% and 1.0% for 1.6x and 2.2x the build time, and Conference's not at all.
 constexpr uint32_t kSpatialBins = 32;
+// Nodes with more references than this fill their spatial bins in parallel.
+constexpr uint32_t kParallelNodeMinReferences = 65536;
 
 struct Ref {
     Aabb box;
@@ -93,6 +96,41 @@ struct ObjectSplit {
     uint32_t mid = 0;
 };
 
+// A reference's sort key: centroid order, then triangle index (unique within a node).
+struct SortKey {
+    uint64_t key;
+    uint32_t ref;
+};
+
+// LSD radix sort by key, 11 bits a pass, skipping passes whose digit is the same everywhere (the
+// triangle index's high bits, mostly). Checks for cancellation every kCancelCheckInterval keys:
+// std::sort of a million keys ran 0.3 s without a check on the loaded test machine.
+void radixSort(std::vector<SortKey>& keys, BuildProgress* progress) {
+    const size_t n = keys.size();
+    if (n < 256) {
+        std::sort(keys.begin(), keys.end(), [](const SortKey& a, const SortKey& b) { return a.key < b.key; });
+        return;
+    }
+    std::vector<SortKey> spare(n);
+    for (int shift = 0; shift < 64; shift += 11) {
+        std::array<size_t, 2048> offsets{};
+        for (size_t begin = 0; begin < n; begin += kCancelCheckInterval) {
+            throwIfCancelled(progress);
+            const size_t end = std::min(n, begin + kCancelCheckInterval);
+            for (size_t i = begin; i < end; ++i) ++offsets[(keys[i].key >> shift) & 2047];
+        }
+        if (offsets[(keys[0].key >> shift) & 2047] == n) continue;  // one bucket: nothing moves
+        size_t sum = 0;
+        for (size_t& offset : offsets) sum += std::exchange(offset, sum);
+        for (size_t begin = 0; begin < n; begin += kCancelCheckInterval) {
+            throwIfCancelled(progress);
+            const size_t end = std::min(n, begin + kCancelCheckInterval);
+            for (size_t i = begin; i < end; ++i) spare[offsets[(keys[i].key >> shift) & 2047]++] = keys[i];
+        }
+        keys.swap(spare);
+    }
+}
+
 // A float's bits mapped to an unsigned integer of the same order (-0 is +0 after centroidOf).
 uint32_t orderedKey(float value) {
     const uint32_t bits = std::bit_cast<uint32_t>(value);
@@ -103,7 +141,7 @@ uint32_t orderedKey(float value) {
 // overflow the extent nor lose the scale, and so that scaling the input by a power of two scales
 // every plane exactly (the huge/tiny coordinates test builds the same tree).
 struct SpatialAxis {
-    bool active = false;
+    bool active = false;  // false where the node's box is flat on this axis
     double lo = 0.0, extent = 0.0, scale = 0.0;
     uint32_t binOf(float coordinate) const {
         const double position = (double(coordinate) - lo) * scale;
@@ -120,8 +158,15 @@ struct SpatialSplit {
     double weighted = std::numeric_limits<double>::infinity();
 };
 
-float nextDown(float value) { return std::nextafter(value, -std::numeric_limits<float>::infinity()); }
-float nextUp(float value) { return std::nextafter(value, std::numeric_limits<float>::infinity()); }
+// std::nextafter toward ∓infinity for finite values, by the bits (the libm call was 7% of the
+// build); infinities and NaN pass through.
+float nextDown(float value) {
+    if (!std::isfinite(value)) return value;
+    if (value == 0.0f) return -std::numeric_limits<float>::denorm_min();
+    const uint32_t bits = std::bit_cast<uint32_t>(value);
+    return std::bit_cast<float>(value > 0.0f ? bits - 1 : bits + 1);
+}
+float nextUp(float value) { return -nextDown(-value); }
 
 Aabb intersect(const Aabb& a, const Aabb& b) { return {glm::max(a.lo, b.lo), glm::min(a.hi, b.hi)}; }
 
@@ -286,58 +331,62 @@ private:
     // position; the lowest cost wins, ties to the lower axis, then to the lower position.
     ObjectSplit findObjectSplit(const Work& work, const SahMeasure& measure) const {
         const uint32_t total = uint32_t(work.refs.size());
-        struct Key {
-            uint64_t key;  // centroid order, then triangle index
-            uint32_t ref;
+        struct AxisResult {
+            double weighted = std::numeric_limits<double>::infinity();
+            uint32_t mid = 0;
+            std::vector<uint32_t> order;  // reference indices in centroid order
         };
-        std::vector<Key> keys(total);
-        std::vector<double> leftMeasure(total);
-        ObjectSplit best;
-        int bestAxis = -1;
-        std::vector<uint32_t> order(total);
-        for (int axis = 0; axis < 3; ++axis) {
+        std::array<AxisResult, 3> results;
+        auto sweepAxis = [&](int axis) {
             throwIfCancelled(progress_);
+            std::vector<SortKey> keys(total);
             for (uint32_t i = 0; i < total; ++i)
                 keys[i] = {(uint64_t(orderedKey(centroidOf(work.refs[i].box)[axis])) << 32) | work.refs[i].prim, i};
-            std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) { return a.key < b.key; });
+            radixSort(keys, progress_);
+            std::vector<double> leftMeasure(total);
             Aabb box;
             for (uint32_t i = 0; i + 1 < total; ++i) {
+                if (i % kCancelCheckInterval == kCancelCheckInterval - 1) throwIfCancelled(progress_);
                 box.grow(work.refs[keys[i].ref].box);
                 leftMeasure[i] = measure.of(box);
             }
+            AxisResult& result = results[axis];
             box = Aabb{};
-            double axisBest = std::numeric_limits<double>::infinity();
-            uint32_t axisMid = 0;
             for (uint32_t i = total - 1; i >= 1; --i) {  // right child keys[i..), left keys[..i)
+                if (i % kCancelCheckInterval == 0) throwIfCancelled(progress_);
                 box.grow(work.refs[keys[i].ref].box);
                 const double weighted = leftMeasure[i - 1] * double(i) + measure.of(box) * double(total - i);
-                if (weighted <= axisBest) {
-                    axisBest = weighted;
-                    axisMid = i;
+                if (weighted <= result.weighted) {  // <=: ties go to the lower position
+                    result.weighted = weighted;
+                    result.mid = i;
                 }
             }
-            if (axisBest < best.weighted) {
-                best.found = true;
-                best.weighted = axisBest;
-                best.axis = axis;
-                best.mid = axisMid;
-                bestAxis = axis;
-                for (uint32_t i = 0; i < total; ++i) order[i] = keys[i].ref;
-            }
+            result.order.resize(total);
+            for (uint32_t i = 0; i < total; ++i) result.order[i] = keys[i].ref;
+        };
+        if (total > kParallelNodeMinReferences) {
+            tbb::parallel_invoke([&] { sweepAxis(0); }, [&] { sweepAxis(1); }, [&] { sweepAxis(2); });
+            throwIfInterrupted(progress_);
+        } else {
+            for (int axis = 0; axis < 3; ++axis) sweepAxis(axis);
         }
-        if (bestAxis < 0) return best;
-        best.order = std::move(order);
+        ObjectSplit best;
+        for (int axis = 0; axis < 3; ++axis) {  // strict <: ties go to the lower axis
+            if (!(results[axis].weighted < best.weighted)) continue;
+            best.found = true;
+            best.weighted = results[axis].weighted;
+            best.axis = axis;
+            best.mid = results[axis].mid;
+        }
+        if (!best.found) return best;
+        best.order = std::move(results[best.axis].order);
         for (uint32_t i = 0; i < total; ++i)
             (i < best.mid ? best.leftBox : best.rightBox).grow(work.refs[best.order[i]].box);
         return best;
     }
 
-    // The part of `ref`'s triangle inside the reference's box: the triangle clipped against the
-    // box's six planes (Sutherland-Hodgman, in double). Clipping by the box, not only by the split
-    // plane, keeps a reference split on several axes tight (Stich et al. 2009, 4.2: "the bounding
-    // box of the clipped triangle").
-    Polygon clippedTriangle(const Ref& ref) const {
-        const glm::uvec3 corners = triangles_->triangles[ref.prim];
+    Polygon wholeTriangle(uint32_t prim) const {
+        const glm::uvec3 corners = triangles_->triangles[prim];
         Polygon polygon;
         polygon.count = 3;
         polygon.scale = 0.0;
@@ -345,6 +394,11 @@ private:
             polygon.v[c] = glm::dvec3(triangles_->positions[corners[c]]);
             for (int k = 0; k < 3; ++k) polygon.scale = std::max(polygon.scale, std::abs(polygon.v[c][k]));
         }
+        return polygon;
+    }
+
+    Polygon clippedTriangle(const Ref& ref) const {
+        Polygon polygon = wholeTriangle(ref.prim);
         for (int axis = 0; axis < 3; ++axis) {
             Polygon below, above;
             splitPolygon(polygon, axis, double(ref.box.lo[axis]), below, above);
@@ -397,52 +451,134 @@ private:
         right = partBox(above, ref, axis, plane, false);
     }
 
-    SpatialSplit findSpatialSplit(const Work& work, const SahMeasure& measure) const {
-        const uint32_t total = uint32_t(work.refs.size());
-        SpatialSplit best;
+    // The spatial bins of all three axes of one node: per bin the box of the reference parts in it
+    // and the references entering and leaving there. Filling is exact (integer counts, min/max),
+    // so a large node's bins filled by a parallel reduction equal the serial ones.
+    struct SpatialBins {
         struct Bin {
             Aabb box;
             uint32_t entries = 0, exits = 0;
         };
+        std::array<SpatialAxis, 3> axes;
+        std::array<std::array<Bin, kSpatialBins>, 3> bins;
+        void merge(const SpatialBins& other) {
+            for (int axis = 0; axis < 3; ++axis)
+                for (uint32_t b = 0; b < kSpatialBins; ++b) {
+                    bins[axis][b].box.grow(other.bins[axis][b].box);
+                    bins[axis][b].entries += other.bins[axis][b].entries;
+                    bins[axis][b].exits += other.bins[axis][b].exits;
+                }
+        }
+    };
+
+    void fillSpatialBins(const Work& work, uint32_t begin, uint32_t end, SpatialBins& grid) const {
+        Polygon clipped, scratch[3];
+        for (uint32_t i = begin; i < end; ++i) {
+            // Every 1024: a reference crossing many planes costs a hundred clips.
+            if ((i - begin) % 1024 == 1023) throwIfCancelled(progress_);
+            const Ref& ref = work.refs[i];
+            std::array<uint32_t, 3> firstBin{}, lastBin{};
+            bool straddles = false;
+            for (int axis = 0; axis < 3; ++axis) {
+                if (!grid.axes[axis].active) continue;
+                firstBin[axis] = grid.axes[axis].binOf(ref.box.lo[axis]);
+                lastBin[axis] = grid.axes[axis].binOf(ref.box.hi[axis]);
+                ++grid.bins[axis][firstBin[axis]].entries;
+                ++grid.bins[axis][lastBin[axis]].exits;
+                if (firstBin[axis] == lastBin[axis])
+                    grid.bins[axis][firstBin[axis]].box.grow(ref.box);
+                else
+                    straddles = true;
+            }
+            if (!straddles) continue;
+            // The triangle clipped to the reference's box once, for all three axes (a reference
+            // never split is its whole triangle: no clipping needed).
+            if (triangles_) {
+                const Aabb& whole = bounds_[ref.prim];
+                clipped = ref.box.contains(whole) ? wholeTriangle(ref.prim) : clippedTriangle(ref);
+            }
+            for (int axis = 0; axis < 3; ++axis) {
+                if (!grid.axes[axis].active || firstBin[axis] == lastBin[axis]) continue;
+                auto& bins = grid.bins[axis];
+                Ref rest = ref;
+                if (!triangles_) {
+                    // Chopped boxes: each bin gets the reference's box within its slab.
+                    for (uint32_t b = firstBin[axis]; b < lastBin[axis]; ++b) {
+                        Aabb leftPart, rightPart;
+                        splitReference(rest, axis, grid.axes[axis].plane(b + 1), leftPart, rightPart);
+                        if (!leftPart.empty()) bins[b].box.grow(leftPart);
+                        if (rightPart.empty()) break;
+                        rest.box = rightPart;
+                        if (b + 1 == lastBin[axis]) bins[lastBin[axis]].box.grow(rest.box);
+                    }
+                    continue;
+                }
+                // Clip against each plane the reference crosses; each part enters its bin. The
+                // remainder alternates between scratch polygons; `clipped` stays for the next axis.
+                const Polygon* remaining = &clipped;
+                int current = -1;
+                for (uint32_t b = firstBin[axis]; b < lastBin[axis] && remaining->count > 0; ++b) {
+                    const float plane = grid.axes[axis].plane(b + 1);
+                    const int belowIndex = (current + 1) % 3, aboveIndex = (current + 2) % 3;
+                    Polygon& below = scratch[belowIndex];
+                    Polygon& above = scratch[aboveIndex];
+                    splitPolygon(*remaining, axis, double(plane), below, above);
+                    const Aabb part = partBox(below, rest, axis, plane, true);
+                    if (!part.empty()) bins[b].box.grow(part);
+                    rest.box.lo[axis] = std::max(rest.box.lo[axis], plane);
+                    remaining = &above;
+                    current = aboveIndex;
+                }
+                const Aabb last = partBox(*remaining, rest, axis, rest.box.lo[axis], false);
+                if (!last.empty()) bins[lastBin[axis]].box.grow(last);
+            }
+        }
+    }
+
+    // Parallel filling of a large node's spatial bins (tbb::parallel_reduce's splitting body).
+    struct SpatialFiller {
+        const SahSplitBuilder& builder;
+        const Work& work;
+        std::unique_ptr<SpatialBins> grid;
+        SpatialFiller(const SahSplitBuilder& b, const Work& w, const SpatialBins& empty)
+            : builder(b), work(w), grid(std::make_unique<SpatialBins>(empty)) {}
+        SpatialFiller(SpatialFiller& other, tbb::split)
+            : builder(other.builder), work(other.work), grid(std::make_unique<SpatialBins>()) {
+            grid->axes = other.grid->axes;
+        }
+        void operator()(const tbb::blocked_range<uint32_t>& range) {
+            builder.fillSpatialBins(work, range.begin(), range.end(), *grid);
+        }
+        void join(const SpatialFiller& other) { grid->merge(*other.grid); }
+    };
+
+    SpatialSplit findSpatialSplit(const Work& work, const SahMeasure& measure) const {
+        const uint32_t total = uint32_t(work.refs.size());
+        auto grid = std::make_unique<SpatialBins>();
+        bool anyAxis = false;
         for (int axis = 0; axis < 3; ++axis) {
-            SpatialAxis binning;
+            SpatialAxis& binning = grid->axes[axis];
             binning.lo = double(work.box.lo[axis]);
             binning.extent = double(work.box.hi[axis]) - binning.lo;
-            if (!(binning.extent > 0.0)) continue;
-            binning.scale = double(kSpatialBins) / binning.extent;
-            std::array<Bin, kSpatialBins> bins;
-            for (uint32_t i = 0; i < total; ++i) {
-                if (i % kCancelCheckInterval == kCancelCheckInterval - 1) throwIfCancelled(progress_);
-                Ref ref = work.refs[i];
-                const uint32_t firstBin = binning.binOf(ref.box.lo[axis]);
-                const uint32_t lastBin = binning.binOf(ref.box.hi[axis]);
-                ++bins[firstBin].entries;
-                ++bins[lastBin].exits;
-                // Clip the reference against each plane it crosses; each part enters its bin.
-                if (firstBin < lastBin && triangles_) {
-                    Polygon rest = clippedTriangle(ref);
-                    for (uint32_t b = firstBin; b < lastBin && rest.count > 0; ++b) {
-                        const float plane = binning.plane(b + 1);
-                        Polygon below, above;
-                        splitPolygon(rest, axis, double(plane), below, above);
-                        const Aabb part = partBox(below, ref, axis, plane, true);
-                        if (!part.empty()) bins[b].box.grow(part);
-                        rest = above;
-                        ref.box.lo[axis] = std::max(ref.box.lo[axis], plane);
-                    }
-                    const Aabb last = partBox(rest, ref, axis, ref.box.lo[axis], false);
-                    if (!last.empty()) bins[lastBin].box.grow(last);
-                }
-                for (uint32_t b = firstBin; b < lastBin && !triangles_; ++b) {
-                    Aabb leftPart, rightPart;
-                    splitReference(ref, axis, binning.plane(b + 1), leftPart, rightPart);
-                    if (!leftPart.empty()) bins[b].box.grow(leftPart);
-                    if (rightPart.empty()) break;
-                    ref.box = rightPart;
-                    if (b + 1 == lastBin) bins[lastBin].box.grow(ref.box);
-                }
-                if (firstBin == lastBin) bins[firstBin].box.grow(ref.box);
-            }
+            binning.active = binning.extent > 0.0;
+            binning.scale = binning.active ? double(kSpatialBins) / binning.extent : 0.0;
+            anyAxis = anyAxis || binning.active;
+        }
+        if (!anyAxis) return {};
+        if (total > kParallelNodeMinReferences) {
+            SpatialFiller filler(*this, work, *grid);
+            tbb::parallel_reduce(tbb::blocked_range<uint32_t>(0, total, kCancelCheckInterval), filler);
+            throwIfInterrupted(progress_);
+            grid = std::move(filler.grid);
+        } else {
+            fillSpatialBins(work, 0, total, *grid);
+        }
+
+        SpatialSplit best;
+        for (int axis = 0; axis < 3; ++axis) {
+            const SpatialAxis& binning = grid->axes[axis];
+            if (!binning.active) continue;
+            const auto& bins = grid->bins[axis];
             std::array<double, kSpatialBins> leftMeasure;
             std::array<uint32_t, kSpatialBins> leftCount;
             Aabb box;
@@ -476,7 +612,6 @@ private:
         return best;
     }
 
-    // Splits the budget left after a split between the children, in proportion to their sizes.
     // Shares the budget left after a split between the children in proportion to the summed
     // surface areas of their references: large triangles, not many small ones, are what spatial
     // splits cut, and sharing by reference count left a fifth of the budget unused in subtrees of
