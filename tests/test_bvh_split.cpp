@@ -626,3 +626,35 @@ TEST(BvhSplit, OptionsInSettingsJsonAndCli) {
     EXPECT_EQ(test::runCli("stats gen:sphereflake:2000 --builder sah-split --split-budget 0.5").exitCode, 2);
     EXPECT_EQ(test::runCli("stats gen:sphereflake:2000 --builder sah-split --split-alpha 3").exitCode, 2);
 }
+
+// With a budget of 1 no reference can be split, and the object splits are sah-exact's (every
+// centroid, ties by triangle index, the same cost and tie rules): the very tree of sah-exact, each
+// leaf listing the same triangles (in file order here, in x-centroid order there).
+TEST(BvhSplit, BudgetOneIsTheExactTree) {
+    for (uint32_t leafSize : {1u, 3u}) {
+        const Scene scene = randomSoup(4000, 21 + leafSize);
+        BvhBuildOptions exactOptions;
+        exactOptions.leafSize = leafSize;
+        const Bvh exact = buildBvh(scene, exactOptions);
+        const Bvh split = buildBvh(scene, splitOptions(leafSize, 1e-5f, 1.0f));
+        ASSERT_EQ(split.nodes.size(), exact.nodes.size());
+        for (size_t i = 0; i < split.nodes.size(); ++i) {
+            const BvhNode& a = split.nodes[i];
+            const BvhNode& b = exact.nodes[i];
+            ASSERT_EQ(a.lo, b.lo) << "node " << i;
+            ASSERT_EQ(a.hi, b.hi) << "node " << i;
+            ASSERT_EQ(a.count, b.count) << "node " << i;
+            if (a.isLeaf()) {
+                std::vector<uint32_t> x(split.primIndices.begin() + a.index,
+                                        split.primIndices.begin() + a.index + a.count);
+                std::vector<uint32_t> y(exact.primIndices.begin() + b.index,
+                                        exact.primIndices.begin() + b.index + b.count);
+                std::sort(y.begin(), y.end());
+                ASSERT_EQ(x, y) << "leaf " << i;
+            } else {
+                ASSERT_EQ(a.index, b.index) << "node " << i;
+            }
+        }
+        EXPECT_EQ(split.stats.sahCost, exact.stats.sahCost);
+    }
+}
