@@ -206,6 +206,10 @@ BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
             bestT = t;
         }
     }
+    // The distance the tracers report for the kept hit: its plane distance (accurate t, issue 15).
+    if (best.prim != gpu::kNoHit)
+        best.t = gpu::accurateHitDistance(org, dir, scene.vertex(best.prim, 0), scene.vertex(best.prim, 1),
+                                          scene.vertex(best.prim, 2), best.t);
     return best;
 }
 
