@@ -206,10 +206,17 @@ BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
             bestT = t;
         }
     }
-    // The distance the tracers report for the kept hit: its plane distance (accurate t, issue 15).
-    if (best.prim != gpu::kNoHit)
-        best.t = gpu::accurateHitDistance(org, dir, scene.vertex(best.prim, 0), scene.vertex(best.prim, 1),
-                                          scene.vertex(best.prim, 2), best.t);
+    // The distance the tracers report for the kept hit: the test's t, or where the test calls it
+    // inexact the plane distance (accurate t, issue 15).
+    if (best.prim != gpu::kNoHit) {
+        const glm::vec3 v0 = scene.vertex(best.prim, 0), v1 = scene.vertex(best.prim, 1),
+                        v2 = scene.vertex(best.prim, 2);
+        float ownT;
+        glm::vec2 bary;
+        bool inexactT = false;
+        gpu::intersectTriangle(ray, v0, v1, v2, kRayTmaxInfinite, ownT, bary, inexactT);
+        if (inexactT) best.t = gpu::accurateHitDistance(org, dir, v0, v1, v2, best.t);
+    }
     return best;
 }
 
