@@ -478,7 +478,7 @@ TEST(BvhSplit, ZeroOneAndTwoTriangles) {
         BuildProgress progress;
         const Bvh bvh = buildBvh(scene, splitOptions(), &progress);
         expectValidSplitTree(bvh, scene, splitOptions());
-        EXPECT_EQ(progress.placed.load(), count);
+        EXPECT_EQ(progress.done.load(), count);
         if (count == 0) {
             EXPECT_EQ(bvh.stats.sahCost, 0.0);
         }
@@ -556,7 +556,7 @@ TEST(BvhSplit, ProgressAndCancellation) {
     const Bvh bvh = buildBvh(scene, splitOptions(), &progress);
     EXPECT_GT(bvh.primIndices.size(), scene.triangleCount());
     EXPECT_EQ(progress.total.load(), scene.triangleCount());
-    EXPECT_EQ(progress.placed.load(), scene.triangleCount()) << "one primary reference per triangle";
+    EXPECT_EQ(progress.done.load(), scene.triangleCount()) << "one primary reference per triangle";
 
     BuildProgress before;
     before.cancel = true;
