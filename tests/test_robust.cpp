@@ -4,6 +4,7 @@
 // memory or loaded wrong data.
 #include "renderer/bvh.h"
 #include "renderer/camera.h"
+#include "renderer/cpu_packet_tracer.h"
 #include "renderer/cpu_tracer.h"
 #include "renderer/error.h"
 #include "renderer/image.h"
@@ -11,6 +12,7 @@
 #include "scenes/load.h"
 
 #include "cli_runner.h"
+#include "eye_on_face.h"
 
 #include <gtest/gtest.h>
 
@@ -445,6 +447,49 @@ TEST(RobustBvh, CoincidentTrianglesTheSahWillNotSplitMakeLeavesOfAtMostTheMaximu
         EXPECT_EQ(hit.prim, 0u) << toString(builder);
         EXPECT_FLOAT_EQ(hit.t, 1.0f) << toString(builder);
     }
+}
+
+// ---- 12. An eye placed exactly on a face: a hit counts only at t > 0 (shaders/intersect.h).
+// Before the fix every ray hit the eye's face at t = 0 or -0 and saw nothing beyond it.
+TEST(RobustTracing, EyeOnAFaceSeesWhatLiesBeyondOnTheCpuTracers) {
+    const Scene scene = raypack::test::eyeOnFaceScene();
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    const CpuSceneView view = makeCpuSceneView(scene, bvh);
+    std::vector<CpuSimd> widths{CpuSimd::Scalar};
+    if (cpuSimdSupported() != CpuSimd::Scalar) widths.push_back(CpuSimd::Sse41);
+    if (cpuSimdSupported() == CpuSimd::Avx2) widths.push_back(CpuSimd::Avx2);
+    for (const raypack::test::EyeOnFaceView& eye : raypack::test::eyeOnFaceViews()) {
+        RenderSettings settings;
+        settings.width = 24;  // packets of 16 x 16 are cut at the border: padding lanes too
+        settings.height = 20;
+        settings.camera = eye.camera;
+        settings.packet = kDefaultCpuPacket;
+        const FrameRequest request{true, true, false};
+        const Frame reference = renderCpu(view, settings, request);
+        raypack::test::expectSeesBeyondTheFace(reference, eye, "CPU reference");
+        for (const CpuSimd simd : widths) {
+            const std::string what = std::string("CPU packets ") + toString(simd);
+            const Frame packets = renderCpuPackets(view, settings, request, simd);
+            raypack::test::expectSeesBeyondTheFace(packets, eye, what);
+            raypack::test::expectSameHits(packets, reference, 0.0f, what);
+        }
+    }
+}
+
+TEST(RobustTracing, RayLeavingAFaceIsNotBlockedByIt) {
+    // A ray from a point on the face (a shadow ray leaving a surface) along either normal: the face
+    // is no hit and no occluder, the wall behind it is.
+    const Scene scene = raypack::test::eyeOnFaceScene();
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    const CpuSceneView view = makeCpuSceneView(scene, bvh);
+    for (const glm::vec3 origin : {glm::vec3(0.0f), glm::vec3(0.5f, -0.25f, 0.0f), glm::vec3(1.0f, 1.0f, 0.0f)})
+        for (const float z : {1.0f, -1.0f}) {
+            const ClosestHit hit = traceClosestHit(view, origin, glm::vec3(0.0f, 0.0f, z));
+            EXPECT_EQ(hit.prim / 2, z > 0 ? 1u : 2u) << origin.x << "," << origin.y << " towards z " << z;
+            EXPECT_EQ(hit.t, 5.0f);
+            EXPECT_FALSE(traceOccluded(view, origin, glm::vec3(0.0f, 0.0f, z), 4.0f));
+            EXPECT_TRUE(traceOccluded(view, origin, glm::vec3(0.0f, 0.0f, z), 6.0f));
+        }
 }
 
 // ---- Through the CLI: exit code 2 and one line naming the file.
