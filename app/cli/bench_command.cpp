@@ -3,7 +3,6 @@
 // packet shape; GPU single-ray kernel), each with untimed warm-up runs (one counting N_TR / N_IT, then 0.3 s of frames
 // back to back on a GPU) and N timed runs, written as one JSON record per cell and ray kind (primary, shadow) with the
 // machine and the date.
-#include "app/cli/arguments.h"
 #include "app/cli/bench_suites.h"
 #include "app/cli/commands.h"
 #include "app/cli/embree_peer.h"
@@ -11,6 +10,7 @@
 #include "app/cli/tracing.h"
 #include "renderer/error.h"
 #include "renderer/settings_json.h"
+#include "renderer/settings_text.h"
 #include "renderer/vk/rt_peer.h"
 
 #include <sys/utsname.h>
