@@ -218,6 +218,41 @@ EmbreeRate timePasses(uint64_t rays, uint32_t repeats, Pass pass) {
     return {rays, spreadOf(seconds)};
 }
 
+// Primary rays of the tile [x0, x1) x [y0, y1) in packets of `Lanes` rays, 4 pixels wide and
+// `Rows` high (lanes outside the tile are invalid), traced by `intersect` (rtcIntersect8/16).
+template <typename Packet, int Lanes, uint32_t Rows, typename Intersect>
+void intersectPackets(RTCScene scene, const Rays& rays, uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1,
+                      Intersect intersect) {
+    static_assert(Lanes == 4 * int(Rows));
+    RTCIntersectContext context;
+    rtcInitIntersectContext(&context);
+    alignas(64) Packet packet;
+    alignas(64) int valid[Lanes];
+    for (uint32_t py = y0; py < y1; py += Rows)
+        for (uint32_t px = x0; px < x1; px += 4) {
+            for (int lane = 0; lane < Lanes; ++lane) {
+                const uint32_t x = px + lane % 4, y = py + lane / 4;
+                valid[lane] = (x < x1 && y < y1) ? -1 : 0;
+                const glm::vec3 d = valid[lane] ? rays.direction(x, y) : glm::vec3(0, 0, 1);
+                packet.ray.org_x[lane] = rays.eye.x;
+                packet.ray.org_y[lane] = rays.eye.y;
+                packet.ray.org_z[lane] = rays.eye.z;
+                packet.ray.dir_x[lane] = d.x;
+                packet.ray.dir_y[lane] = d.y;
+                packet.ray.dir_z[lane] = d.z;
+                packet.ray.tnear[lane] = 0.0f;
+                packet.ray.tfar[lane] = std::numeric_limits<float>::infinity();
+                packet.ray.time[lane] = 0.0f;
+                packet.ray.mask[lane] = 0xFFFFFFFFu;
+                packet.ray.id[lane] = 0;
+                packet.ray.flags[lane] = 0;
+                packet.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
+                packet.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
+            }
+            intersect(valid, scene, &context, &packet);
+        }
+}
+
 // Embree's hits as HitRecords (as the reference fills them), for the comparison and for frames.
 // `shadowed`: per pixel whether the shadow ray was occluded; nullptr when shadows are off.
 std::vector<HitRecord> hitRecords(const Rays& rays, const std::vector<PrimaryHit>& primary,
@@ -262,36 +297,10 @@ EmbreeQualityResults measureQuality(RTCDevice device, const EmbreeScene& embree,
         });
     });
 
+    // Packets of 4x2 pixels, the shape of an AVX2 8-wide packet over the tile.
     result.intersect8 = timePasses(pixels, repeats, [&] {
         return timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
-            RTCIntersectContext context;
-            rtcInitIntersectContext(&context);
-            alignas(32) RTCRayHit8 packet;
-            alignas(32) int valid[8];
-            // Packets of 4x2 pixels, the shape of an AVX2 8-wide packet over the tile.
-            for (uint32_t py = y0; py < y1; py += 2)
-                for (uint32_t px = x0; px < x1; px += 4) {
-                    for (int lane = 0; lane < 8; ++lane) {
-                        const uint32_t x = px + lane % 4, y = py + lane / 4;
-                        valid[lane] = (x < x1 && y < y1) ? -1 : 0;
-                        const glm::vec3 d = valid[lane] ? rays.direction(x, y) : glm::vec3(0, 0, 1);
-                        packet.ray.org_x[lane] = rays.eye.x;
-                        packet.ray.org_y[lane] = rays.eye.y;
-                        packet.ray.org_z[lane] = rays.eye.z;
-                        packet.ray.dir_x[lane] = d.x;
-                        packet.ray.dir_y[lane] = d.y;
-                        packet.ray.dir_z[lane] = d.z;
-                        packet.ray.tnear[lane] = 0.0f;
-                        packet.ray.tfar[lane] = std::numeric_limits<float>::infinity();
-                        packet.ray.time[lane] = 0.0f;
-                        packet.ray.mask[lane] = 0xFFFFFFFFu;
-                        packet.ray.id[lane] = 0;
-                        packet.ray.flags[lane] = 0;
-                        packet.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
-                        packet.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
-                    }
-                    rtcIntersect8(valid, embree.scene, &context, &packet);
-                }
+            intersectPackets<RTCRayHit8, 8, 2>(embree.scene, rays, x0, y0, x1, y1, rtcIntersect8);
         });
     });
 
@@ -301,36 +310,10 @@ EmbreeQualityResults measureQuality(RTCDevice device, const EmbreeScene& embree,
     result.intersect16Native = rtcGetDeviceProperty(device, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0;
     rtcGetDeviceError(device);  // clears any earlier error
     {
+        // Packets of 4x4 pixels over the tile.
         result.intersect16 = timePasses(pixels, repeats, [&] {
             return timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
-                RTCIntersectContext context;
-                rtcInitIntersectContext(&context);
-                alignas(64) RTCRayHit16 packet;
-                alignas(64) int valid[16];
-                // Packets of 4x4 pixels over the tile.
-                for (uint32_t py = y0; py < y1; py += 4)
-                    for (uint32_t px = x0; px < x1; px += 4) {
-                        for (int lane = 0; lane < 16; ++lane) {
-                            const uint32_t x = px + lane % 4, y = py + lane / 4;
-                            valid[lane] = (x < x1 && y < y1) ? -1 : 0;
-                            const glm::vec3 d = valid[lane] ? rays.direction(x, y) : glm::vec3(0, 0, 1);
-                            packet.ray.org_x[lane] = rays.eye.x;
-                            packet.ray.org_y[lane] = rays.eye.y;
-                            packet.ray.org_z[lane] = rays.eye.z;
-                            packet.ray.dir_x[lane] = d.x;
-                            packet.ray.dir_y[lane] = d.y;
-                            packet.ray.dir_z[lane] = d.z;
-                            packet.ray.tnear[lane] = 0.0f;
-                            packet.ray.tfar[lane] = std::numeric_limits<float>::infinity();
-                            packet.ray.time[lane] = 0.0f;
-                            packet.ray.mask[lane] = 0xFFFFFFFFu;
-                            packet.ray.id[lane] = 0;
-                            packet.ray.flags[lane] = 0;
-                            packet.hit.geomID[lane] = RTC_INVALID_GEOMETRY_ID;
-                            packet.hit.instID[0][lane] = RTC_INVALID_GEOMETRY_ID;
-                        }
-                        rtcIntersect16(valid, embree.scene, &context, &packet);
-                    }
+                intersectPackets<RTCRayHit16, 16, 4>(embree.scene, rays, x0, y0, x1, y1, rtcIntersect16);
             });
         });
         if (rtcGetDeviceError(device) != RTC_ERROR_NONE) result.intersect16 = {};
