@@ -229,10 +229,16 @@ const char* toString(BvhBuilder builder) {
     return "unknown";
 }
 
+std::optional<BvhBuilder> findBvhBuilder(std::string_view name) {
+    for (BvhBuilder builder : kAllBvhBuilders)
+        if (name == toString(builder)) return builder;
+    return std::nullopt;
+}
+
 BvhBuilder parseBvhBuilder(std::string_view name) {
+    if (const std::optional<BvhBuilder> builder = findBvhBuilder(name)) return *builder;
     std::string valid;
     for (BvhBuilder builder : kAllBvhBuilders) {
-        if (name == toString(builder)) return builder;
         valid += valid.empty() ? "" : ", ";
         valid += toString(builder);
     }

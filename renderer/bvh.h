@@ -5,6 +5,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -97,6 +98,8 @@ BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options);
 
 // "sah-exact", "sah-binned".
 const char* toString(BvhBuilder builder);
+// The builder whose toString is `name`, or nothing.
+std::optional<BvhBuilder> findBvhBuilder(std::string_view name);
 // The builder whose toString is `name`; throws raypack::Error listing the valid names otherwise.
 BvhBuilder parseBvhBuilder(std::string_view name);
 

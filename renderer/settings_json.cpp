@@ -1,6 +1,7 @@
 #include "renderer/settings_json.h"
 
 #include "renderer/progressive.h"
+#include "renderer/settings_text.h"
 
 #include "renderer/error.h"
 
@@ -88,13 +89,6 @@ void requireObject(const json& json, const char* what) {
         throw Error(std::string("settings JSON: the ") + what + " must be a JSON object, got " + json.type_name());
 }
 
-// The builder whose toString is `name`.
-std::optional<BvhBuilder> builderFromName(const std::string& name) {
-    for (BvhBuilder b : kAllBvhBuilders)
-        if (name == toString(b)) return b;
-    return std::nullopt;
-}
-
 // nlohmann's messages quote the text last read, which may be long or hold a newline.
 std::string oneLine(std::string text) {
     for (char& c : text)
@@ -104,30 +98,6 @@ std::string oneLine(std::string text) {
 }
 
 }  // namespace
-
-const char* jsonName(KernelKind kind) { return kind == KernelKind::Packet ? "packet" : "single"; }
-
-const char* jsonName(ViewMode mode) {
-    switch (mode) {
-    case ViewMode::Shaded: return "shaded";
-    case ViewMode::HeatTraversal: return "nodes";
-    case ViewMode::HeatIntersections: return "tests";
-    }
-    return "shaded";
-}
-
-std::optional<KernelKind> parseKernelKind(const std::string& name) {
-    if (name == "packet") return KernelKind::Packet;
-    if (name == "single") return KernelKind::Single;
-    return std::nullopt;
-}
-
-std::optional<ViewMode> parseViewMode(const std::string& name) {
-    if (name == "shaded") return ViewMode::Shaded;
-    if (name == "nodes") return ViewMode::HeatTraversal;
-    if (name == "tests") return ViewMode::HeatIntersections;
-    return std::nullopt;
-}
 
 nlohmann::json toJson(const RenderSettings& s) {
     json j;
@@ -144,10 +114,10 @@ nlohmann::json toJson(const RenderSettings& s) {
                   {"specular", s.phong.specular},
                   {"shininess", s.phong.shininess}};
     j["background"] = toJson(s.background);
-    j["kernel"] = jsonName(s.kernel);
+    j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["collect_counters"] = s.collectCounters;
-    j["view"] = jsonName(s.view);
+    j["view"] = toString(s.view);
     j["heat_full_scale"] = s.heatFullScale;
     return j;
 }
@@ -223,7 +193,7 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     requireObject(j, "bvh options");
     BvhBuildOptions o;
     if (const std::string builder = readString(j, "builder", "bvh."); !builder.empty()) {
-        const auto parsed = builderFromName(builder);
+        const auto parsed = findBvhBuilder(builder);
         if (!parsed) badKey("bvh.builder", "names no known builder: \"" + builder + "\"");
         o.builder = *parsed;
     }

@@ -61,10 +61,4 @@ nlohmann::json readJsonFile(const std::string& path);
 // Writes `json` indented; throws raypack::Error naming the file when it cannot be written.
 void writeJsonFile(const std::string& path, const nlohmann::json& json);
 
-// Names used in the JSON and on the command line: "packet"/"single"; "shaded"/"nodes"/"tests".
-std::optional<KernelKind> parseKernelKind(const std::string& name);
-std::optional<ViewMode> parseViewMode(const std::string& name);
-const char* jsonName(KernelKind kind);
-const char* jsonName(ViewMode mode);
-
 }  // namespace raypack

@@ -15,6 +15,8 @@
 #include "ui/panel.h"
 #include "ui/pointer.h"
 #include "ui/recent_files.h"
+#include "ui/run_statistics.h"
+#include "ui/script.h"
 #include "ui/viewer_config.h"
 
 #include <gtest/gtest.h>
@@ -757,5 +759,143 @@ TEST_F(HeadlessImGui, TheUiScaleScalesFontsAndSizesWithoutCompounding) {
     EXPECT_EQ(ImGui::GetStyle().WindowPadding.x, padding);
 }
 
+// ---- Script steps (ui/script.h): parsed and checked at start, applied as the panel would.
+
+std::string scriptError(const std::string& text) {
+    try {
+        ui::parseScriptStep(text);
+    } catch (const Error& e) {
+        return e.what();
+    }
+    return "";
+}
+
+TEST(ScriptSteps, EveryActionParsesWithItsValue) {
+    const ui::ScriptStep packet = ui::parseScriptStep("12:packet:5x6");
+    EXPECT_EQ(packet.frame, 12u);
+    EXPECT_EQ(packet.action, ui::ScriptAction::Packet);
+    EXPECT_EQ(packet.shape, (PacketShape{5, 6}));
+    EXPECT_EQ(ui::parseScriptStep("3:move:0.5,0,-1").move, glm::vec3(0.5f, 0.0f, -1.0f));
+    EXPECT_EQ(ui::parseScriptStep("3:look:40,-10").look, glm::vec2(40.0f, -10.0f));
+    EXPECT_EQ(ui::parseScriptStep("0:builder:sah-binned").builder, BvhBuilder::SahBinned);
+    EXPECT_EQ(ui::parseScriptStep("0:view:nodes").view, ViewMode::HeatTraversal);
+    EXPECT_EQ(ui::parseScriptStep("0:tracer:cpu-packet").tracer, ui::TracerChoice::CpuPacket);
+    EXPECT_FALSE(ui::parseScriptStep("0:side-by-side:off").on);
+    EXPECT_EQ(ui::parseScriptStep("1:open:/a:b.ply").value, "/a:b.ply") << "a value may hold colons";
+    EXPECT_EQ(ui::parseScriptStep("2:wait").action, ui::ScriptAction::Wait);
+    for (const char* name : {"resize",   "packet",        "leaf-size",         "builder", "shadows",
+                             "kernel",   "tracer",        "side-by-side",      "view",    "open",
+                             "wait",     "screenshot",    "window-screenshot", "move",    "look",
+                             "bookmark", "save-bookmark", "frame-all",         "scale",   "samples",
+                             "budget"}) {
+        const std::string text = std::string("0:") + name;
+        // Each action is known: a missing value is the only complaint, or none.
+        EXPECT_EQ(scriptError(text).find("unknown action"), std::string::npos) << text;
+    }
+}
+
+TEST(ScriptSteps, AMalformedStepIsRefusedWithTheStepAndTheReason) {
+    // The viewer used to accept "-1x4" (sscanf's %u) and found other mistakes only at the step's frame.
+    EXPECT_EQ(scriptError("3:packet:-1x4").rfind("script step \"3:packet:-1x4\": packet: \"-1x4\" is not", 0), 0u)
+        << scriptError("3:packet:-1x4");
+    EXPECT_NE(scriptError("3:leaf-size:0"), "");
+    EXPECT_NE(scriptError("3:shadows:maybe"), "");
+    EXPECT_NE(scriptError("3:kernel:fast"), "");
+    EXPECT_NE(scriptError("3:tracer:embree"), "");
+    EXPECT_NE(scriptError("3:bookmark:10"), "");
+    EXPECT_NE(scriptError("3:scale:65"), "");
+    EXPECT_NE(scriptError("3:move:1,2"), "");
+    EXPECT_NE(scriptError("3:open"), "");
+    EXPECT_NE(scriptError("3:wait:now"), "");
+    EXPECT_NE(scriptError("-3:wait"), "");
+    EXPECT_NE(scriptError("99999999999:wait"), "");
+    EXPECT_NE(scriptError("3"), "");
+    EXPECT_NE(scriptError("3:"), "");
+    EXPECT_NE(scriptError("3:jump").find("unknown action \"jump\""), std::string::npos) << scriptError("3:jump");
+}
+
+TEST(ScriptSteps, StepsEditThePanelAndSetItsActionsAsItsControlsWould) {
+    ui::PanelState panel;
+    panel.tracer = ui::TracerChoice::VulkanPacket;
+    ui::PanelActions actions;
+    ui::ScriptEffects effects;
+    for (const char* text :
+         {"0:leaf-size:4", "0:packet:5x6", "0:shadows:off", "0:view:tests", "0:samples:8", "0:budget:50",
+          "0:bookmark:2", "0:save-bookmark:3", "0:frame-all", "0:kernel:single", "0:move:0.1,0,0", "0:move:0.1,0.2,0",
+          "0:look:4,5", "0:scale:4", "0:open:x.ply", "0:wait", "0:screenshot:a.png", "0:side-by-side:cpu-reference"})
+        ui::applyScriptStep(ui::parseScriptStep(text), panel, actions, effects);
+    EXPECT_EQ(panel.bvh.leafSize, 4u);
+    EXPECT_TRUE(actions.rebuild);
+    EXPECT_EQ(panel.settings.packet, (PacketShape{5, 6}));
+    EXPECT_FALSE(panel.settings.shadows);
+    EXPECT_EQ(panel.settings.view, ViewMode::HeatIntersections);
+    EXPECT_EQ(panel.frameLoop.samples, 8u);
+    EXPECT_EQ(panel.frameLoop.frameBudgetMs, 50.0f);
+    EXPECT_EQ(actions.recallBookmark, 2);
+    EXPECT_EQ(actions.saveBookmark, 3);
+    EXPECT_TRUE(actions.frameAll);
+    EXPECT_EQ(panel.settings.kernel, KernelKind::Single);
+    EXPECT_EQ(effects.tracer, ui::TracerChoice::VulkanSingle) << "a Vulkan tracer follows the kernel";
+    EXPECT_EQ(effects.input.heldSeconds, glm::vec3(0.2f, 0.2f, 0.0f)) << "moves of one frame add up";
+    EXPECT_EQ(effects.input.lookPixels, glm::vec2(4.0f, 5.0f));
+    EXPECT_EQ(effects.scale, 4u);
+    EXPECT_EQ(effects.open, "x.ply");
+    EXPECT_TRUE(effects.wait);
+    EXPECT_EQ(effects.screenshot, "a.png");
+    EXPECT_EQ(effects.sideBySide, ui::TracerChoice::CpuReference);
+
+    // On a CPU tracer the kernel step only chooses the kernel a later switch to Vulkan uses.
+    ui::PanelState cpu;
+    cpu.tracer = ui::TracerChoice::CpuPacket;
+    ui::ScriptEffects cpuEffects;
+    ui::applyScriptStep(ui::parseScriptStep("0:kernel:single"), cpu, actions, cpuEffects);
+    EXPECT_EQ(cpu.settings.kernel, KernelKind::Single);
+    EXPECT_FALSE(cpuEffects.tracer);
+    cpu.sideBySide = true;
+    ui::applyScriptStep(ui::parseScriptStep("0:side-by-side:off"), cpu, actions, cpuEffects);
+    EXPECT_FALSE(cpu.sideBySide);
+}
+
+// ---- Run statistics (ui/run_statistics.h): what --summary reports.
+
+TEST(RunStatistics, FramesLatencyIdleShareAndTheTimesAfterAStop) {
+    ui::RunStatistics run;
+    const auto frame = [&](double start, double end, ui::FrameKind kind, uint32_t scale, uint32_t samples,
+                           double input = -1.0) {
+        ui::FrameOutcome f;
+        f.startSeconds = start;
+        f.endSeconds = end;
+        f.traced = f.presented = kind != ui::FrameKind::Idle;
+        f.kind = kind;
+        f.scale = scale;
+        f.samplesShown = samples;
+        f.samplesWanted = 4;
+        f.firstInputSeconds = input;
+        if (!f.presented) f.idleWallSeconds = end - start, f.idleCpuSeconds = 0.25 * (end - start);
+        run.record(f);
+    };
+    frame(0.0, 0.05, ui::FrameKind::Moving, 4, 1, 0.0);
+    frame(0.1, 0.15, ui::FrameKind::Moving, 2, 1, 0.12);
+    frame(0.2, 0.3, ui::FrameKind::Full, 1, 1);
+    frame(0.3, 0.35, ui::FrameKind::Refine, 1, 2);
+    frame(0.4, 0.5, ui::FrameKind::Refine, 1, 4);
+    frame(0.5, 1.5, ui::FrameKind::Idle, 1, 4);
+    const nlohmann::json summary = run.summary();
+    EXPECT_EQ(summary["frames"], 6);
+    EXPECT_EQ(summary["frames_traced"], 5);
+    EXPECT_EQ(summary["frames_presented"], 5);
+    EXPECT_EQ(summary["frames_moving"], 2);
+    EXPECT_NEAR(summary["fps_moving_median"].get<double>(), 10.0, 1e-9) << "frames start 0.1 s apart";
+    EXPECT_EQ(summary["resolution_scales_moving"], (nlohmann::json{{"2", 1}, {"4", 1}}));
+    EXPECT_EQ(summary["input_frames"], 2);
+    EXPECT_NEAR(summary["input_to_photon_ms_median"].get<double>(), 50.0, 1e-9);
+    EXPECT_EQ(summary["idle_frames"], 1);
+    EXPECT_NEAR(summary["idle_cpu_share"].get<double>(), 0.25, 1e-12);
+    EXPECT_NEAR(run.fullAfterChangeSeconds(), 0.15, 1e-12) << "from the last moving frame's end";
+    EXPECT_NEAR(run.convergedAfterChangeSeconds(), 0.35, 1e-12);
+    frame(1.5, 1.6, ui::FrameKind::Moving, 2, 1);
+    EXPECT_EQ(run.fullAfterChangeSeconds(), -1.0) << "a new change starts the clocks again";
+    EXPECT_EQ(run.convergedAfterChangeSeconds(), -1.0);
+}
 }  // namespace
 }  // namespace raypack

@@ -1,8 +1,10 @@
 #include "ui/frame_loop.h"
 
+#include "renderer/error.h"
 #include "renderer/progressive.h"
 
 #include <algorithm>
+#include <iterator>
 
 namespace raypack::ui {
 
@@ -30,6 +32,16 @@ std::optional<TracerChoice> parseTracerChoice(const std::string& name) {
     for (const TracerChoice t : kAllTracerChoices)
         if (name == cliName(t)) return t;
     return std::nullopt;
+}
+
+TracerChoice requireTracerChoice(const std::string& what, const std::string& text) {
+    if (const std::optional<TracerChoice> tracer = parseTracerChoice(text)) return *tracer;
+    std::string names;
+    for (size_t i = 0; i < std::size(kAllTracerChoices); ++i) {
+        if (i > 0) names += i + 1 == std::size(kAllTracerChoices) ? " or " : ", ";
+        names += cliName(kAllTracerChoices[i]);
+    }
+    throw Error(what + ": \"" + text + "\" is not " + names);
 }
 
 bool isCpuTracer(TracerChoice tracer) {

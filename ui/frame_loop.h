@@ -31,6 +31,8 @@ constexpr TracerChoice kAllTracerChoices[] = {TracerChoice::VulkanPacket, Tracer
 const char* toString(TracerChoice tracer);  // "Vulkan packet kernel"
 const char* cliName(TracerChoice tracer);   // "vulkan-packet", "vulkan-single", "cpu-reference", "cpu-packet"
 std::optional<TracerChoice> parseTracerChoice(const std::string& name);
+// The cliName, or raypack::Error `WHAT: "TEXT" is not vulkan-packet, ... or cpu-packet`.
+TracerChoice requireTracerChoice(const std::string& what, const std::string& text);
 bool isCpuTracer(TracerChoice tracer);
 
 struct FrameLoopSettings {

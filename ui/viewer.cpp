@@ -20,6 +20,8 @@
 #include "ui/orbit_camera.h"
 #include "ui/panel.h"
 #include "ui/pointer.h"
+#include "ui/readback.h"
+#include "ui/run_statistics.h"
 #include "ui/screenshot.h"
 #include "ui/viewer_config.h"
 #include "ui/viewer_window.h"
@@ -53,62 +55,6 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-PacketShape parseShape(const std::string& text, const std::string& what) {
-    unsigned w = 0, h = 0;
-    char x = 0, extra = 0;
-    if (std::sscanf(text.c_str(), "%u%c%u%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || !w || !h)
-        throw Error(what + ": \"" + text + "\" is not WIDTHxHEIGHT");
-    return {w, h};
-}
-
-uint32_t parseCount(const std::string& text, const std::string& what) {
-    try {
-        size_t used = 0;
-        const unsigned long value = std::stoul(text, &used);
-        if (used == text.size() && value > 0 && value <= 0xFFFFFFFFul) return uint32_t(value);
-    } catch (const std::exception&) {
-    }
-    throw Error(what + ": \"" + text + "\" is not a positive integer");
-}
-
-// "x,y" or "x,y,z" of finite floats.
-template <int N>
-glm::vec<N, float> parseFloats(const std::string& text, const std::string& what) {
-    glm::vec<N, float> v(0.0f);
-    size_t start = 0;
-    for (int i = 0; i < N; ++i) {
-        const size_t comma = text.find(',', start);
-        const bool last = i == N - 1;
-        if (last != (comma == std::string::npos))
-            throw Error(what + ": \"" + text + "\" is not " + std::to_string(N) + " numbers separated by commas");
-        const std::string part = text.substr(start, last ? std::string::npos : comma - start);
-        try {
-            size_t used = 0;
-            v[i] = std::stof(part, &used);
-            if (used != part.size() || !std::isfinite(v[i])) throw std::invalid_argument(part);
-        } catch (const std::exception&) {
-            throw Error(what + ": \"" + part + "\" is not a finite number");
-        }
-        start = comma + 1;
-    }
-    return v;
-}
-
-// Copies `count` 4-byte texels from `src` to `dst` (distinct), swapping bytes 0 and 2 (RGBA8 <->
-// BGRA8) when the swapchain's format is B8G8R8A8.
-void copyTexels(uint32_t* dst, const uint32_t* src, size_t count, bool bgra) {
-    if (!bgra) {
-        std::memcpy(dst, src, count * 4);
-        return;
-    }
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, count, 1 << 16), [&](const tbb::blocked_range<size_t>& r) {
-        for (size_t i = r.begin(); i != r.end(); ++i) {
-            const uint32_t t = src[i];
-            dst[i] = (t & 0xFF00FF00u) | ((t & 0xFFu) << 16) | ((t >> 16) & 0xFFu);
-        }
-    });
-}
-
 // A scene spec as the sidecar and the bookmarks keep it: an existing file becomes absolute, so
 // `raypack-cli render --from` works from any folder; a generator spec stays as it is.
 std::string canonicalSpec(const std::string& spec) {
@@ -129,27 +75,10 @@ double steadyMedian(std::vector<double> values) {
     return median(std::move(values));
 }
 
-double processCpuSeconds() {
-    rusage usage{};
-    getrusage(RUSAGE_SELF, &usage);
-    return double(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
-           1e-6 * double(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
-}
-
 std::string bookmarksFile() { return (fs::path(configDirectory()) / "bookmarks.json").string(); }
 
 // Where the image on screen came from, so that it can be presented again without tracing.
 enum class ShownSource { Nothing, TracerOutput, Host };
-
-// One frame of the run, for the summary.
-struct FrameRecord {
-    double startSeconds = 0.0;  // since the run started
-    double seconds = 0.0;       // until the next frame started
-    FrameKind kind = FrameKind::Idle;
-    uint32_t scale = 1;
-    bool presented = false;
-    double inputLatencySeconds = -1.0;  // from the first input event to the present, when input came
-};
 
 // A key pressed since the last frame that acts once (F, F1, F12, bookmarks), from the callback.
 struct KeyPress {
@@ -163,11 +92,9 @@ struct Session {
     const ViewerOptions& options;
     vk::VulkanContext context;
     ViewerWindow window;
-    // --offscreen: no window; frames that stay on the GPU are recorded into this command buffer.
+    // --offscreen: no window; frames that stay on the GPU are recorded from this pool and waited for.
     bool offscreen = false;
     VkCommandPool offscreenPool = VK_NULL_HANDLE;
-    VkCommandBuffer offscreenCmd = VK_NULL_HANDLE;
-    VkFence offscreenDone = VK_NULL_HANDLE;
     std::unique_ptr<GpuTracer> tracer;
     std::unique_ptr<AsyncSceneBuilder> builder;
     bool cpuDevice = false;
@@ -247,10 +174,7 @@ struct Session {
     double smoothedFrameSeconds = 0.0;
     uint32_t frameIndex = 0;
     std::vector<double> frameTimes, primaryKernelTimes, shadowKernelTimes;
-    std::vector<FrameRecord> records;
-    double idleWallSeconds = 0.0, idleCpuSeconds = 0.0;
-    uint64_t idleFrames = 0;  // frames that traced and presented nothing
-    double lastChangeSeconds = -1.0, fullAfterChangeSeconds = -1.0, convergedAfterChangeSeconds = -1.0;
+    RunStatistics run;  // every frame, for --summary
 
     explicit Session(const ViewerOptions& o) : options(o) {}
     ~Session() {
@@ -259,7 +183,6 @@ struct Session {
         tracer.reset();
         vk::destroyBuffer(context, shownImage);
         vk::destroyBuffer(context, screenshotReadback);
-        if (offscreenDone) vkDestroyFence(context.device, offscreenDone, nullptr);
         if (offscreenPool) vkDestroyCommandPool(context.device, offscreenPool, nullptr);
         if (!offscreen) destroyViewerWindow(context, window);
         destroyVulkanContext(context);
@@ -524,14 +447,6 @@ nlohmann::json statisticsJson(const Session& s) {
     return stats;
 }
 
-void ensureHostBuffer(Session& s, vk::Buffer& buffer, VkDeviceSize bytes, VkBufferUsageFlags usage, const char* what) {
-    if (buffer.size == bytes) return;
-    vkDeviceWaitIdle(s.context.device);
-    vk::destroyBuffer(s.context, buffer);
-    buffer = vk::createBuffer(s.context, bytes, usage,
-                              VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, what);
-}
-
 const CpuSceneView& cpuViewOf(Session& s) {
     if (!s.cpuView) s.cpuView.emplace(makeCpuSceneView(*s.scene, *s.bvh));
     return *s.cpuView;
@@ -573,19 +488,11 @@ void compareWithReference(Session& s) {
 Image shownImageNow(Session& s) {
     if (s.shown == ShownSource::Host) return s.shownHost;
     if (s.shown != ShownSource::TracerOutput) throw Error("screenshot: no image shown yet");
-    const VkDeviceSize bytes = s.tracer->outputBytes();
-    ensureHostBuffer(s, s.screenshotReadback, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, "screenshot");
-    vk::check(vkDeviceWaitIdle(s.context.device), "vkDeviceWaitIdle (screenshot)");
-    vk::submitAndWait(s.context, s.offscreen ? s.offscreenPool : s.window.commandPool, [&](VkCommandBuffer cmd) {
-        const VkBufferCopy region{0, 0, bytes};
-        vkCmdCopyBuffer(cmd, s.tracer->outputBuffer(), s.screenshotReadback.buffer, 1, &region);
-    });
     const uint32_t width = s.panel.settings.width, height = s.panel.settings.height;
-    RAYPACK_CHECK(bytes == VkDeviceSize(width) * height * 4);
-    Image image{width, height, std::vector<uint32_t>(size_t(width) * height)};
-    copyTexels(image.rgba.data(), static_cast<const uint32_t*>(s.screenshotReadback.mapped), image.rgba.size(),
-               !s.offscreen && s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM);
-    return image;
+    RAYPACK_CHECK(s.tracer->outputBytes() == VkDeviceSize(width) * height * 4);
+    return readBackImage(s.context, s.offscreen ? s.offscreenPool : s.window.commandPool, s.tracer->outputBuffer(),
+                         width, height, !s.offscreen && s.window.swapchain.format.format == VK_FORMAT_B8G8R8A8_UNORM,
+                         s.screenshotReadback);
 }
 
 void saveScreenshot(Session& s, const std::string& path) {
@@ -626,81 +533,43 @@ void saveBookmark(Session& s, int slot) {
     }
 }
 
-void applyScriptStep(Session& s, const ScriptStep& step, FlyInput& input) {
-    RenderSettings& settings = s.panel.settings;
-    std::printf("raypack: frame %u: %s %s\n", s.frameIndex, step.action.c_str(), step.value.c_str());
-    if (step.action == "resize") {
-        const PacketShape size = parseShape(step.value, "resize");
+void handleActions(Session& s, const PanelActions& a, const RenderSettings& before);
+
+// This frame's script steps, applied through the panel's own path (handleActions) and the
+// session's effects, in a fixed order: the panel's edits, then loads and rebuilds, then a wait.
+void applyScriptSteps(Session& s, std::string& screenshot, std::string& windowShot, FlyInput& input) {
+    const RenderSettings before = s.panel.settings;
+    PanelActions actions;
+    ScriptEffects effects;
+    bool any = false;
+    for (const ScriptStep& step : s.options.script) {
+        if (step.frame != s.frameIndex) continue;
+        any = true;
+        std::printf("raypack: frame %u: %s %s\n", s.frameIndex, toString(step.action), step.value.c_str());
+        applyScriptStep(step, s.panel, actions, effects);
+    }
+    if (!any) return;
+    if (effects.resize) {
         if (s.offscreen) throw Error("resize: an offscreen run has a fixed size (--width, --height)");
-        glfwSetWindowSize(s.window.window, int(size.width), int(size.height));
-    } else if (step.action == "packet") {
-        settings.packet = parseShape(step.value, "packet");
-    } else if (step.action == "leaf-size" || step.action == "builder") {
-        if (step.action == "leaf-size")
-            s.panel.bvh.leafSize = parseCount(step.value, "leaf-size");
-        else
-            s.panel.bvh.builder = parseBvhBuilder(step.value);
-        s.builder->requestRebuild(s.scene, s.panel.bvh);
-    } else if (step.action == "shadows") {
-        if (step.value != "on" && step.value != "off") throw Error("shadows: \"" + step.value + "\" is not on or off");
-        settings.shadows = step.value == "on";
-    } else if (step.action == "kernel") {
-        const std::optional<KernelKind> kind = parseKernelKind(step.value);
-        if (!kind) throw Error("kernel: \"" + step.value + "\" is not packet or single");
-        settings.kernel = *kind;
-        if (!isCpuTracer(s.panel.tracer))
-            setTracer(s, *kind == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle,
-                      "script");
-    } else if (step.action == "tracer") {
-        const std::optional<TracerChoice> tracer = parseTracerChoice(step.value);
-        if (!tracer)
-            throw Error("tracer: \"" + step.value +
-                        "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
-        setTracer(s, *tracer, "chosen by the script");
-    } else if (step.action == "side-by-side") {
-        if (step.value == "off") {
-            s.panel.sideBySide = false;
-        } else {
-            const std::optional<TracerChoice> tracer = parseTracerChoice(step.value);
-            if (!tracer) throw Error("side-by-side: \"" + step.value + "\" is not off or a tracer name");
-            setSideBySide(s, *tracer);
-        }
-    } else if (step.action == "view") {
-        const std::optional<ViewMode> mode = parseViewMode(step.value);
-        if (!mode) throw Error("view: \"" + step.value + "\" is not shaded, nodes or tests");
-        settings.view = *mode;
-    } else if (step.action == "open") {
+        glfwSetWindowSize(s.window.window, int(effects.resize->width), int(effects.resize->height));
+    }
+    if (effects.tracer) setTracer(s, *effects.tracer, "chosen by the script");
+    if (effects.sideBySide) setSideBySide(s, *effects.sideBySide);
+    if (!effects.open.empty()) {
         const BuildStatus status = s.builder->status();
         std::printf("raypack: frame %u: worker %s when the load was requested\n", s.frameIndex, toString(status.phase));
-        s.builder->requestLoad(step.value, s.panel.bvh);  // the step itself was logged above
-    } else if (step.action == "wait") {
+        s.builder->requestLoad(effects.open, s.panel.bvh);  // the step itself was logged above
+    }
+    handleActions(s, actions, before);
+    if (effects.wait) {
         s.builder->waitIdle();
         takeWorkerResults(s);
-    } else if (step.action == "move") {
-        input.heldSeconds += parseFloats<3>(step.value, "move");
-    } else if (step.action == "look") {
-        input.lookPixels += parseFloats<2>(step.value, "look");
-    } else if (step.action == "bookmark" || step.action == "save-bookmark") {
-        const uint32_t slot = parseCount(step.value, step.action);
-        if (slot > uint32_t(kBookmarkSlots)) throw Error(step.action + ": slot " + step.value + " is not 1..9");
-        if (step.action == "bookmark")
-            recallBookmark(s, int(slot));
-        else
-            saveBookmark(s, int(slot));
-    } else if (step.action == "frame-all") {
-        s.fly.frameAll();
-        settings.camera = s.fly.camera();
-    } else if (step.action == "scale") {
-        const uint32_t scale = parseCount(step.value, "scale");
-        if (scale > 64) throw Error("scale: " + step.value + " is above 64");
-        s.forcedScale = scale;
-    } else if (step.action == "samples") {
-        s.panel.frameLoop.samples = std::min(parseCount(step.value, "samples"), kMaxSamplesPerPixel);
-    } else if (step.action == "budget") {
-        s.panel.frameLoop.frameBudgetMs = float(parseCount(step.value, "budget"));
-    } else {
-        throw Error("script: unknown action \"" + step.action + "\"");
     }
+    if (effects.scale) s.forcedScale = *effects.scale;
+    input.heldSeconds += effects.input.heldSeconds;
+    input.lookPixels += effects.input.lookPixels;
+    if (!effects.screenshot.empty()) screenshot = effects.screenshot;
+    if (!effects.windowScreenshot.empty()) windowShot = effects.windowScreenshot;
 }
 
 // The scene point under the cursor: the primary ray of that pixel of the image (at full
@@ -1163,7 +1032,7 @@ void presentShown(Session& s, const FrameTarget& target) {
     const ImageRegion region{uint32_t(s.imageOffsetX), settings.width, settings.height, settings.background};
     if (host && host->width == region.width && host->height == region.height) {
         const VkDeviceSize bytes = VkDeviceSize(host->width) * host->height * 4;
-        ensureHostBuffer(s, s.shownImage, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "image shown");
+        ensureHostBuffer(s.context, s.shownImage, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "image shown");
         copyTexels(static_cast<uint32_t*>(s.shownImage.mapped), host->rgba.data(), host->rgba.size(), target.bgra);
         copyImage(s.window, target, s.shownImage.buffer, region);
     } else if (s.shown == ShownSource::TracerOutput && !compare &&
@@ -1207,22 +1076,12 @@ FrameResult finishOffscreenFrame(Session& s, const FramePlan& plan, const std::s
     }
     if (!traced) {
         try {
-            vk::check(vkResetFences(s.context.device, 1, &s.offscreenDone), "vkResetFences (offscreen)");
-            vk::check(vkResetCommandBuffer(s.offscreenCmd, 0), "vkResetCommandBuffer (offscreen)");
-            VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-            begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-            vk::check(vkBeginCommandBuffer(s.offscreenCmd, &begin), "vkBeginCommandBuffer (offscreen)");
-            FrameTarget target;
-            target.cmd = s.offscreenCmd;
-            target.extent = {s.panel.settings.width, s.panel.settings.height};
-            traceSeconds = traceFrame(s, plan, &target);
-            vk::check(vkEndCommandBuffer(s.offscreenCmd), "vkEndCommandBuffer (offscreen)");
-            VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
-            submit.commandBufferCount = 1;
-            submit.pCommandBuffers = &s.offscreenCmd;
-            vk::check(vkQueueSubmit(s.context.queue, 1, &submit, s.offscreenDone), "vkQueueSubmit (offscreen)");
-            vk::check(vkWaitForFences(s.context.device, 1, &s.offscreenDone, VK_TRUE, UINT64_MAX),
-                      "vkWaitForFences (offscreen)");
+            vk::submitAndWait(s.context, s.offscreenPool, [&](VkCommandBuffer cmd) {
+                FrameTarget target;
+                target.cmd = cmd;
+                target.extent = {s.panel.settings.width, s.panel.settings.height};
+                traceSeconds = traceFrame(s, plan, &target);
+            });
             traced = true;
         } catch (const Error& e) {
             s.report(e.what());
@@ -1371,77 +1230,35 @@ FrameResult drawFrame(Session& s, const std::string& screenshotPath, const std::
 }
 
 nlohmann::json summaryJson(const Session& s) {
-    std::vector<double> moving, still, latency;
-    std::map<uint32_t, uint64_t> scales, movingScales;
-    uint64_t traced = 0, presented = 0;
-    for (const FrameRecord& r : s.records) {
-        if (r.kind != FrameKind::Idle) {
-            ++traced;
-            (r.kind == FrameKind::Moving ? moving : still).push_back(r.seconds);
-            ++scales[r.scale];
-            if (r.kind == FrameKind::Moving) ++movingScales[r.scale];
-        }
-        presented += r.presented;
-        if (r.inputLatencySeconds >= 0.0) latency.push_back(r.inputLatencySeconds);
-    }
-    nlohmann::json scaleJson = nlohmann::json::object();
-    for (const auto& [scale, count] : scales) scaleJson[std::to_string(scale)] = count;
-    nlohmann::json movingScaleJson = nlohmann::json::object();
-    for (const auto& [scale, count] : movingScales) movingScaleJson[std::to_string(scale)] = count;
-    const auto fps = [](const std::vector<double>& v) {
-        const double m = median(v);
-        return m > 0 ? 1.0 / m : 0.0;
-    };
-    return {
-        {"device", s.info.device},
-        {"tracer", cliName(s.panel.tracer)},
-        {"scene", s.sceneSpec},
-        {"window", {s.panel.settings.width, s.panel.settings.height}},
-        {"frame_budget_ms", s.panel.frameLoop.frameBudgetMs},
-        {"samples_wanted", s.panel.frameLoop.samples},
-        {"frames", s.records.size()},
-        {"frames_traced", traced},
-        {"frames_presented", presented},
-        {"frames_moving", moving.size()},
-        {"fps_moving_median", fps(moving)},
-        {"fps_still_median", fps(still)},
-        {"resolution_scales", scaleJson},
-        {"resolution_scales_moving", movingScaleJson},
-        {"input_to_photon_ms_median", median(latency) * 1e3},
-        {"input_frames", latency.size()},
-        {"idle_frames", s.idleFrames},
-        {"idle_wall_s", s.idleWallSeconds},
-        {"idle_cpu_share", s.idleWallSeconds > 0 ? s.idleCpuSeconds / s.idleWallSeconds : 0.0},
-        {"full_resolution_after_stop_s", s.fullAfterChangeSeconds},
-        {"converged_after_stop_s", s.convergedAfterChangeSeconds},
-    };
+    nlohmann::json summary = s.run.summary();
+    summary["device"] = s.info.device;
+    summary["tracer"] = cliName(s.panel.tracer);
+    summary["scene"] = s.sceneSpec;
+    summary["window"] = {s.panel.settings.width, s.panel.settings.height};
+    summary["frame_budget_ms"] = s.panel.frameLoop.frameBudgetMs;
+    summary["samples_wanted"] = s.panel.frameLoop.samples;
+    return summary;
 }
 
-// After a frame: the run's record, the times from the last change to full resolution and to
-// convergence.
-void recordFrame(Session& s, const FrameResult& result, double startSeconds) {
-    FrameRecord record;
-    record.startSeconds = startSeconds;
-    record.kind = result.traced ? result.kind : FrameKind::Idle;
-    record.scale = s.info.frameLoop.scale;
-    record.presented = result.presented;
-    const double end = s.secondsSinceStart();
-    if (result.presented && s.firstInputSeconds >= 0.0) record.inputLatencySeconds = end - s.firstInputSeconds;
+// After a frame: the run's record (ui/run_statistics.h) and the camera path being recorded.
+void recordFrame(Session& s, const FrameResult& result, double startSeconds, double idleWallSeconds,
+                 double idleCpuSeconds) {
+    FrameOutcome frame;
+    frame.startSeconds = startSeconds;
+    frame.endSeconds = s.secondsSinceStart();
+    frame.traced = result.traced;
+    frame.presented = result.presented;
+    frame.kind = result.kind;
+    frame.scale = s.info.frameLoop.scale;
+    frame.samplesShown = s.info.frameLoop.samplesShown;
+    frame.samplesWanted = s.panel.frameLoop.samples;
+    frame.firstInputSeconds = s.firstInputSeconds;
+    frame.idleWallSeconds = idleWallSeconds;
+    frame.idleCpuSeconds = idleCpuSeconds;
+    s.run.record(frame);
     if (result.presented) s.firstInputSeconds = -1.0;
-    if (!s.records.empty()) s.records.back().seconds = startSeconds - s.records.back().startSeconds;
-    s.records.push_back(record);
-    if (result.traced && result.kind == FrameKind::Moving) {
-        s.lastChangeSeconds = end;
-        s.fullAfterChangeSeconds = s.convergedAfterChangeSeconds = -1.0;
-    }
-    if (s.lastChangeSeconds >= 0.0 && result.traced) {
-        if (result.kind == FrameKind::Full || (result.kind == FrameKind::Moving && record.scale == 1))
-            s.fullAfterChangeSeconds = end - s.lastChangeSeconds;
-        if (result.kind == FrameKind::Refine && s.info.frameLoop.samplesShown >= s.panel.frameLoop.samples)
-            s.convergedAfterChangeSeconds = end - s.lastChangeSeconds;
-    }
-    if (!result.presented) ++s.idleFrames;
-    if (!s.options.recordPath.empty() && s.scene) s.recording.keys.push_back({end, s.panel.settings.camera});
+    if (!s.options.recordPath.empty() && s.scene)
+        s.recording.keys.push_back({frame.endSeconds, s.panel.settings.camera});
 }
 
 // Where the viewer starts: the tracer by device, the camera path to play.
@@ -1466,21 +1283,6 @@ void chooseStartTracer(Session& s) {
 
 }  // namespace
 
-ScriptStep parseScriptStep(const std::string& text) {
-    const size_t first = text.find(':');
-    if (first == std::string::npos) throw Error("script step \"" + text + "\": expected FRAME:ACTION[:VALUE]");
-    ScriptStep step;
-    const std::string frame = text.substr(0, first);
-    if (frame.empty() || frame.find_first_not_of("0123456789") != std::string::npos || frame.size() > 9)
-        throw Error("script step \"" + text + "\": \"" + frame + "\" is not a frame number");
-    step.frame = uint32_t(std::stoul(frame));
-    const size_t second = text.find(':', first + 1);
-    step.action = text.substr(first + 1, second == std::string::npos ? std::string::npos : second - first - 1);
-    if (second != std::string::npos) step.value = text.substr(second + 1);
-    if (step.action.empty()) throw Error("script step \"" + text + "\": no action");
-    return step;
-}
-
 int runViewer(const ViewerOptions& options) {
     std::optional<CameraPath> path;
     if (!options.playPath.empty()) path = readCameraPath(options.playPath);  // before any window opens
@@ -1494,19 +1296,7 @@ int runViewer(const ViewerOptions& options) {
     s.context = vk::createVulkanContext(contextOptions);
     s.cpuDevice = s.context.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
     if (s.offscreen) {
-        VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-        poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-        poolInfo.queueFamilyIndex = s.context.queueFamily;
-        vk::check(vkCreateCommandPool(s.context.device, &poolInfo, nullptr, &s.offscreenPool),
-                  "vkCreateCommandPool (offscreen)");
-        VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
-        alloc.commandPool = s.offscreenPool;
-        alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
-        alloc.commandBufferCount = 1;
-        vk::check(vkAllocateCommandBuffers(s.context.device, &alloc, &s.offscreenCmd),
-                  "vkAllocateCommandBuffers (offscreen)");
-        VkFenceCreateInfo fenceInfo{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-        vk::check(vkCreateFence(s.context.device, &fenceInfo, nullptr, &s.offscreenDone), "vkCreateFence (offscreen)");
+        s.offscreenPool = createCommandPool(s.context);
     } else {
         ViewerWindowOptions windowOptions;
         windowOptions.width = options.width;
@@ -1581,15 +1371,7 @@ int runViewer(const ViewerOptions& options) {
         std::string screenshot, windowShot;
         FlyInput scriptedInput;
         if (scripted) {
-            for (const ScriptStep& step : options.script) {
-                if (step.frame != s.frameIndex) continue;
-                if (step.action == "screenshot")
-                    screenshot = step.value;
-                else if (step.action == "window-screenshot")
-                    windowShot = step.value;
-                else
-                    applyScriptStep(s, step, scriptedInput);
-            }
+            applyScriptSteps(s, screenshot, windowShot, scriptedInput);
             if (s.frameIndex + 1 == options.frames) {
                 // The last frame shows the last request: wait for the worker once, here only.
                 s.builder->waitIdle();
@@ -1601,11 +1383,9 @@ int runViewer(const ViewerOptions& options) {
         const double startSeconds = s.secondsSinceStart(iterationStart);
         const FrameResult result = drawFrame(s, screenshot, windowShot, scriptedInput);
         idle = !result.presented;
-        if (idle) {
-            s.idleWallSeconds += std::chrono::duration<double>(Clock::now() - iterationStart).count();
-            s.idleCpuSeconds += processCpuSeconds() - cpuStart;
-        }
-        recordFrame(s, result, startSeconds);
+        const double idleWall = idle ? std::chrono::duration<double>(Clock::now() - iterationStart).count() : 0.0;
+        const double idleCpu = idle ? processCpuSeconds() - cpuStart : 0.0;
+        recordFrame(s, result, startSeconds, idleWall, idleCpu);
         ++s.frameIndex;
     }
     vkDeviceWaitIdle(s.context.device);

@@ -6,6 +6,7 @@
 #include "renderer/bvh.h"
 #include "renderer/settings.h"
 #include "ui/frame_loop.h"
+#include "ui/script.h"
 
 #include <vulkan/vulkan.h>
 
@@ -15,22 +16,6 @@
 #include <vector>
 
 namespace raypack::ui {
-
-// One step of a scripted run, applied before frame `frame` (counted from 0):
-//   resize WxH | packet WxH | leaf-size N | builder NAME | shadows on|off | kernel packet|single |
-//   tracer NAME | view shaded|nodes|tests | open SCENE | wait (block until the worker is idle) |
-//   screenshot FILE.png | window-screenshot FILE.png |
-//   move RIGHT,UP,FORWARD (seconds of flight along the camera's axes, as held keys; one frame's
-//   step is bounded as for keys) | look DX,DY (mouse-look pixels, as a right-button drag) |
-//   bookmark N (recall) | save-bookmark N | frame-all | scale S (trace this frame at 1/S
-//   resolution, as while moving) | samples N | budget MS
-struct ScriptStep {
-    uint32_t frame = 0;
-    std::string action;
-    std::string value;
-};
-// Parses "FRAME:ACTION[:VALUE]"; throws raypack::Error naming the step when it is malformed.
-ScriptStep parseScriptStep(const std::string& text);
 
 struct ViewerOptions {
     std::string scene = "gen:default";  // a file or a generator spec (scenes/load.h)

@@ -3,7 +3,6 @@
 // ask for, and per packet shape for the packet tracers, each with untimed warm-up runs (one counting N_TR / N_IT, then
 // 0.3 s of frames back to back on a GPU) and N timed runs, written as one JSON record per cell and ray kind (primary,
 // shadow) with the machine and the date.
-#include "app/cli/arguments.h"
 #include "app/cli/bench_suites.h"
 #include "app/cli/commands.h"
 #include "app/cli/scene_setup.h"
@@ -13,6 +12,7 @@
 #include "renderer/measure/machine.h"
 #include "renderer/measure/protocol.h"
 #include "renderer/settings_json.h"
+#include "renderer/settings_text.h"
 #include "renderer/tracers/registry.h"
 
 #include <chrono>

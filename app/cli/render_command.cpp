@@ -1,6 +1,5 @@
 // `raypack-cli render SCENE`: one frame through the CPU reference or the Vulkan tracer, with the
 // report's statistics, and the image, hits file and JSON a user or a test asks for.
-#include "app/cli/arguments.h"
 #include "app/cli/commands.h"
 #include "app/cli/scene_setup.h"
 #include "app/cli/tracing.h"
@@ -12,6 +11,7 @@
 #include "renderer/measure/protocol.h"
 #include "renderer/progressive.h"
 #include "renderer/settings_json.h"
+#include "renderer/settings_text.h"
 #include "renderer/start_view.h"
 #include "renderer/tracers/registry.h"
 
@@ -78,13 +78,13 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.noShadows)) s.shadows = !f.noShadows;
     if (given(o.kernel)) {
         const auto kernel = parseKernelKind(f.kernel);
-        if (!kernel) throw Error("--kernel: \"" + f.kernel + "\" is not packet or single");
+        if (!kernel) throw Error("--kernel: \"" + f.kernel + "\" is not " + kernelKindNames());
         s.kernel = *kernel;
     }
     if (given(o.packet)) s.packet = parsePacketShape("--packet", f.packet);
     if (given(o.view)) {
         const auto view = parseViewMode(f.view);
-        if (!view) throw Error("--view: \"" + f.view + "\" is not shaded, nodes or tests");
+        if (!view) throw Error("--view: \"" + f.view + "\" is not " + viewModeNames());
         s.view = *view;
     }
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
@@ -335,7 +335,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         settings.pixelJitter = glm::vec2(0.0f);
 
         if (gpu || packets)
-            std::printf("kernel     %s, packet %s\n", jsonName(settings.kernel), toString(settings.packet).c_str());
+            std::printf("kernel     %s, packet %s\n", toString(settings.kernel), toString(settings.packet).c_str());
         printCamera(settings.camera, !cameraGiven);
         printTable1(stdout, loaded.info, bvh.stats, setup.bvh);
         printTable2(stdout, measured.stats);

@@ -3,6 +3,7 @@
 // becomes one line on stderr and exit code 2.
 #include "renderer/error.h"
 #include "renderer/settings_json.h"
+#include "renderer/settings_text.h"
 #include "ui/viewer.h"
 
 #include <CLI/CLI.hpp>
@@ -10,29 +11,8 @@
 #include <cstdio>
 #include <sstream>
 
-namespace {
-
-using namespace raypack;
-
-glm::vec3 parseVec3(const std::string& text, const char* flag) {
-    glm::vec3 v;
-    char c1 = 0, c2 = 0, extra = 0;
-    if (std::sscanf(text.c_str(), "%f%c%f%c%f%c", &v.x, &c1, &v.y, &c2, &v.z, &extra) != 5 || c1 != ',' || c2 != ',')
-        throw Error(std::string(flag) + ": \"" + text + "\" is not x,y,z");
-    return v;
-}
-
-PacketShape parsePacket(const std::string& text) {
-    unsigned w = 0, h = 0;
-    char x = 0, extra = 0;
-    if (std::sscanf(text.c_str(), "%u%c%u%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') || !w || !h)
-        throw Error("--packet: \"" + text + "\" is not WIDTHxHEIGHT, e.g. 8x4");
-    return {w, h};
-}
-
-}  // namespace
-
 int main(int argc, char** argv) {
+    using namespace raypack;
     CLI::App app{
         "raypack: fly or orbit through a triangle scene, traced interactively on any device (a frame\n"
         "budget with reduced resolution while moving, refinement when still), by the Vulkan packet or\n"
@@ -116,38 +96,30 @@ int main(int argc, char** argv) {
     CLI11_PARSE(app, argc, argv);
 
     try {
-        if (!packet.empty()) options.settings.packet = parsePacket(packet);
+        if (!packet.empty()) options.settings.packet = parsePacketShape("--packet", packet);
         options.packetGiven = !packet.empty();
         if (!builder.empty()) options.bvh.builder = parseBvhBuilder(builder);
         options.settings.shadows = !noShadows;
         options.liveCounters = !noCounters;
         options.frameLoop.adaptiveResolution = !fullResolution;
-        if (!tracer.empty()) {
-            options.tracer = ui::parseTracerChoice(tracer);
-            if (!options.tracer)
-                throw Error("--tracer: \"" + tracer +
-                            "\" is not vulkan-packet, vulkan-single, cpu-reference or cpu-packet");
-        }
+        if (!tracer.empty()) options.tracer = ui::requireTracerChoice("--tracer", tracer);
         if (options.playFrames && options.playPath.empty()) throw Error("--play-frames needs --play-path");
-        if (!sideBySide.empty()) {
-            options.sideBySide = ui::parseTracerChoice(sideBySide);
-            if (!options.sideBySide) throw Error("--side-by-side: \"" + sideBySide + "\" is not a tracer name");
-        }
+        if (!sideBySide.empty()) options.sideBySide = ui::requireTracerChoice("--side-by-side", sideBySide);
         if (!kernel.empty()) {
             const std::optional<KernelKind> k = parseKernelKind(kernel);
-            if (!k) throw Error("--kernel: \"" + kernel + "\" is not packet or single");
+            if (!k) throw Error("--kernel: \"" + kernel + "\" is not " + kernelKindNames());
             options.settings.kernel = *k;
         }
         if (!view.empty()) {
             const std::optional<ViewMode> v = parseViewMode(view);
-            if (!v) throw Error("--view: \"" + view + "\" is not shaded, nodes or tests");
+            if (!v) throw Error("--view: \"" + view + "\" is not " + viewModeNames());
             options.settings.view = *v;
         }
         if (!eye.empty() || !at.empty()) {
             if (eye.empty() || at.empty()) throw Error("--eye and --at go together");
-            options.settings.camera.eye = parseVec3(eye, "--eye");
-            options.settings.camera.at = parseVec3(at, "--at");
-            if (!up.empty()) options.settings.camera.up = parseVec3(up, "--up");
+            options.settings.camera.eye = parseVec3("--eye", eye);
+            options.settings.camera.at = parseVec3("--at", at);
+            if (!up.empty()) options.settings.camera.up = parseVec3("--up", up);
             if (fov > 0.0f) options.settings.camera.fovYDegrees = fov;
             options.cameraGiven = true;
         } else if (!up.empty() || fov > 0.0f) {

@@ -4,7 +4,6 @@
 // for both: they differ in the kernel the GpuTracer is told to dispatch, nothing else.
 #include "renderer/error.h"
 #include "renderer/gpu_tracer.h"
-#include "renderer/settings_json.h"
 #include "renderer/tracers/tracer_rows.h"
 
 namespace raypack {
@@ -16,7 +15,7 @@ public:
         : tracer_(std::make_unique<GpuTracer>(context)), kernel_(kernel) {}
 
     std::string name() const override { return kernel_ == KernelKind::Packet ? "gpu-packet" : "gpu-single"; }
-    std::string kernel() const override { return jsonName(kernel_); }
+    std::string kernel() const override { return toString(kernel_); }
     TracerDevice device() const override { return TracerDevice::Gpu; }
     std::string describe(const RenderSettings&) const override { return vk::describe(tracer_->device()); }
     std::string driver() const override { return tracer_->device().driver; }

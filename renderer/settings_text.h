@@ -1,0 +1,50 @@
+#pragma once
+// The text form of every setting, defined once: the CLI's flags, the viewer's flags, its script
+// steps and the settings JSON read and write the same names and parse the same values with the
+// same rules (a packet shape "-1x4" is refused everywhere, "8x4" means the same everywhere). Each
+// parser throws raypack::Error naming what was being read (a flag such as "--packet", or
+// "script step 12:packet") and the text, e.g. `--packet: "0x4" is not a packet shape WxH with
+// 1 <= W, H <= 1024`.
+#include "renderer/bvh.h"
+#include "renderer/settings.h"
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace raypack {
+
+// The largest packet side any tracer accepts (the Vulkan kernels' workgroup and the CPU packet
+// tracer's tile are both bounded well below it; this bounds what a user can type).
+inline constexpr uint32_t kMaxPacketSide = 1024;
+
+// Names: "packet" / "single"; "shaded" / "nodes" / "tests". toString (renderer/settings.h) gives
+// the name the parsers accept, so what one program prints another can read back.
+std::optional<KernelKind> parseKernelKind(std::string_view name);
+std::optional<ViewMode> parseViewMode(std::string_view name);
+// "packet or single", "shaded, nodes or tests": the valid names, for messages and help texts.
+std::string kernelKindNames();
+std::string viewModeNames();
+
+// "WxH" (or "WXH") with 1 <= W, H <= kMaxPacketSide, digits only (no sign, no spaces).
+PacketShape parsePacketShape(std::string_view what, std::string_view text);
+// A comma-separated list of "WxH" (e.g. "8x4,4x8,5x6"), at least one.
+std::vector<PacketShape> parsePacketShapes(std::string_view what, std::string_view text);
+std::string toString(const PacketShape& shape);  // "8x4"
+
+// "x,y,z" / "x,y": that many finite numbers separated by commas, no empty component.
+glm::vec3 parseVec3(std::string_view what, std::string_view text);
+glm::vec2 parseVec2(std::string_view what, std::string_view text);
+// A finite number.
+float parseFiniteFloat(std::string_view what, std::string_view text);
+// An integer 1 .. 2^32 - 1, digits only.
+uint32_t parsePositiveCount(std::string_view what, std::string_view text);
+
+// A comma-separated list (or `separator`), empty entries dropped.
+std::vector<std::string> splitList(std::string_view text, char separator = ',');
+
+}  // namespace raypack
