@@ -15,4 +15,15 @@ Spread spreadOf(std::vector<double> values) {
     return s;
 }
 
+double upperMedian(std::vector<double> values) {
+    if (values.empty()) return 0.0;
+    std::sort(values.begin(), values.end());
+    return values[values.size() / 2];
+}
+
+double steadyMedian(std::vector<double> values) {
+    values.erase(values.begin(), values.begin() + values.size() / 2);
+    return upperMedian(std::move(values));
+}
+
 }  // namespace raypack
