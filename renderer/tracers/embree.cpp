@@ -210,6 +210,33 @@ struct EmbreeQualityResults {
     EmbreeRate occluded8;            // shadow rays, rtcOccluded8 packets of 4x2 pixels
 };
 
+// Every pixel's primary ray by rtcIntersect1 into `primary`; returns the pass's wall clock.
+double intersectPass(RTCScene scene, const Rays& rays, std::vector<PrimaryHit>& primary) {
+    return timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
+        RTCIntersectContext context;
+        rtcInitIntersectContext(&context);
+        for (uint32_t y = y0; y < y1; ++y)
+            for (uint32_t x = x0; x < x1; ++x)
+                primary[size_t(y) * rays.width + x] = intersect1(scene, context, rays, x, y);
+    });
+}
+
+// The shadow ray of every primary hit by rtcOccluded1 into `shadowed` (1: occluded); returns the
+// pass's wall clock.
+double occludedPass(RTCScene scene, const Rays& rays, const glm::vec3& light, const std::vector<PrimaryHit>& primary,
+                    std::vector<uint8_t>& shadowed) {
+    return timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
+        RTCIntersectContext context;
+        rtcInitIntersectContext(&context);
+        for (uint32_t y = y0; y < y1; ++y)
+            for (uint32_t x = x0; x < x1; ++x) {
+                const size_t pixel = size_t(y) * rays.width + x;
+                if (primary[pixel].prim != gpu::kNoHit)
+                    shadowed[pixel] = occluded1(scene, context, rays, light, x, y, primary[pixel].t);
+            }
+    });
+}
+
 template <typename Pass>
 EmbreeRate timePasses(uint64_t rays, uint32_t repeats, Pass pass) {
     pass();  // warm-up, not timed
@@ -287,15 +314,7 @@ EmbreeQualityResults measureQuality(RTCDevice device, const EmbreeScene& embree,
     // Primary hits: written by rtcIntersect1, read by the shadow pass.
     std::vector<PrimaryHit> primary(pixels);
 
-    result.intersect1 = timePasses(pixels, repeats, [&] {
-        return timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
-            RTCIntersectContext context;
-            rtcInitIntersectContext(&context);
-            for (uint32_t y = y0; y < y1; ++y)
-                for (uint32_t x = x0; x < x1; ++x)
-                    primary[size_t(y) * rays.width + x] = intersect1(embree.scene, context, rays, x, y);
-        });
-    });
+    result.intersect1 = timePasses(pixels, repeats, [&] { return intersectPass(embree.scene, rays, primary); });
 
     // Packets of 4x2 pixels, the shape of an AVX2 8-wide packet over the tile.
     result.intersect8 = timePasses(pixels, repeats, [&] {
@@ -323,18 +342,8 @@ EmbreeQualityResults measureQuality(RTCDevice device, const EmbreeScene& embree,
     for (const PrimaryHit& h : primary) shadowRays += h.prim != gpu::kNoHit ? 1 : 0;
     std::vector<uint8_t> shadowed(pixels, 0);
     if (shadows) {
-        result.occluded1 = timePasses(shadowRays, repeats, [&] {
-            return timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
-                RTCIntersectContext context;
-                rtcInitIntersectContext(&context);
-                for (uint32_t y = y0; y < y1; ++y)
-                    for (uint32_t x = x0; x < x1; ++x) {
-                        const size_t pixel = size_t(y) * rays.width + x;
-                        if (primary[pixel].prim == gpu::kNoHit) continue;
-                        shadowed[pixel] = occluded1(embree.scene, context, rays, light, x, y, primary[pixel].t);
-                    }
-            });
-        });
+        result.occluded1 =
+            timePasses(shadowRays, repeats, [&] { return occludedPass(embree.scene, rays, light, primary, shadowed); });
     }
     if (shadows) {
         result.occluded8 = timePasses(shadowRays, repeats, [&] {
@@ -416,26 +425,10 @@ public:
         frame.height = settings.height;
         frame.light = lightPosition(settings.camera, scene_->bounds(), settings.lightHeight);
         std::vector<PrimaryHit> primary(size_t(rays.width) * rays.height);
-        frame.timings.primarySeconds = timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
-            RTCIntersectContext context;
-            rtcInitIntersectContext(&context);
-            for (uint32_t y = y0; y < y1; ++y)
-                for (uint32_t x = x0; x < x1; ++x)
-                    primary[size_t(y) * rays.width + x] = intersect1(medium_.scene, context, rays, x, y);
-        });
+        frame.timings.primarySeconds = intersectPass(medium_.scene, rays, primary);
         std::vector<uint8_t> shadowed(primary.size(), 0);
         if (settings.shadows)
-            frame.timings.shadowSeconds = timeTiles(rays, [&](uint32_t x0, uint32_t y0, uint32_t x1, uint32_t y1) {
-                RTCIntersectContext context;
-                rtcInitIntersectContext(&context);
-                for (uint32_t y = y0; y < y1; ++y)
-                    for (uint32_t x = x0; x < x1; ++x) {
-                        const size_t pixel = size_t(y) * rays.width + x;
-                        if (primary[pixel].prim != gpu::kNoHit)
-                            shadowed[pixel] =
-                                occluded1(medium_.scene, context, rays, frame.light, x, y, primary[pixel].t);
-                    }
-            });
+            frame.timings.shadowSeconds = occludedPass(medium_.scene, rays, frame.light, primary, shadowed);
         if (request.hits) frame.hits = hitRecords(rays, primary, settings.shadows ? &shadowed : nullptr);
         frame.timings.totalSeconds = secondsSince(frameStart);
         return frame;
