@@ -21,6 +21,7 @@ struct PacketFrame {
     const BvhNode* nodes = nullptr;           // CpuSceneView::nodes()
     const glm::vec3* leafVertices = nullptr;  // CpuSceneView::leafVertices
     const uint32_t* primIndices = nullptr;    // Bvh::primIndices
+    const Scene* scene = nullptr;             // the triangles by file index, for the hit's final t
     uint32_t stackEntries = 1;                // CpuSceneView::stackEntries
     gpu::GpuCamera camera{};
     glm::vec3 eye{0.0f};

@@ -163,6 +163,7 @@ constexpr float kLaneDone = -1.0f;
 struct alignas(64) RayGroup {
     // Slab test: 1/dir (0 on parallel axes).
     float invX[L], invY[L], invZ[L];
+    float dirX[L], dirY[L], dirZ[L];  // the directions themselves, for the kept hit's final t
     // Triangle test: the shear and per-axis lane masks of kx, ky, kz.
     float shearX[L], shearY[L], shearZ[L];
     uint32_t axisIs0[3][L];  // axisIs0[j][lane]: all ones when axis j (kx, ky, kz) of the lane is 0
@@ -627,7 +628,9 @@ RP_SIMD_INLINE void setRays(RayGroup& group, uint32_t lanes, const glm::vec3& or
     F absDir[3];
     F parallel = zero;
     float* inv[3] = {group.invX, group.invY, group.invZ};
+    float* dirs[3] = {group.dirX, group.dirY, group.dirZ};
     for (int a = 0; a < 3; ++a) {
+        S::store(dirs[a], dir[a]);
         absDir[a] = S::andF(dir[a], absMask);
         const F isParallel = S::lt(absDir[a], S::set1(gpu::kParallelEpsilon));
         parallel = S::orF(parallel, isParallel);
@@ -742,7 +745,12 @@ void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
             ClosestHit& hit = frame.hits[pixel];
             hit = ClosestHit{};
             if (group.prim[lane] != kNoHit) {
-                hit.t = group.tmax[lane];
+                // The kept hit's distance from its plane, as the reference computes it.
+                const glm::uvec3 tri = frame.scene->triangles[group.prim[lane]];
+                const glm::vec3 dir(group.dirX[lane], group.dirY[lane], group.dirZ[lane]);
+                hit.t = gpu::accurateHitDistance(frame.eye, dir, frame.scene->positions[tri.x],
+                                                 frame.scene->positions[tri.y], frame.scene->positions[tri.z],
+                                                 group.tmax[lane]);
                 hit.prim = group.prim[lane];
                 hit.bary = glm::vec2(group.baryU[lane], group.baryV[lane]);
             }

@@ -143,6 +143,7 @@ Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings,
     packetFrame.nodes = view.nodes();
     packetFrame.leafVertices = view.leafVertices.data();
     packetFrame.primIndices = view.bvh->primIndices.data();
+    packetFrame.scene = view.scene;
     packetFrame.stackEntries = view.stackEntries;
     packetFrame.camera = camera;
     packetFrame.eye = gpu::cameraEye(camera);

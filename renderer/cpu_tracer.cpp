@@ -157,6 +157,7 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
     uint32_t triangleTests = 0;
     uint32_t nodeIndex = 0;
     uint32_t top = 0;
+    uint32_t bestEntry = 0;
     while (true) {
         const BvhNode& node = nodes[nodeIndex];
         ++visitedNodes;
@@ -176,6 +177,7 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
                     best.t = t;
                     best.prim = prim;
                     best.bary = bary;
+                    bestEntry = entry;
                 }
             }
         } else {
@@ -189,6 +191,12 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
             if (top == 0) {
                 counts.nodes += visitedNodes;
                 counts.tests += triangleTests;
+                if (best.hit()) {
+                    // The kept hit's distance from its plane (gpu::accurateHitDistance), as the kernels do.
+                    glm::vec3 v0, v1, v2;
+                    triangles.fetch(bestEntry, v0, v1, v2);
+                    best.t = gpu::accurateHitDistance(ray.org, ray.dir, v0, v1, v2, best.t);
+                }
                 return best;
             }
             const StackEntry entry = stack[--top];

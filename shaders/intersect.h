@@ -160,6 +160,15 @@ RP_HOT_FUNC float edgeFunction(vec2 p, vec2 q) {
     return baseIsP ? f : -f;
 }
 
+// The power of two that brings `largest` (>= 0) into [0.5, 1), clamped so that it stays a normal
+// float. largest lies in [2^(b-127), 2^(b-126)) for its biased exponent b; the scale is 2^(126-b),
+// built from its bits (exact, and no libm call on the CPU). Multiplying by it is exact.
+RP_HOT_FUNC float powerOfTwoScale(float largest) {
+    const int biasedExponent = int((floatBitsToUint(largest) >> 23u) & 255u);
+    const int scaleExponent = clamp(126 - biasedExponent, -126, 126);
+    return uintBitsToFloat(uint(scaleExponent + 127) << 23u);
+}
+
 // Watertight ray/triangle test (Woop, Benthin, Wald 2013), edges and vertices inclusive, both faces.
 // On a hit with 0 <= t <= tmax returns true with t and the barycentric weights of v1 and v2 (the
 // weight of v0 is 1 - bary.x - bary.y).
@@ -175,9 +184,11 @@ RP_HOT_FUNC float edgeFunction(vec2 p, vec2 q) {
 // neither huge (1e20) nor tiny (1e-20) coordinates overflow or underflow the edge functions; and
 // the edge functions are evaluated from edge vectors (edgeFunction), so small triangles far from
 // the ray origin keep the right signs. Both keep the test watertight.
-// A hit's t can still carry a relative error well above an ulp where the hit is close to the ray
-// origin compared to the triangle's size (t is a sum of terms of the triangle's size that cancel),
-// so two triangles meeting the ray at the same point may report t a few 1e-6 apart.
+// This t can carry a relative error well above an ulp where the hit is close to the ray origin
+// compared to the triangle's size, on slivers and at grazing angles (t is a weighted mean of the
+// vertices' depths whose weights cancel), so two triangles meeting the ray at the same point may
+// order differently than their exact distances; it decides which hit traversal keeps, and the
+// kept hit's reported t is accurateHitDistance (below), within an ulp or two of the exact one.
 RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, RP_OUT(float) t,
                                    RP_OUT(vec2) bary) {
     t = 0.0f;
@@ -200,11 +211,7 @@ RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float 
     // scaled by different s, still get exactly opposite signs, and watertightness is kept. The
     // exponent is clamped so the scale stays a normal float.
     const float largest = max(max(max(abs(ax), abs(ay)), max(abs(bx), abs(by))), max(abs(cx), abs(cy)));
-    // largest lies in [2^(b-127), 2^(b-126)) for its biased exponent b; scale = 2^(126-b), built
-    // from its bits (exact, and no libm call on the CPU).
-    const int biasedExponent = int((floatBitsToUint(largest) >> 23u) & 255u);
-    const int scaleExponent = clamp(126 - biasedExponent, -126, 126);
-    const float scale = uintBitsToFloat(uint(scaleExponent + 127) << 23u);
+    const float scale = powerOfTwoScale(largest);
     RP_PRECISE const float sax = ax * scale;
     RP_PRECISE const float say = ay * scale;
     RP_PRECISE const float sbx = bx * scale;
@@ -233,6 +240,114 @@ RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float 
     t = hitT;
     bary = vec2(v * invDet, w * invDet);
     return true;
+}
+
+// ---- The accurate distance of an accepted hit (issue 15).
+// intersectTriangle's t is a weighted mean of the sheared vertex depths, weighted by the edge
+// functions. Where those cancel (a sliver: two long, nearly parallel edges) or the ray grazes the
+// triangle, t carried relative errors up to 1e-3 (a soup of 1e-4-wide slivers), and shadow rays
+// start from org + t dir. The hit decision stays Woop et al.'s; the hit that traversal finally
+// keeps gets its t from the triangle's plane, t = ((v0 - org) . n) / (dir . n) with
+// n = (v1 - v0) x (v2 - v0), evaluated in double-float arithmetic (a float pair hi + lo): the
+// differences of the float inputs are exact (TwoSum), products carry their rounding error
+// (Dekker's TwoProduct with Veltkamp's split, so no fused multiply-add is needed, which Vulkan
+// does not promise), and the result is the exact plane distance to about 2^-44 relative before
+// its final rounding to float, even for slivers and grazing rays. Only `precise` arithmetic, so
+// the GPU kernels and the CPU tracers compute the same bits where division is correctly rounded.
+// About 400 float operations, once per primary ray (not per triangle test).
+
+// s + e = a + b exactly (Knuth's TwoSum), for any order of magnitude.
+RP_HOT_FUNC vec2 twoSum(float a, float b) {
+    RP_PRECISE const float s = a + b;
+    RP_PRECISE const float bb = s - a;
+    RP_PRECISE const float e = (a - (s - bb)) + (b - bb);
+    return vec2(s, e);
+}
+
+// s + e = a + b exactly when |a| >= |b| or a == 0 (Dekker's FastTwoSum).
+RP_HOT_FUNC vec2 fastTwoSum(float a, float b) {
+    RP_PRECISE const float s = a + b;
+    RP_PRECISE const float e = b - (s - a);
+    return vec2(s, e);
+}
+
+// hi + lo = a with hi and lo of at most 12 significant bits each (Veltkamp's split, 2^12 + 1).
+RP_HOT_FUNC vec2 veltkampSplit(float a) {
+    RP_PRECISE const float c = 4097.0f * a;
+    RP_PRECISE const float hi = c - (c - a);
+    RP_PRECISE const float lo = a - hi;
+    return vec2(hi, lo);
+}
+
+// p + e = a * b exactly (Dekker's TwoProduct), barring underflow and overflow.
+RP_HOT_FUNC vec2 twoProduct(float a, float b) {
+    RP_PRECISE const float p = a * b;
+    const vec2 sa = veltkampSplit(a);
+    const vec2 sb = veltkampSplit(b);
+    RP_PRECISE const float e = ((sa.x * sb.x - p) + sa.x * sb.y + sa.y * sb.x) + sa.y * sb.y;
+    return vec2(p, e);
+}
+
+// Double-float sum and product (Dekker 1971; the "sloppy" forms, relative error about 2^-44).
+RP_HOT_FUNC vec2 ddAdd(vec2 a, vec2 b) {
+    const vec2 s = twoSum(a.x, b.x);
+    RP_PRECISE const float e = s.y + (a.y + b.y);
+    return fastTwoSum(s.x, e);
+}
+
+RP_HOT_FUNC vec2 ddMul(vec2 a, vec2 b) {
+    const vec2 p = twoProduct(a.x, b.x);
+    RP_PRECISE const float e = p.y + (a.x * b.y + a.y * b.x);
+    return fastTwoSum(p.x, e);
+}
+
+RP_HOT_FUNC vec2 ddMulFloat(vec2 a, float b) {
+    const vec2 p = twoProduct(a.x, b);
+    RP_PRECISE const float e = p.y + a.y * b;
+    return fastTwoSum(p.x, e);
+}
+
+// a * b - c * d in double-float.
+RP_HOT_FUNC vec2 ddCrossTerm(vec2 a, vec2 b, vec2 c, vec2 d) { return ddAdd(ddMul(a, b), -ddMul(c, d)); }
+
+// The distance along org + t dir to the plane of (v0, v1, v2), for a hit intersectTriangle
+// accepted with distance `acceptedT`. Falls back to `acceptedT` where the plane distance is not a
+// positive finite float (the ray lies in the plane as far as the arithmetic can tell, or an
+// input beyond float range), so a hit never moves behind the origin or to infinity.
+RP_HOT_FUNC float accurateHitDistance(vec3 org, vec3 dir, vec3 v0, vec3 v1, vec3 v2, float acceptedT) {
+    // Exact differences: a = v0 - org, e1 = v1 - v0, e2 = v2 - v0, as hi + lo per component.
+    vec2 a[3];
+    vec2 e1[3];
+    vec2 e2[3];
+    for (int i = 0; i < 3; ++i) {
+        a[i] = twoSum(v0[i], -org[i]);
+        e1[i] = twoSum(v1[i], -v0[i]);
+        e2[i] = twoSum(v2[i], -v0[i]);
+    }
+    // t is unchanged when the edges are scaled (n scales in both dot products) and when a and dir
+    // are scaled together: powers of two bring both groups near 1, so that no product overflows
+    // (the split multiplies by 4097) or underflows, from 1e-30 to 1e30 scenes alike.
+    const float edgeScale = powerOfTwoScale(
+        max(max(max(abs(e1[0].x), abs(e1[1].x)), max(abs(e1[2].x), abs(e2[0].x))), max(abs(e2[1].x), abs(e2[2].x))));
+    const float rayScale = powerOfTwoScale(
+        max(max(max(abs(a[0].x), abs(a[1].x)), max(abs(a[2].x), abs(dir.x))), max(abs(dir.y), abs(dir.z))));
+    vec3 d;
+    for (int i = 0; i < 3; ++i) {
+        e1[i] = e1[i] * edgeScale;
+        e2[i] = e2[i] * edgeScale;
+        a[i] = a[i] * rayScale;
+        d[i] = dir[i] * rayScale;
+    }
+    const vec2 nx = ddCrossTerm(e1[1], e2[2], e1[2], e2[1]);
+    const vec2 ny = ddCrossTerm(e1[2], e2[0], e1[0], e2[2]);
+    const vec2 nz = ddCrossTerm(e1[0], e2[1], e1[1], e2[0]);
+    const vec2 numerator = ddAdd(ddAdd(ddMul(a[0], nx), ddMul(a[1], ny)), ddMul(a[2], nz));
+    const vec2 denominator = ddAdd(ddAdd(ddMulFloat(nx, d[0]), ddMulFloat(ny, d[1])), ddMulFloat(nz, d[2]));
+    // One Newton step on the quotient: t0 = hi / hi, then t = t0 + (num - den * t0) / den.
+    RP_PRECISE const float t0 = numerator.x / denominator.x;
+    const vec2 residual = ddAdd(numerator, -ddMulFloat(denominator, t0));
+    RP_PRECISE const float t = t0 + residual.x / denominator.x;
+    return t > 0.0f && t <= kFloatHuge ? t : acceptedT;
 }
 
 // The order of closest hits: nearer t first, and among equal t (coplanar or shared-edge triangles)

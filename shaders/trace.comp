@@ -398,6 +398,11 @@ void main() {
         t = q.tmax;
         leafTri = q.leafTri;
         bary = q.bary;
+        if (leafTri != kNoHit) {
+            // The kept hit's distance from its plane (shaders/intersect.h), as the CPU tracers do.
+            const GpuTriangle tri = triangles[leafTri];
+            t = accurateHitDistance(eye, dir, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, t);
+        }
         counts.primaryNodes = q.nodes;
         counts.primaryTests = q.tests;
         if (kPass == kPassPrimary) {
