@@ -1,4 +1,4 @@
-// BVH entry points, statistics and the pieces both builders share (see renderer/bvh_build.h).
+// BVH entry points, statistics and the pieces the builders share (see renderer/bvh_build.h).
 #include "renderer/bvh.h"
 
 #include "renderer/bvh_build.h"
@@ -82,6 +82,13 @@ void validateOptions(const BvhBuildOptions& options) {
     checkCost(options.intersectionCost, "intersectionCost (C_isect)");
     if (options.builder == BvhBuilder::SahBinned && (options.binCount < 2 || options.binCount > 256))
         throw Error("BVH build: binCount must be in 2..256, got " + std::to_string(options.binCount));
+    if (options.builder == BvhBuilder::SahSplit) {
+        if (!(options.splitAlpha >= 0.0f && options.splitAlpha <= 1.0f))
+            throw Error("BVH build: splitAlpha must be in 0..1, got " + std::to_string(options.splitAlpha));
+        if (!(options.splitBudget >= 1.0f && options.splitBudget <= 4.0f))
+            throw Error("BVH build: splitBudget must be in 1..4 (references per triangle), got " +
+                        std::to_string(options.splitBudget));
+    }
 }
 
 Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* progress) {
@@ -125,12 +132,20 @@ Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* prog
 
 }  // namespace bvh_detail
 
-Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress) {
+Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress,
+             const BvhTriangles* triangles) {
     using namespace bvh_detail;
     const auto start = std::chrono::steady_clock::now();
     validateOptions(options);
     if (primitiveBounds.size() >= size_t(UINT32_MAX))
         throw Error("BVH build: " + std::to_string(primitiveBounds.size()) + " primitives do not fit 32-bit indices");
+    if (options.builder == BvhBuilder::SahSplit &&
+        double(primitiveBounds.size()) * double(options.splitBudget) >= double(UINT32_MAX))
+        throw Error("BVH build: " + std::to_string(primitiveBounds.size()) + " primitives with split budget " +
+                    std::to_string(options.splitBudget) + " may need more references than 32-bit indices reach");
+    if (triangles && triangles->triangles.size() != primitiveBounds.size())
+        throw Error("BVH build: " + std::to_string(triangles->triangles.size()) + " triangles for " +
+                    std::to_string(primitiveBounds.size()) + " primitive boxes");
     if (progress) {
         progress->total.store(primitiveBounds.size());
         progress->placed.store(0);
@@ -149,6 +164,7 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
         switch (options.builder) {
         case BvhBuilder::SahExact: bvh = buildSahExact(primitiveBounds, rootBox, options, progress); break;
         case BvhBuilder::SahBinned: bvh = buildSahBinned(primitiveBounds, rootBox, options, progress); break;
+        case BvhBuilder::SahSplit: bvh = buildSahSplit(primitiveBounds, rootBox, options, progress, triangles); break;
         }
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -171,14 +187,27 @@ std::vector<Aabb> trianglePrimitiveBounds(const Scene& scene) {
 }
 
 Bvh buildBvh(const Scene& scene, const BvhBuildOptions& options, BuildProgress* progress) {
-    const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
-    return buildBvh(bounds, options, progress);
+    const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);  // checks the vertex indices
+    const BvhTriangles triangles{scene.positions, scene.triangles};
+    return buildBvh(bounds, options, progress, &triangles);
 }
 
 BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options) {
     BvhStats stats;
     stats.nodeCount = uint32_t(bvh.nodes.size());
     stats.bytes = bvh.nodes.size() * sizeof(BvhNode) + bvh.primIndices.size() * sizeof(uint32_t);
+    stats.references = bvh.primIndices.size();
+    {
+        // Distinct primitives: one bit per index up to the largest referenced.
+        uint32_t largest = 0;
+        for (uint32_t prim : bvh.primIndices) largest = std::max(largest, prim);
+        std::vector<bool> seen(bvh.primIndices.empty() ? 0 : size_t(largest) + 1, false);
+        for (uint32_t prim : bvh.primIndices)
+            if (!seen[prim]) {
+                seen[prim] = true;
+                ++stats.primitives;
+            }
+    }
     if (bvh.nodes.empty()) return stats;
 
     auto boxOf = [](const BvhNode& node) { return Aabb{node.lo, node.hi}; };
@@ -225,6 +254,7 @@ const char* toString(BvhBuilder builder) {
     switch (builder) {
     case BvhBuilder::SahExact: return "sah-exact";
     case BvhBuilder::SahBinned: return "sah-binned";
+    case BvhBuilder::SahSplit: return "sah-split";
     }
     return "unknown";
 }

@@ -31,9 +31,20 @@ static_assert(sizeof(BvhNode) == 32, "BvhNode must be 32 bytes");
 enum class BvhBuilder {
     SahExact,   // the report's builder: every centroid a candidate, three presorted lists
     SahBinned,  // Wald 2007, "On fast Construction of SAH-based BVHs": binned centroids, 3 axes
+    SahSplit,   // Stich, Friedrich and Dietrich 2009, "Spatial Splits in Bounding Volume Hierarchies"
 };
 // Every builder, in the order a menu lists them.
-inline constexpr BvhBuilder kAllBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned};
+inline constexpr BvhBuilder kAllBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit};
+// The builders that partition the primitives: every primitive is in exactly one leaf, and a leaf's
+// box is the union of its primitives' boxes. SahSplit is not one of them: a spatial split puts a
+// triangle into several leaves, each bounding only the part of it on its side of the split planes.
+// Code that needs one entry per primitive (or per-leaf boxes equal to whole primitive boxes) must
+// not assume it of every builder; the CPU tracers and the GPU layout do not (they gather the
+// referenced triangles per primIndices entry, and a duplicate reference to the closest triangle
+// gives the same t and prim, so the tie rule keeps the same hit).
+inline constexpr BvhBuilder kPartitioningBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned};
+// True for SahExact and SahBinned: primIndices is a permutation of the primitive indices.
+inline constexpr bool referencesEachPrimitiveOnce(BvhBuilder builder) { return builder != BvhBuilder::SahSplit; }
 
 // The most primitives any leaf holds, whatever leafSize asks (larger values are refused) and even
 // where the SAH finds no split worth its cost (a soup of long overlapping slivers, coincident
@@ -50,6 +61,13 @@ struct BvhBuildOptions {
     float traversalCost = 1.0f;     // C_trav of the SAH
     float intersectionCost = 2.0f;  // C_isect of the SAH
     uint32_t binCount = 32;         // SahBinned only: bins per axis, 2..256
+    // SahSplit only. Spatial splits are tried at a node when its best object split's children
+    // overlap by more than splitAlpha × the root's surface area (Stich et al. 2009, section 4.3;
+    // 1e-5 is the paper's value); 0 tries them everywhere. Must be finite, 0..1.
+    float splitAlpha = 1e-5f;
+    // SahSplit only: at most splitBudget × (triangle count) references in all leaves together; once
+    // a subtree has used its share, only object splits are tried there. 1 = no spatial splits. 1..4.
+    float splitBudget = 1.3f;
 };
 
 // Table 1 of the report, plus what raypack adds.
@@ -58,15 +76,21 @@ struct BvhStats {
     uint32_t leafCount = 0;        // N_L
     double avgLeafDepth = 0.0;     // D_AVG (root at depth 0)
     uint32_t maxLeafDepth = 0;     // D_MAX
-    double avgPrimsPerLeaf = 0.0;  // O_AVG
+    double avgPrimsPerLeaf = 0.0;  // O_AVG: primitive references per leaf
     double buildSeconds = 0.0;     // T_B
     double sahCost = 0.0;          // SAH cost of the whole tree, relative to the root's area
     size_t bytes = 0;              // nodes + primitive indices
+    // Entries of Bvh::primIndices (references) and distinct primitives they name. Equal for the
+    // partitioning builders; SahSplit references a triangle once per leaf it overlaps.
+    uint64_t references = 0;
+    uint64_t primitives = 0;
 };
 
 struct Bvh {
     std::vector<BvhNode> nodes;
-    std::vector<uint32_t> primIndices;  // leaf ranges index this; entries are triangle indices
+    // Leaf ranges index this; entries are triangle indices (file order). A partitioning builder
+    // lists each triangle once; SahSplit may list one in several leaves (never twice in one leaf).
+    std::vector<uint32_t> primIndices;
     BvhBuildOptions options;
     BvhStats stats;
 };
@@ -82,13 +106,23 @@ struct BuildProgress {
 
 struct BuildCancelled {};
 
+// The triangles behind the primitive bounds, for SahSplit's clipping: triangle i has corners
+// positions[triangles[i][0..2]]. Other builders ignore it.
+struct BvhTriangles {
+    std::span<const glm::vec3> positions;
+    std::span<const glm::uvec3> triangles;
+};
+
 // Builds over the given primitive bounds (one per triangle, in triangle order). Deterministic: the
 // same input and options give the same tree on any thread count.
 // Throws raypack::Error for options out of range (leafSize 0, a cost not positive and finite, a
-// bin count outside 2..256) and for a primitive box that is empty or not finite; BuildCancelled
-// when progress->cancel is set. Fills Bvh::stats, buildSeconds included.
-Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress = nullptr);
-// The same over a scene's triangles (their boxes in triangle order).
+// bin count outside 2..256, a split alpha or budget out of range) and for a primitive box that is
+// empty or not finite; BuildCancelled when progress->cancel is set. Fills Bvh::stats, buildSeconds
+// included. SahSplit without `triangles` splits the primitive boxes themselves (a box chopped at
+// the plane, valid for any primitive inside its box, looser than a clipped triangle's box).
+Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress = nullptr,
+             const BvhTriangles* triangles = nullptr);
+// The same over a scene's triangles (their boxes in triangle order; SahSplit clips the triangles).
 Bvh buildBvh(const Scene& scene, const BvhBuildOptions& options, BuildProgress* progress = nullptr);
 // One box per triangle, in triangle order (computed in parallel).
 std::vector<Aabb> trianglePrimitiveBounds(const Scene& scene);
@@ -96,7 +130,7 @@ std::vector<Aabb> trianglePrimitiveBounds(const Scene& scene);
 // Statistics of a built tree (everything but buildSeconds).
 BvhStats computeBvhStats(const Bvh& bvh, const BvhBuildOptions& options);
 
-// "sah-exact", "sah-binned".
+// "sah-exact", "sah-binned", "sah-split".
 const char* toString(BvhBuilder builder);
 // The builder whose toString is `name`, or nothing.
 std::optional<BvhBuilder> findBvhBuilder(std::string_view name);

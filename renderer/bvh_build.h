@@ -151,5 +151,8 @@ Bvh buildSahExact(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, co
                   BuildProgress* progress);
 Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
                    BuildProgress* progress);
+// `triangles` may be null (boxes are chopped instead of triangles clipped).
+Bvh buildSahSplit(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
+                  BuildProgress* progress, const BvhTriangles* triangles);
 
 }  // namespace raypack::bvh_detail

@@ -171,7 +171,8 @@ struct alignas(64) RayGroup {
     // Closest hit so far (primary) or the ray's tmax (shadow); kLaneDone for done lanes.
     float tmax[L];
     float baryU[L], baryV[L];
-    uint32_t prim[L];  // primary: closest triangle so far; shadow: the triangle to skip
+    uint32_t prim[L];      // primary: closest triangle so far; shadow: the triangle to skip
+    uint32_t inexactT[L];  // primary: all ones when the closest hit's t is to be recomputed
     uint32_t nodes[L], tests[L];
     uint32_t pixel[L];
     uint32_t activeBits;    // lanes still tracing
@@ -292,7 +293,8 @@ RP_SIMD_INLINE F edgeFunction(F px, F py, F qx, F qy) {
 }
 
 struct TriangleHits {
-    F mask;  // lanes that hit with 0 <= t <= tmax
+    F mask;      // lanes that hit with 0 <= t <= tmax
+    F inexactT;  // lanes whose t is to be recomputed if kept (gpu::intersectTriangle's inexactT)
     F t;
     F baryU;
     F baryV;
@@ -344,7 +346,115 @@ RP_SIMD_INLINE TriangleHits intersectTriangle(const RayGroup& group, const F she
     hits.baryU = S::mul(v, invDet);
     hits.baryV = S::mul(w, invDet);
     hits.mask = S::andNot(reject, S::le(hits.t, tmax));  // !(t <= tmax) rejects, NaN included
+    // depthSpread * reach * kInexactTSpread > |det| * t, with reach = max |a, b, c| * scale.
+    const F depthSpread = S::sub(S::glmMax(S::glmMax(az, bz), cz), S::glmMin(S::glmMin(az, bz), cz));
+    const glm::vec3 farthest = glm::max(glm::max(glm::abs(a), glm::abs(b)), glm::abs(c));
+    const F reach = S::mul(S::set1(std::max(std::max(farthest.x, farthest.y), farthest.z)), scale);
+    hits.inexactT =
+        S::gt(S::mul(S::mul(depthSpread, reach), S::set1(gpu::kInexactTSpread)), S::mul(S::andF(det, absMask), hits.t));
     return hits;
+}
+
+// gpu::accurateHitDistance lane by lane, operation for operation (the same bits): the kept hits'
+// distances from their planes in double-float arithmetic, for the lanes whose t the triangle test
+// called inexact. A double-float value is a pair (hi, lo) of lanes.
+struct DD {
+    F hi, lo;
+};
+
+RP_SIMD_INLINE DD twoSumLanes(F a, F b) {
+    using S = Simd;
+    const F s = S::add(a, b);
+    const F bb = S::sub(s, a);
+    return {s, S::add(S::sub(a, S::sub(s, bb)), S::sub(b, bb))};
+}
+
+RP_SIMD_INLINE DD fastTwoSumLanes(F a, F b) {
+    using S = Simd;
+    const F s = S::add(a, b);
+    return {s, S::sub(b, S::sub(s, a))};
+}
+
+RP_SIMD_INLINE DD splitLanes(F a) {
+    using S = Simd;
+    const F c = S::mul(S::set1(4097.0f), a);
+    const F hi = S::sub(c, S::sub(c, a));
+    return {hi, S::sub(a, hi)};
+}
+
+RP_SIMD_INLINE DD twoProductLanes(F a, F b) {
+    using S = Simd;
+    const F p = S::mul(a, b);
+    const DD sa = splitLanes(a), sb = splitLanes(b);
+    const F e = S::add(S::add(S::add(S::sub(S::mul(sa.hi, sb.hi), p), S::mul(sa.hi, sb.lo)), S::mul(sa.lo, sb.hi)),
+                       S::mul(sa.lo, sb.lo));
+    return {p, e};
+}
+
+RP_SIMD_INLINE DD ddAddLanes(DD a, DD b) {
+    using S = Simd;
+    const DD s = twoSumLanes(a.hi, b.hi);
+    return fastTwoSumLanes(s.hi, S::add(s.lo, S::add(a.lo, b.lo)));
+}
+
+RP_SIMD_INLINE DD ddMulLanes(DD a, DD b) {
+    using S = Simd;
+    const DD p = twoProductLanes(a.hi, b.hi);
+    return fastTwoSumLanes(p.hi, S::add(p.lo, S::add(S::mul(a.hi, b.lo), S::mul(a.lo, b.hi))));
+}
+
+RP_SIMD_INLINE DD ddMulFloatLanes(DD a, F b) {
+    using S = Simd;
+    const DD p = twoProductLanes(a.hi, b);
+    return fastTwoSumLanes(p.hi, S::add(p.lo, S::mul(a.lo, b)));
+}
+
+RP_SIMD_INLINE DD ddNegLanes(DD a) {
+    const F sign = Simd::set1(-0.0f);
+    return {Simd::xorF(a.hi, sign), Simd::xorF(a.lo, sign)};
+}
+
+RP_SIMD_INLINE DD ddScaleLanes(DD a, F scale) { return {Simd::mul(a.hi, scale), Simd::mul(a.lo, scale)}; }
+
+RP_SIMD_INLINE F accurateHitDistanceLanes(const glm::vec3& org, const F dir[3], const F v0[3], const F v1[3],
+                                          const F v2[3], F acceptedT) {
+    using S = Simd;
+    const F absMask = S::set1Bits(0x7FFFFFFFu);
+    const F negative = S::set1(-0.0f);
+    DD a[3], e1[3], e2[3];
+    for (int i = 0; i < 3; ++i) {
+        a[i] = twoSumLanes(v0[i], S::set1(-org[i]));
+        e1[i] = twoSumLanes(v1[i], S::xorF(v0[i], negative));
+        e2[i] = twoSumLanes(v2[i], S::xorF(v0[i], negative));
+    }
+    const auto absF = [&](F x) { return S::andF(x, absMask); };
+    const F edgeScale = S::scaleFor(
+        S::glmMax(S::glmMax(S::glmMax(absF(e1[0].hi), absF(e1[1].hi)), S::glmMax(absF(e1[2].hi), absF(e2[0].hi))),
+                  S::glmMax(absF(e2[1].hi), absF(e2[2].hi))));
+    const F rayScale = S::scaleFor(
+        S::glmMax(S::glmMax(S::glmMax(absF(a[0].hi), absF(a[1].hi)), S::glmMax(absF(a[2].hi), absF(dir[0]))),
+                  S::glmMax(absF(dir[1]), absF(dir[2]))));
+    F d[3];
+    for (int i = 0; i < 3; ++i) {
+        e1[i] = ddScaleLanes(e1[i], edgeScale);
+        e2[i] = ddScaleLanes(e2[i], edgeScale);
+        a[i] = ddScaleLanes(a[i], rayScale);
+        d[i] = S::mul(dir[i], rayScale);
+    }
+    const auto crossTerm = [](DD p, DD q, DD r, DD s) {
+        return ddAddLanes(ddMulLanes(p, q), ddNegLanes(ddMulLanes(r, s)));
+    };
+    const DD nx = crossTerm(e1[1], e2[2], e1[2], e2[1]);
+    const DD ny = crossTerm(e1[2], e2[0], e1[0], e2[2]);
+    const DD nz = crossTerm(e1[0], e2[1], e1[1], e2[0]);
+    const DD numerator = ddAddLanes(ddAddLanes(ddMulLanes(a[0], nx), ddMulLanes(a[1], ny)), ddMulLanes(a[2], nz));
+    const DD denominator =
+        ddAddLanes(ddAddLanes(ddMulFloatLanes(nx, d[0]), ddMulFloatLanes(ny, d[1])), ddMulFloatLanes(nz, d[2]));
+    const F t0 = S::div(numerator.hi, denominator.hi);
+    const DD residual = ddAddLanes(numerator, ddNegLanes(ddMulFloatLanes(denominator, t0)));
+    const F t = S::add(t0, S::div(residual.hi, denominator.hi));
+    const F valid = S::andF(S::gt(t, S::set1(0.0f)), S::le(t, S::set1(gpu::kFloatHuge)));
+    return S::select(valid, t, acceptedT);
 }
 
 RP_SIMD_INLINE void countLanes(uint32_t* counts, uint32_t laneBits, uint32_t amount) {
@@ -363,6 +473,7 @@ RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
     F bestPrim = S::loadBits(group.prim);
     F baryU = S::load(group.baryU);
     F baryV = S::load(group.baryV);
+    F inexactT = S::loadBits(group.inexactT);
     const uint32_t end = leaf.index + leaf.count;
     for (uint32_t entry = leaf.index; entry < end; ++entry) {
         const glm::vec3* v = leafVertices + 3 * size_t(entry);
@@ -375,12 +486,14 @@ RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
         bestPrim = S::select(closer, prim, bestPrim);
         baryU = S::select(closer, hits.baryU, baryU);
         baryV = S::select(closer, hits.baryV, baryV);
+        inexactT = S::select(closer, hits.inexactT, inexactT);
     }
     if (kCount) countLanes(group.tests, laneBits, leaf.count);
     S::store(group.tmax, tmax);
     S::storeBits(group.prim, bestPrim);
     S::store(group.baryU, baryU);
     S::store(group.baryV, baryV);
+    S::storeBits(group.inexactT, inexactT);
 }
 
 // The any-hit leaf step of one group: lanes that hit a triangle other than their own are occluded
@@ -589,6 +702,7 @@ void clearGroup(RayGroup& group) {
         group.axisCode[lane] = 0 | 1 << 2 | 2 << 4;
         group.tmax[lane] = kLaneDone;
         group.prim[lane] = kNoHit;
+        group.inexactT[lane] = 0;
         group.baryU[lane] = 0.0f;
         group.baryV[lane] = 0.0f;
         group.nodes[lane] = 0;
@@ -704,6 +818,34 @@ void finishGroup(RayGroup& group, PacketBuilder& builder) {
     }
 }
 
+// The kept hits' t of the lanes whose triangle test called it inexact, recomputed from their
+// triangles' planes as the reference does (gpu::accurateHitDistance), all lanes at once.
+RP_SIMD_INLINE void refineInexactHits(const PacketFrame& frame, RayGroup& group) {
+    using S = Simd;
+    uint32_t lanes = 0;
+    for (int lane = 0; lane < L; ++lane)
+        if (group.pixel[lane] != kNoHit && group.prim[lane] != kNoHit && group.inexactT[lane]) lanes |= 1u << lane;
+    if (!lanes) return;
+    // Lanes that need no new t compute one for a lane that does, and keep their own.
+    const uint32_t anyLane = uint32_t(__builtin_ctz(lanes));
+    alignas(64) float vertex[3][3][L];  // [vertex][axis][lane]
+    for (int lane = 0; lane < L; ++lane) {
+        const uint32_t prim = (lanes >> lane) & 1u ? group.prim[lane] : group.prim[anyLane];
+        const glm::uvec3 tri = frame.scene->triangles[prim];
+        for (int k = 0; k < 3; ++k) {
+            const glm::vec3& p = frame.scene->positions[tri[k]];
+            for (int axis = 0; axis < 3; ++axis) vertex[k][axis][lane] = p[axis];
+        }
+    }
+    F v[3][3];
+    for (int k = 0; k < 3; ++k)
+        for (int axis = 0; axis < 3; ++axis) v[k][axis] = S::load(vertex[k][axis]);
+    const F dir[3] = {S::load(group.dirX), S::load(group.dirY), S::load(group.dirZ)};
+    const F tmax = S::load(group.tmax);
+    const F t = accurateHitDistanceLanes(frame.eye, dir, v[0], v[1], v[2], tmax);
+    S::store(group.tmax, S::select(S::fromBits(lanes), t, tmax));
+}
+
 template <bool kCount>
 void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     const PacketLayout layout = packetLayout(frame, x0, y0);
@@ -738,19 +880,15 @@ void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     builder.finish(interval, dirSign);
     traversePacket<false, kCount>(frame, groups, groupCount, frame.eye, interval, dirSign, scratch.stack.data());
     for (uint32_t g = 0; g < groupCount; ++g) {
-        const RayGroup& group = groups[g];
+        RayGroup& group = groups[g];
+        refineInexactHits(frame, group);
         for (int lane = 0; lane < L; ++lane) {
             const uint32_t pixel = group.pixel[lane];
             if (pixel == kNoHit) continue;
             ClosestHit& hit = frame.hits[pixel];
             hit = ClosestHit{};
             if (group.prim[lane] != kNoHit) {
-                // The kept hit's distance from its plane, as the reference computes it.
-                const glm::uvec3 tri = frame.scene->triangles[group.prim[lane]];
-                const glm::vec3 dir(group.dirX[lane], group.dirY[lane], group.dirZ[lane]);
-                hit.t = gpu::accurateHitDistance(frame.eye, dir, frame.scene->positions[tri.x],
-                                                 frame.scene->positions[tri.y], frame.scene->positions[tri.z],
-                                                 group.tmax[lane]);
+                hit.t = group.tmax[lane];
                 hit.prim = group.prim[lane];
                 hit.bary = glm::vec2(group.baryU[lane], group.baryV[lane]);
             }

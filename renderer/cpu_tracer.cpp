@@ -158,6 +158,7 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
     uint32_t nodeIndex = 0;
     uint32_t top = 0;
     uint32_t bestEntry = 0;
+    bool bestInexact = false;
     while (true) {
         const BvhNode& node = nodes[nodeIndex];
         ++visitedNodes;
@@ -169,7 +170,8 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
                 ++triangleTests;
                 float t;
                 glm::vec2 bary;
-                if (!gpu::intersectTriangle(ray, v0, v1, v2, bestT, t, bary)) continue;
+                bool inexactT;
+                if (!gpu::intersectTriangle(ray, v0, v1, v2, bestT, t, bary, inexactT)) continue;
                 const uint32_t prim = triangles.prim(entry);
                 if (gpu::isCloserHit(t, prim, bestT, best.prim)) {
                     bestT = t;
@@ -178,6 +180,7 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
                     best.prim = prim;
                     best.bary = bary;
                     bestEntry = entry;
+                    bestInexact = inexactT;
                 }
             }
         } else {
@@ -191,7 +194,7 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
             if (top == 0) {
                 counts.nodes += visitedNodes;
                 counts.tests += triangleTests;
-                if (best.hit()) {
+                if (bestInexact) {
                     // The kept hit's distance from its plane (gpu::accurateHitDistance), as the kernels do.
                     glm::vec3 v0, v1, v2;
                     triangles.fetch(bestEntry, v0, v1, v2);

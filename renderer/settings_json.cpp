@@ -123,11 +123,10 @@ nlohmann::json toJson(const RenderSettings& s) {
 }
 
 nlohmann::json toJson(const BvhBuildOptions& o) {
-    return {{"builder", toString(o.builder)},
-            {"leaf_size", o.leafSize},
-            {"traversal_cost", o.traversalCost},
-            {"intersection_cost", o.intersectionCost},
-            {"bin_count", o.binCount}};
+    return {{"builder", toString(o.builder)},    {"leaf_size", o.leafSize},
+            {"traversal_cost", o.traversalCost}, {"intersection_cost", o.intersectionCost},
+            {"bin_count", o.binCount},           {"split_alpha", o.splitAlpha},
+            {"split_budget", o.splitBudget}};
 }
 
 nlohmann::json toJson(const RenderSetup& setup) {
@@ -203,6 +202,10 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     readFloat(j, "intersection_cost", "bvh.", o.intersectionCost);
     readUint(j, "bin_count", "bvh.", o.binCount);
     if (o.binCount < 2 || o.binCount > 256) badKey("bvh.bin_count", "must be in 2..256");
+    readFloat(j, "split_alpha", "bvh.", o.splitAlpha);
+    if (!(o.splitAlpha >= 0.0f && o.splitAlpha <= 1.0f)) badKey("bvh.split_alpha", "must be in 0..1");
+    readFloat(j, "split_budget", "bvh.", o.splitBudget);
+    if (!(o.splitBudget >= 1.0f && o.splitBudget <= 4.0f)) badKey("bvh.split_budget", "must be in 1..4");
     if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
         badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
     return o;

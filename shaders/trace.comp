@@ -77,6 +77,7 @@ struct RayQuery {
     uint leafTri;    // nearest triangle in leaf order, kNoHit while none
     uint fileTri;    // the same in file order (ties go to the lower file index: isCloserHit)
     vec2 bary;
+    bool inexactT;   // the nearest hit's t is to be recomputed (intersectTriangle, accurateHitDistance)
     bool anyHit;     // shadow ray: stop at the first occluder
     uint skipFile;   // shadow ray: the triangle the shaded point lies on
     bool isActive;   // takes part in the traversal (and in the vote)
@@ -91,6 +92,7 @@ RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, b
     q.leafTri = kNoHit;
     q.fileTri = kNoHit;
     q.bary = vec2(0.0f);
+    q.inexactT = false;
     q.anyHit = anyHit;
     q.skipFile = skipFile;
     q.isActive = tracing;
@@ -111,7 +113,8 @@ void intersectLeaf(inout RayQuery q, uint first, uint count) {
         if (q.anyHit && file == q.skipFile) continue;
         float t;
         vec2 bary;
-        if (!intersectTriangle(q.ray, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, q.tmax, t, bary)) continue;
+        bool inexactT;
+        if (!intersectTriangle(q.ray, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, q.tmax, t, bary, inexactT)) continue;
         if (q.anyHit) {
             q.leafTri = i;
             q.fileTri = file;
@@ -123,6 +126,7 @@ void intersectLeaf(inout RayQuery q, uint first, uint count) {
             q.leafTri = i;
             q.fileTri = file;
             q.bary = bary;
+            q.inexactT = inexactT;
         }
     }
 }
@@ -398,7 +402,7 @@ void main() {
         t = q.tmax;
         leafTri = q.leafTri;
         bary = q.bary;
-        if (leafTri != kNoHit) {
+        if (leafTri != kNoHit && q.inexactT) {
             // The kept hit's distance from its plane (shaders/intersect.h), as the CPU tracers do.
             const GpuTriangle tri = triangles[leafTri];
             t = accurateHitDistance(eye, dir, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, t);

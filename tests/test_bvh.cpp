@@ -294,7 +294,7 @@ TEST(BvhExact, MatchesBruteForceReference) {
 TEST(BvhExact, InvariantsAndStatsOnRandomSoups) {
     for (uint32_t count : {2u, 3u, 17u, 1000u, 30000u}) {
         const std::vector<Aabb> bounds = randomSoup(count, count);
-        for (BvhBuilder builder : kAllBvhBuilders) {
+        for (BvhBuilder builder : kPartitioningBvhBuilders) {
             SCOPED_TRACE(std::string(toString(builder)) + " n=" + std::to_string(count));
             const Bvh bvh = buildBvh(bounds, optionsFor(builder));
             expectValidTree(bvh, bounds);
@@ -305,7 +305,7 @@ TEST(BvhExact, InvariantsAndStatsOnRandomSoups) {
 
 TEST(BvhExact, GridSoupWithManyTies) {
     const std::vector<Aabb> bounds = gridSoup(20000, 7);
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kPartitioningBvhBuilders) {
         SCOPED_TRACE(toString(builder));
         const Bvh bvh = buildBvh(bounds, optionsFor(builder));
         expectValidTree(bvh, bounds);
@@ -317,7 +317,7 @@ TEST(BvhExact, GridSoupWithManyTies) {
 // parallel sweeps, binning and partitions all take part.
 TEST(BvhDeterminism, SameTreeOnOneAndTwoThreads) {
     const std::vector<Aabb> bounds = randomSoup(150000, 99);
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kPartitioningBvhBuilders) {
         SCOPED_TRACE(toString(builder));
         const Bvh one = buildOnThreads(1, bounds, optionsFor(builder));
         const Bvh two = buildOnThreads(2, bounds, optionsFor(builder));
@@ -344,7 +344,7 @@ TEST(BvhEdgeCases, ZeroPrimitives) {
 
 TEST(BvhEdgeCases, OnePrimitive) {
     const std::vector<Aabb> bounds = randomSoup(1, 5);
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kPartitioningBvhBuilders) {
         const Bvh bvh = buildBvh(bounds, optionsFor(builder));
         expectValidTree(bvh, bounds);
         ASSERT_EQ(bvh.nodes.size(), 1u);
@@ -359,7 +359,7 @@ TEST(BvhEdgeCases, OnePrimitive) {
 TEST(BvhEdgeCases, AllCentroidsEqualIdenticalBoxes) {
     const Aabb box{glm::vec3(1, 2, 3), glm::vec3(2, 4, 5)};
     const std::vector<Aabb> bounds(5000, box);
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kPartitioningBvhBuilders) {
         const Bvh bvh = buildBvh(bounds, optionsFor(builder));
         expectValidTree(bvh, bounds);
         EXPECT_EQ(bvh.stats.leafCount, 8u);  // 5000 halved three times: 625 per leaf
@@ -375,7 +375,7 @@ TEST(BvhEdgeCases, AllCentroidsEqualNestedBoxes) {
         const float r = 1.0f + float(i % 37);
         bounds.push_back({glm::vec3(-r), glm::vec3(r)});
     }
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kPartitioningBvhBuilders) {
         const Bvh bvh = buildBvh(bounds, optionsFor(builder));
         expectValidTree(bvh, bounds);
     }
@@ -395,7 +395,7 @@ TEST(BvhEdgeCases, DegenerateTriangles) {
         const glm::vec3 p(t(rng), t(rng), t(rng));
         flat.push_back(triangleBox(p, p + glm::vec3(1, 0, 0), p + glm::vec3(2, 0, 0)));
     }
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kPartitioningBvhBuilders) {
         SCOPED_TRACE(toString(builder));
         const Bvh line = buildBvh(onLine, optionsFor(builder));
         expectValidTree(line, onLine);
@@ -427,7 +427,7 @@ TEST(BvhEdgeCases, HugeAndTinyCoordinates) {
             box.hi = glm::vec3(std::ldexp(box.hi.x, exponent), std::ldexp(box.hi.y, exponent),
                                std::ldexp(box.hi.z, exponent));
         }
-        for (BvhBuilder builder : kAllBvhBuilders) {
+        for (BvhBuilder builder : kPartitioningBvhBuilders) {
             SCOPED_TRACE(toString(builder));
             const Bvh reference = buildBvh(base, optionsFor(builder));
             const Bvh bvh = buildBvh(scaled, optionsFor(builder));
@@ -541,7 +541,7 @@ TEST(BvhSharedScenes, InvariantsOnRealScenes) {
         const Scene scene = loadScene(path);
         const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
         double exactCost = 0.0;
-        for (BvhBuilder builder : kAllBvhBuilders) {
+        for (BvhBuilder builder : kPartitioningBvhBuilders) {
             SCOPED_TRACE(toString(builder));
             BvhBuildOptions options;
             options.builder = builder;

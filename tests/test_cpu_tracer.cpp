@@ -40,10 +40,15 @@ struct BruteHit {
     uint32_t prim = gpu::kNoHit;
 };
 
-// The distance a tracer reports for the hit it keeps: the plane distance of that triangle
-// (gpu::accurateHitDistance), the triangle test's t only deciding which hit is kept.
+// The distance a tracer reports for the hit it keeps: the triangle test's t, or where that test
+// calls its t inexact the plane distance of that triangle (gpu::accurateHitDistance).
 float keptT(const Scene& scene, uint32_t prim, glm::vec3 org, glm::vec3 dir, float t) {
-    return gpu::accurateHitDistance(org, dir, scene.vertex(prim, 0), scene.vertex(prim, 1), scene.vertex(prim, 2), t);
+    const glm::vec3 v0 = scene.vertex(prim, 0), v1 = scene.vertex(prim, 1), v2 = scene.vertex(prim, 2);
+    float ownT;
+    glm::vec2 bary;
+    bool inexactT = false;
+    gpu::intersectTriangle(gpu::makeTraceRay(org, dir), v0, v1, v2, kRayTmaxInfinite, ownT, bary, inexactT);
+    return inexactT ? gpu::accurateHitDistance(org, dir, v0, v1, v2, t) : t;
 }
 
 BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {

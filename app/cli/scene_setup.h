@@ -19,11 +19,14 @@ struct LoadedScene {
 // Opens a file path or generator spec (scenes/load.h) and times it. Throws raypack::Error.
 LoadedScene loadSceneTimed(const std::string& spec);
 
-// --leaf-size, --builder, --bins, bound to `options` (defaults from BvhBuildOptions).
+// --leaf-size, --builder, --bins, --split-alpha, --split-budget, bound to `options` (defaults from
+// BvhBuildOptions).
 struct BvhFlags {
     uint32_t leafSize = BvhBuildOptions{}.leafSize;
     std::string builder = toString(BvhBuildOptions{}.builder);
     uint32_t binCount = BvhBuildOptions{}.binCount;
+    float splitAlpha = BvhBuildOptions{}.splitAlpha;
+    float splitBudget = BvhBuildOptions{}.splitBudget;
 };
 void addBvhFlags(CLI::App& command, BvhFlags& flags);
 // Throws raypack::Error for an unknown builder name.
