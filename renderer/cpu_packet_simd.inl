@@ -153,7 +153,7 @@ using F = Simd::F;
 constexpr uint32_t kNoHit = 0xFFFFFFFFu;
 constexpr uint32_t kAllLanes = (1u << L) - 1u;
 // The tmax of a lane that takes no part any more (padding, occluded shadow ray): every box test's
-// entry distance is >= 0 and every triangle hit's t >= 0, so nothing passes `<= -1`.
+// entry distance is >= 0 and every triangle hit's t > 0, so nothing passes `<= -1`.
 constexpr float kLaneDone = -1.0f;
 
 // One SIMD width of rays, structure of arrays. Lanes are 2x2 (SSE) or 4x2 (AVX2) pixels. Every
@@ -293,7 +293,7 @@ RP_SIMD_INLINE F edgeFunction(F px, F py, F qx, F qy) {
 }
 
 struct TriangleHits {
-    F mask;      // lanes that hit with 0 <= t <= tmax
+    F mask;      // lanes that hit with 0 < t <= tmax
     F inexactT;  // lanes whose t is to be recomputed if kept (gpu::intersectTriangle's inexactT)
     F t;
     F baryU;
@@ -339,13 +339,15 @@ RP_SIMD_INLINE TriangleHits intersectTriangle(const RayGroup& group, const F she
     const F bz = S::mul(shear[2], bZ);
     const F cz = S::mul(shear[2], cZ);
     const F scaledT = S::add(S::add(S::mul(u, az), S::mul(v, bz)), S::mul(w, cz));
-    reject = S::orF(reject, S::select(S::gt(det, zero), S::lt(scaledT, zero), S::gt(scaledT, zero)));
+    // t > 0 strictly, as gpu::intersectTriangle: scaledT = +-0 is rejected for either sign of det.
+    reject = S::orF(reject, S::select(S::gt(det, zero), S::le(scaledT, zero), S::le(zero, scaledT)));
     const F invDet = S::div(S::set1(1.0f), det);
     TriangleHits hits;
     hits.t = S::mul(scaledT, invDet);
     hits.baryU = S::mul(v, invDet);
     hits.baryV = S::mul(w, invDet);
-    hits.mask = S::andNot(reject, S::le(hits.t, tmax));  // !(t <= tmax) rejects, NaN included
+    // !(0 < t <= tmax) rejects: a quotient that underflowed to 0, and NaN.
+    hits.mask = S::andNot(reject, S::andF(S::gt(hits.t, zero), S::le(hits.t, tmax)));
     // depthSpread * reach * kInexactTSpread > |det| * t, with reach = max |a, b, c| * scale.
     const F depthSpread = S::sub(S::glmMax(S::glmMax(az, bz), cz), S::glmMin(S::glmMin(az, bz), cz));
     const glm::vec3 farthest = glm::max(glm::max(glm::abs(a), glm::abs(b)), glm::abs(c));

@@ -67,11 +67,12 @@ struct TraversalCounts {
     uint32_t tests = 0;  // N_IT
 };
 
-// Closest hit along origin + t * dir for t in [0, tmax]; dir must be non-zero, need not be unit.
+// Closest hit along origin + t * dir for t in (0, tmax] (a hit at the origin,
+// t = 0, is none: shaders/intersect.h); dir must be non-zero, need not be unit.
 // Ties in t go to the lower triangle index (gpu::isCloserHit).
 ClosestHit traceClosestHit(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax = kRayTmaxInfinite,
                            TraversalCounts* counts = nullptr);
-// Whether any triangle other than `skipPrim` lies on origin + t * dir for t in [0, tmax]; stops at
+// Whether any triangle other than `skipPrim` lies on origin + t * dir for t in (0, tmax]; stops at
 // the first one found.
 bool traceOccluded(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax,
                    uint32_t skipPrim = 0xFFFFFFFFu, TraversalCounts* counts = nullptr);

@@ -119,7 +119,9 @@ RP_HOT_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
     return r;
 }
 
-// Conservative slab test against [lo, hi] for t in [0, tmax] (tmax widened by kBoxTmaxWiden).
+// Conservative slab test against [lo, hi] for t in [0, tmax] (tmax widened by kBoxTmaxWiden); closed
+// at 0 on purpose: a box is a bound, and a triangle touching the ray origin is decided by
+// intersectTriangle's t > 0.
 // Returns whether the ray may touch the box; tEntry is the entry distance (clamped to 0). Boxes are closed: a ray lying
 // in a face plane, or parallel to an axis and inside that slab, hits.
 RP_HOT_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
@@ -177,8 +179,15 @@ RP_HOT_FUNC float powerOfTwoScale(float largest) {
 const float kInexactTSpread = 0.0625f;
 
 // Watertight ray/triangle test (Woop, Benthin, Wald 2013), edges and vertices inclusive, both faces.
-// On a hit with 0 <= t <= tmax returns true with t and the barycentric weights of v1 and v2 (the
+// On a hit with 0 < t <= tmax returns true with t and the barycentric weights of v1 and v2 (the
 // weight of v0 is 1 - bary.x - bary.y).
+//
+// t = 0 (or -0) is not a hit (issue 11, class 12): a ray starting on a triangle, an eye placed
+// exactly on a face, would otherwise hit that face at t = 0 for every direction and see nothing
+// beyond it. Embree counts a hit only for tnear < t (with tnear = 0), and a ray leaving a surface
+// (a shadow ray from a hit point) needs the same; every tracer of raypack decides t's sign here or
+// in a vectorised copy of this test (renderer/cpu_packet_simd.inl), the driver peer through its
+// tmin (shaders/rt/rt_peer.rgen).
 //
 // The paper recomputes the edge functions in double precision when one of them is exactly 0. We do
 // not, on either side: GLSL doubles are optional (and slow where present), and the CPU reference
@@ -240,11 +249,15 @@ RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float 
     RP_PRECISE const float bz = r.shearZ * b[r.kz];
     RP_PRECISE const float cz = r.shearZ * c[r.kz];
     RP_PRECISE const float scaledT = u * az + v * bz + w * cz;
-    // Same sign as det means t >= 0; the division is done once the sign test passed.
-    if (det > 0.0f ? scaledT < 0.0f : scaledT > 0.0f) return false;
+    // Same sign as det, strictly, means t > 0: scaledT = +-0 (the ray origin in the triangle's
+    // plane) is rejected, whatever the sign of det, so neither t = 0 nor t = -0 is a hit. The
+    // division is done once the sign test passed.
+    if (det > 0.0f ? scaledT <= 0.0f : scaledT >= 0.0f) return false;
     RP_PRECISE const float invDet = 1.0f / det;
     const float hitT = scaledT * invDet;
-    if (!(hitT <= tmax)) return false;
+    // The quotient of two nonzero numbers of one sign can still round (underflow) to +0, or be
+    // flushed to it where the GPU drops denormals: t > 0 is tested on the result too.
+    if (!(hitT > 0.0f && hitT <= tmax)) return false;
     t = hitT;
     bary = vec2(v * invDet, w * invDet);
     // t is the mean of the depths az, bz, cz weighted by u, v, w. Each weight carries the rounding

@@ -239,6 +239,33 @@ TEST(Triangle, HitDistanceAndBarycentrics) {
         intersectTriangle(inPlane, vec3(0.0f), vec3(1.0f, 0.0f, 0.0f), vec3(0.0f, 1.0f, 0.0f), kFloatHuge, t, bary));
 }
 
+TEST(Triangle, OriginOnTheTriangleIsNoHit) {
+    // Issue 11, class 12: a hit counts only at t > 0. An origin inside the triangle, on an edge or
+    // on a vertex meets it at t = 0, or -0 by the sign of det (both faces, both directions, straight
+    // and oblique); before the fix each of these was a hit with t = +-0. The directions' largest
+    // component is the triangle's normal (z): then the sheared vertices lie at exactly z = 0 and t
+    // is exactly +-0 (tests/eye_on_face.h says what happens otherwise).
+    const vec3 v0(0.0f), v1(1.0f, 0.0f, 0.0f), v2(0.0f, 1.0f, 0.0f);
+    for (const vec3 origin : {vec3(0.25f, 0.25f, 0.0f), vec3(0.5f, 0.0f, 0.0f), vec3(0.5f, 0.5f, 0.0f), vec3(0.0f)})
+        for (const vec3 dir :
+             {vec3(0.0f, 0.0f, 1.0f), vec3(0.0f, 0.0f, -1.0f), vec3(0.3f, -0.2f, 1.0f), vec3(-0.7f, 0.1f, -0.9f)}) {
+            const TraceRay ray = makeTraceRay(origin, dir);
+            float t = 1.0f;
+            vec2 bary;
+            EXPECT_FALSE(intersectTriangle(ray, v0, v1, v2, kFloatHuge, t, bary))
+                << origin.x << "," << origin.y << " dir " << dir.x << "," << dir.y << "," << dir.z << ": t " << t;
+            EXPECT_FALSE(intersectTriangle(ray, v0, v2, v1, kFloatHuge, t, bary))
+                << origin.x << "," << origin.y << " dir " << dir.x << "," << dir.y << "," << dir.z << ": t " << t;
+        }
+    // An origin 1e-30 above the face still hits it, at that tiny positive t.
+    const TraceRay above = makeTraceRay(vec3(0.25f, 0.25f, 1.0e-30f), vec3(0.0f, 0.0f, -1.0f));
+    float t;
+    vec2 bary;
+    ASSERT_TRUE(intersectTriangle(above, v0, v1, v2, kFloatHuge, t, bary));
+    EXPECT_GT(t, 0.0f);
+    EXPECT_FLOAT_EQ(t, 1.0e-30f);
+}
+
 // ---- Accurate hit distances (issue 15): the watertight decision of Woop et al. 2013 with t from
 // the triangle's plane. The decision's own t is a weighted mean of the vertices' distances with
 // the edge functions as weights; on a sliver those weights cancel (two long, nearly parallel

@@ -5,6 +5,8 @@
 // by gpu::kMaxTraversalSteps, and a ray that reaches the bound makes render() throw.
 #include "test_gpu_common.h"
 
+#include "eye_on_face.h"
+#include "renderer/cpu_packet_tracer.h"
 #include "renderer/error.h"
 
 #include <random>
@@ -68,6 +70,39 @@ TEST(RobustGpu, RaysBeyondTheTraversalBudgetAreAnErrorNotAWrongImage) {
             ADD_FAILURE() << "render returned a frame although rays ran past the budget";
         } catch (const Error& e) {
             EXPECT_NE(std::string(e.what()).find("traversal steps"), std::string::npos) << e.what();
+        }
+    }
+    expectNoValidationMessages();
+}
+
+// Issue 11, class 12: an eye placed exactly on a face. A hit counts only at t > 0; before the fix
+// every ray of both kernels hit the eye's face at t = 0 or -0. Both kernels, the CPU reference and
+// the CPU packet tracer must see the walls beyond and agree ray by ray.
+TEST(RobustGpu, EyeOnAFaceSeesWhatLiesBeyondOnEveryKernel) {
+    const Scene scene = eyeOnFaceScene();
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    const CpuSceneView view = makeCpuSceneView(scene, bvh);
+    GpuTracer tracer(validatedContext());
+    tracer.upload(scene, bvh);
+    for (const EyeOnFaceView& eye : eyeOnFaceViews()) {
+        RenderSettings settings;
+        settings.width = 24;
+        settings.height = 20;
+        settings.camera = eye.camera;
+        const FrameRequest request{true, true, false};
+        const Frame reference = renderCpu(view, settings, request);
+        expectSeesBeyondTheFace(reference, eye, "CPU reference");
+        settings.packet = kDefaultCpuPacket;
+        const Frame packets = renderCpuPackets(view, settings, request);
+        expectSeesBeyondTheFace(packets, eye, "CPU packets");
+        expectSameHits(packets, reference, 0.0f, "CPU packets");
+        for (const KernelKind kernel : {KernelKind::Packet, KernelKind::Single}) {
+            settings.kernel = kernel;
+            settings.packet = PacketShape{};
+            const std::string what = std::string("GPU ") + toString(kernel);
+            const Frame gpu = tracer.render(settings, request);
+            expectSeesBeyondTheFace(gpu, eye, what);
+            expectSameHits(gpu, reference, 1e-5f, what);
         }
     }
     expectNoValidationMessages();
