@@ -1,19 +1,12 @@
 #include "renderer/async_build.h"
 
 #include "renderer/error.h"
+#include "renderer/measure/spread.h"
 
 #include <exception>
 #include <vector>
 
 namespace raypack {
-
-namespace {
-
-double secondsSince(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-}  // namespace
 
 const char* toString(BuildPhase phase) {
     switch (phase) {
@@ -109,11 +102,6 @@ BuildStatus AsyncSceneBuilder::status() const {
         status.elapsedSeconds = secondsSince(running_->start);
     }
     return status;
-}
-
-bool AsyncSceneBuilder::idle() const {
-    std::lock_guard lock(mutex_);
-    return !running_ && !waiting_;
 }
 
 void AsyncSceneBuilder::waitIdle() {

@@ -86,8 +86,6 @@ public:
     std::optional<BuildFailure> takeFailure();
 
     BuildStatus status() const;
-    // True when no job runs or waits.
-    bool idle() const;
     // Blocks until idle. For scripted runs and tests only: the render loop never calls it.
     void waitIdle();
 

@@ -3,6 +3,7 @@
 #include "renderer/camera.h"
 #include "renderer/cpu_packet_kernel.h"
 #include "renderer/error.h"
+#include "renderer/measure/spread.h"
 #include "shaders/camera.h"
 #include "shaders/intersect.h"
 
@@ -17,9 +18,7 @@
 namespace raypack {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+using Clock = SteadyClock;
 
 bool cpuHas(CpuSimd simd) {
     switch (simd) {

@@ -4,6 +4,7 @@
 #include "renderer/cpu_box_pair.h"
 #include "renderer/error.h"
 #include "renderer/gpu_layout.h"  // gpuTexture
+#include "renderer/measure/spread.h"
 #include "shaders/camera.h"
 #include "shaders/intersect.h"
 #include "shaders/shading.h"
@@ -20,9 +21,7 @@
 namespace raypack {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+using Clock = SteadyClock;
 
 // A node waiting on the stack, with the entry distance its box had when it was pushed.
 struct StackEntry {

@@ -3,6 +3,7 @@
 #include "renderer/camera.h"
 #include "renderer/error.h"
 #include "renderer/gpu_layout.h"
+#include "renderer/measure/spread.h"
 #include "shaders/bindings.h"
 #include "shaders/gpu_types.h"
 
@@ -19,8 +20,7 @@ namespace raypack {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+using Clock = SteadyClock;
 
 // Timestamp slots: frames the viewer may have in flight before it reads one back.
 constexpr uint32_t kQuerySlots = 4;
@@ -262,9 +262,13 @@ const vk::DeviceInfo& GpuTracer::device() const { return state_->ctx.info; }
 VkBuffer GpuTracer::outputBuffer() const { return state_->output.buffer; }
 VkDeviceSize GpuTracer::outputBytes() const { return VkDeviceSize(state_->width) * state_->height * 4u; }
 
-uint32_t GpuTracer::sharedMemoryBytes(PacketShape shape) const {
-    (void)shape;  // the vote's shared sums do not grow with the packet
-    return state_->stackEntries * 8u + kVoteBytes;
+uint64_t GpuTracer::sceneBytes() const {
+    const State& s = *state_;
+    uint64_t bytes = 0;
+    for (const vk::Buffer* b :
+         {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors, &s.textures, &s.texels})
+        bytes += b->size;
+    return s.hasScene ? bytes : 0;
 }
 
 namespace {

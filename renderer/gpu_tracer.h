@@ -78,8 +78,9 @@ public:
     // its queue, lavapipe's timestamps no longer bracket the dispatches (a 57 ms pass read 17 us),
     // while on a CPU device the host's clock sees exactly the work. Off by default.
     void setHostTimedPasses(bool on);
-    // Shared memory one packet of `shape` needs (stack + vote sums), in bytes.
-    uint32_t sharedMemoryBytes(PacketShape shape) const;
+    // Bytes of the uploaded scene's device buffers (nodes, triangles, normals, materials, UVs,
+    // colours, textures, texels); 0 before upload.
+    uint64_t sceneBytes() const;
     const vk::DeviceInfo& device() const;
 
     // Opaque: pipelines, buffers and queries, defined in gpu_tracer.cpp.

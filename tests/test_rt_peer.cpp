@@ -6,12 +6,15 @@
 // bench records are checked on the CPU.
 #include "renderer/bvh.h"
 #include "renderer/cpu_tracer.h"
+#include "renderer/measure/agreement.h"
+#include "renderer/tracers/registry.h"
 #include "renderer/vk/context.h"
 #include "renderer/vk/rt_peer.h"
 #include "scenes/load.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <string>
@@ -80,15 +83,27 @@ TEST(RtPeer, ContextWithoutRayTracingIsRefused) {
     vk::destroyVulkanContext(context);
 }
 
-TEST(RtPeer, CliHookCreatesItsOwnContext) {
+// The registry offers "driver-rt" exactly where the context can run it, and its frames hold one
+// hit per pixel.
+TEST(RtPeer, RegistryOffersDriverRtWhereTheDeviceHasIt) {
     const Scene scene = openScene("gen:default");
-    vk::VulkanContextOptions options = testOptions(false);  // the hook turns ray tracing on
-    if (!rayTracingContext().rayTracing) {
-        EXPECT_THROW(runRtPeerOnDevice(options, scene, smallSettings(scene, 32), 1), RtPeerUnsupported);
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    vk::VulkanContext& context = rayTracingContext();
+    TracerEnvironment environment;
+    environment.vulkan = &context;
+    const std::vector<std::string> names = availableTracers(environment);
+    const bool listed = std::find(names.begin(), names.end(), "driver-rt") != names.end();
+    EXPECT_EQ(listed, context.rayTracing);
+    if (!context.rayTracing) {
+        EXPECT_THROW(makeTracer("driver-rt", environment), TracerUnavailable);
         return;
     }
-    const RtPeerResult result = runRtPeerOnDevice(options, scene, smallSettings(scene, 32), 1);
-    EXPECT_EQ(result.frame.hits.size(), 32u * 32u);
+    const std::unique_ptr<Tracer> tracer = makeTracer("driver-rt", environment);
+    tracer->prepare(scene, bvh);
+    FrameRequest request;
+    request.image = false;
+    request.hits = true;
+    EXPECT_EQ(tracer->render(smallSettings(scene, 32), request).hits.size(), 32u * 32u);
 }
 
 // On a device with ray tracing: the peer's hits against the CPU reference's, same rays.
@@ -117,7 +132,7 @@ void expectAgreesWithReference(const std::string& spec, uint32_t size) {
         ASSERT_NEAR(p.dirY, r.dirY, 1e-6f);
         ASSERT_NEAR(p.dirZ, r.dirZ, 1e-6f);
     }
-    const RtPeerAgreement a = compareRtPeerHits(result.frame.hits, reference.hits);
+    const HitAgreement a = compareHits(result.frame.hits, reference.hits);
     std::printf("%s\n%s: %.4f%% of rays agree (max rel t error %.2e), %.4f%% of shadows\n",
                 describeRtPeer(result).c_str(), spec.c_str(), 100.0 * a.rayShare(), a.maxRelativeTError,
                 100.0 * a.shadowShare());
@@ -186,14 +201,14 @@ TEST(RtPeer, HitComparisonUsesTheEmbreeBar) {
         hitAt(10.0f, 2, gpu::kShadowLit),     // shadow differs
         hitAt(inf, gpu::kNoHit, gpu::kShadowNone), hitAt(5.002f, 3, gpu::kShadowLit),  // t off by 4e-4
         hitAt(inf, gpu::kNoHit, gpu::kShadowNone)};                                    // missed
-    const RtPeerAgreement a = compareRtPeerHits(peer, reference);
+    const HitAgreement a = compareHits(peer, reference);
     EXPECT_EQ(a.comparedRays, 5u);
     EXPECT_EQ(a.agreeingRays, 3u);
     EXPECT_EQ(a.samePrim, 2u);
     EXPECT_NEAR(a.maxRelativeTError, 4e-4, 1e-6);
     EXPECT_EQ(a.comparedShadows, 3u);
     EXPECT_EQ(a.agreeingShadows, 2u);
-    EXPECT_THROW(compareRtPeerHits(peer, std::vector<HitRecord>(2)), Error);
+    EXPECT_THROW(compareHits(peer, std::vector<HitRecord>(2)), Error);
 }
 
 TEST(RtPeer, BenchRecordsCarryEveryFigure) {
@@ -212,7 +227,7 @@ TEST(RtPeer, BenchRecordsCarryEveryFigure) {
     r.shadowRays = 4000;
     r.primarySeconds = {0.0005, 0.0004, 0.0007};
     r.shadowSeconds = {0.0002, 0.0002, 0.0003};
-    RtPeerAgreement a;
+    HitAgreement a;
     a.comparedRays = 5000;
     a.agreeingRays = 5000;
     const nlohmann::json records = rtPeerRecords(r, &a);

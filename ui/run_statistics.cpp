@@ -1,5 +1,7 @@
 #include "ui/run_statistics.h"
 
+#include "renderer/measure/spread.h"
+
 #include <sys/resource.h>
 
 #include <algorithm>
@@ -7,15 +9,6 @@
 #include <string>
 
 namespace raypack::ui {
-namespace {
-
-double median(std::vector<double> values) {
-    if (values.empty()) return 0.0;
-    std::sort(values.begin(), values.end());
-    return values[values.size() / 2];
-}
-
-}  // namespace
 
 void RunStatistics::record(const FrameOutcome& frame) {
     FrameRecord record;
@@ -63,7 +56,7 @@ nlohmann::json RunStatistics::summary() const {
     nlohmann::json movingScaleJson = nlohmann::json::object();
     for (const auto& [scale, count] : movingScales) movingScaleJson[std::to_string(scale)] = count;
     const auto fps = [](const std::vector<double>& v) {
-        const double m = median(v);
+        const double m = upperMedian(v);
         return m > 0 ? 1.0 / m : 0.0;
     };
     return {
@@ -75,7 +68,7 @@ nlohmann::json RunStatistics::summary() const {
         {"fps_still_median", fps(still)},
         {"resolution_scales", scaleJson},
         {"resolution_scales_moving", movingScaleJson},
-        {"input_to_photon_ms_median", median(latency) * 1e3},
+        {"input_to_photon_ms_median", upperMedian(latency) * 1e3},
         {"input_frames", latency.size()},
         {"idle_frames", idleFrames_},
         {"idle_wall_s", idleWall_},

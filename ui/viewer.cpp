@@ -6,6 +6,8 @@
 #include "renderer/error.h"
 #include "renderer/gpu_tracer.h"
 #include "renderer/image.h"
+#include "renderer/measure/spread.h"
+#include "renderer/measure/statistics.h"
 #include "renderer/pick.h"
 #include "renderer/progressive.h"
 #include "renderer/settings_json.h"
@@ -61,18 +63,6 @@ std::string canonicalSpec(const std::string& spec) {
     std::error_code error;
     if (fs::is_regular_file(spec, error)) return fs::absolute(spec).lexically_normal().string();
     return spec;
-}
-
-double median(std::vector<double> values) {
-    if (values.empty()) return 0.0;
-    std::sort(values.begin(), values.end());
-    return values[values.size() / 2];
-}
-
-// Median of the second half of `values` (the steady state after start-up), 0 when empty.
-double steadyMedian(std::vector<double> values) {
-    values.erase(values.begin(), values.begin() + values.size() / 2);
-    return median(std::move(values));
 }
 
 std::string bookmarksFile() { return (fs::path(configDirectory()) / "bookmarks.json").string(); }
@@ -409,6 +399,11 @@ void takeWorkerResults(Session& s) {
 
 nlohmann::json statisticsJson(const Session& s) {
     const LiveStatistics& st = s.info.stats;
+    // N_Q and T_K as Table 2 holds them (renderer/measure/statistics.h): the sidecar's Mrays/s is
+    // the bench's formula.
+    RayKindStats primary;
+    primary.rays = st.primaryRays;
+    primary.kernelSeconds.median = st.primaryKernelSeconds;
     nlohmann::json stats = {
         {"device", s.info.device},
         {"tracer", cliName(s.panel.tracer)},
@@ -416,7 +411,7 @@ nlohmann::json statisticsJson(const Session& s) {
         {"primary_rays", st.primaryRays},
         {"primary_kernel_s", st.primaryKernelSeconds},
         {"shadow_kernel_s", st.shadowKernelSeconds},
-        {"primary_mrays_s", st.primaryKernelSeconds > 0 ? double(st.primaryRays) / st.primaryKernelSeconds / 1e6 : 0.0},
+        {"primary_mrays_s", primary.mraysPerSecond()},
         {"upload_s", s.uploadSeconds},
     };
     if (s.panel.sideBySide)  // the sidecar's settings are the left half's; the right half's tracer:

@@ -1,25 +1,23 @@
 // `raypack-cli bench`: issue 5's matrix runner. For every scene of a suite: load, build the BVH
-// (Table 1), then one cell per tracer configuration (CPU reference; Embree; GPU packet kernel per
-// packet shape; GPU single-ray kernel), each with untimed warm-up runs (one counting N_TR / N_IT, then 0.3 s of frames
-// back to back on a GPU) and N timed runs, written as one JSON record per cell and ray kind (primary, shadow) with the
-// machine and the date.
+// (Table 1), then one cell per tracer of the registry (renderer/tracers/registry.h) that the flags
+// ask for, and per packet shape for the packet tracers, each with untimed warm-up runs (one counting N_TR / N_IT, then
+// 0.3 s of frames back to back on a GPU) and N timed runs, written as one JSON record per cell and ray kind (primary,
+// shadow) with the machine and the date.
 #include "app/cli/bench_suites.h"
 #include "app/cli/commands.h"
-#include "app/cli/embree_peer.h"
 #include "app/cli/scene_setup.h"
 #include "app/cli/tracing.h"
 #include "renderer/error.h"
+#include "renderer/measure/agreement.h"
+#include "renderer/measure/machine.h"
+#include "renderer/measure/protocol.h"
 #include "renderer/settings_json.h"
 #include "renderer/settings_text.h"
-#include "renderer/vk/rt_peer.h"
-
-#include <sys/utsname.h>
+#include "renderer/tracers/registry.h"
 
 #include <chrono>
-#include <cmath>
 #include <cstdio>
-#include <cstring>
-#include <ctime>
+#include <map>
 #include <memory>
 #include <optional>
 
@@ -37,37 +35,12 @@ struct BenchFlags {
     bool noDriverRt = false;
 };
 
-// What one cell traces.
+// What one cell traces: a tracer, with a packet shape where it traces packets.
 struct Cell {
-    enum Kind { Cpu, CpuPacket, Embree, GpuPacket, GpuSingle, DriverRt } kind;
-    PacketShape packet;
-    std::string label() const {
-        switch (kind) {
-        case Cpu: return "cpu-reference";
-        case CpuPacket: return "cpu-packet " + toString(packet);
-        case Embree: return "embree";
-        case GpuPacket: return "gpu-packet " + toString(packet);
-        case GpuSingle: return "gpu-single";
-        case DriverRt: return "driver-rt";
-        }
-        return "";
-    }
+    Tracer* tracer;
+    std::optional<PacketShape> packet;
+    std::string label() const { return tracer->name() + (packet ? " " + toString(*packet) : std::string()); }
 };
-
-std::string utcDate() {
-    const std::time_t now = std::time(nullptr);
-    std::tm tm{};
-    gmtime_r(&now, &tm);
-    char text[32];
-    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &tm);
-    return text;
-}
-
-std::string operatingSystem() {
-    utsname name{};
-    if (uname(&name) != 0) return "unknown";
-    return std::string(name.sysname) + " " + name.release + " " + name.machine;
-}
 
 json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& bvh, const BvhBuildOptions& options,
                  const Camera& camera) {
@@ -82,23 +55,17 @@ json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& 
     return j;
 }
 
-// Two records (primary, shadow) of a raypack cell.
-void addRaypackRecords(json& records, const json& scene, const Cell& cell, const MeasuredFrames& measured,
-                       const std::string& driver) {
+// Two records (primary, shadow) of a frame tracer's cell.
+void addFrameRecords(json& records, const json& scene, const Tracer& tracer, const std::optional<PacketShape>& packet,
+                     const MeasuredFrames& measured) {
     const FrameStats& s = measured.stats;
     for (const char* kind : {"primary", "shadow"}) {
         json r = scene;
-        r["tracer"] = cell.kind == Cell::Cpu         ? "cpu-reference"
-                      : cell.kind == Cell::CpuPacket ? "cpu-packet"
-                      : cell.kind == Cell::GpuPacket ? "gpu-packet"
-                                                     : "gpu-single";
+        r["tracer"] = tracer.name();
         r["device"] = s.device;
-        r["driver"] = driver;
-        r["kernel"] = cell.kind == Cell::Cpu                                         ? "reference"
-                      : cell.kind == Cell::CpuPacket || cell.kind == Cell::GpuPacket ? "packet"
-                                                                                     : "single";
-        const bool packet = cell.kind == Cell::GpuPacket || cell.kind == Cell::CpuPacket;
-        r["packet"] = packet ? json(toString(cell.packet)) : json(nullptr);
+        r["driver"] = tracer.driver();
+        r["kernel"] = tracer.kernel();
+        r["packet"] = packet ? json(toString(*packet)) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;
         r["height_px"] = s.height;
@@ -108,50 +75,6 @@ void addRaypackRecords(json& records, const json& scene, const Cell& cell, const
         r["frame_max_s"] = s.frameSeconds.max;
         r.update(toJson(std::string(kind) == "primary" ? s.primary : s.shadow));
         records.push_back(r);
-    }
-}
-
-void addEmbreeRecords(json& records, const json& sceneFieldsJson, const EmbreeResults& e,
-                      const RenderSettings& settings, uint32_t repeats) {
-    for (const EmbreeQualityResults& q : e.qualities) {
-        const std::pair<const char*, const EmbreeRate*> modes[] = {{"rtcIntersect1", &q.intersect1},
-                                                                   {"rtcIntersect8", &q.intersect8},
-                                                                   {"rtcIntersect16", &q.intersect16},
-                                                                   {"rtcOccluded1", &q.occluded1},
-                                                                   {"rtcOccluded8", &q.occluded8}};
-        for (const auto& [kernel, rate] : modes) {
-            const bool shadow = std::string(kernel).rfind("rtcOccluded", 0) == 0;
-            if (shadow && !settings.shadows) continue;
-            if (rate->rays == 0 && !shadow) continue;  // rtcIntersect16 not in this Embree build
-            json r;
-            for (const char* key : {"scene", "scene_spec", "camera", "triangles", "degenerate_triangles"})
-                r[key] = sceneFieldsJson[key];
-            r["tracer"] = "embree";
-            r["device"] = describeCpuDevice();
-            r["driver"] = "Embree " + e.version;
-            r["embree_quality"] = q.quality;
-            r["kernel"] = kernel;
-            r["packet"] = nullptr;
-            if (std::string(kernel) == "rtcIntersect16") r["embree_native_packet"] = q.intersect16Native;
-            r["ray_kind"] = shadow ? "shadow" : "primary";
-            r["width_px"] = settings.width;
-            r["height_px"] = settings.height;
-            r["repeats"] = repeats;
-            r["threads"] = e.threads;
-            r["t_b_s"] = q.buildSeconds;
-            r["n_q_rays"] = rate->rays;
-            r["t_k_s"] = rate->seconds.median;
-            r["t_k_min_s"] = rate->seconds.min;
-            r["t_k_max_s"] = rate->seconds.max;
-            r["t_r_us_per_ray"] = rate->rays ? rate->seconds.median / double(rate->rays) * 1e6 : 0.0;
-            r["perf_mrays_s"] = rate->mraysPerSecond();
-            r["hits_compared"] = e.comparedRays;
-            r["hits_agree_share"] = e.agreementShare();
-            r["hits_max_rel_t_error"] = e.maxRelativeTError;
-            r["shadows_compared"] = e.comparedShadows;
-            r["shadows_agree_share"] = e.comparedShadows ? double(e.agreeingShadows) / double(e.comparedShadows) : 0.0;
-            records.push_back(r);
-        }
     }
 }
 
@@ -190,22 +113,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const bool gpu = f.device != "cpu";
     const bool packetKernel = f.kernel != "single";
     const bool singleKernel = f.kernel != "packet";
-    const bool embree = cpu && !f.noEmbree && embreeAvailable();
 
-    json skipped = json::array();
-    if (cpu && !f.noEmbree && !embreeAvailable())
-        skipped.push_back("Embree: this raypack-cli was built without Embree");
-
-    std::vector<Cell> cells;
-    if (cpu) cells.push_back({Cell::Cpu, {}});
-    if (cpu && packetKernel)
-        for (const PacketShape& p : cpuPackets) cells.push_back({Cell::CpuPacket, p});
-    if (embree) cells.push_back({Cell::Embree, {}});
-    if (gpu && packetKernel)
-        for (const PacketShape& p : packets) cells.push_back({Cell::GpuPacket, p});
-    if (gpu && singleKernel) cells.push_back({Cell::GpuSingle, {}});
-
-    std::optional<GpuSession> session;
+    std::optional<VulkanSession> session;
     json machine = {{"cpu_model", cpuModel()},  {"cpu_threads", cpuThreads()}, {"os", operatingSystem()},
                     {"gpu", nullptr},           {"gpu_driver", nullptr},       {"gpu_type", nullptr},
                     {"embree_version", nullptr}};
@@ -216,13 +125,29 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         machine["gpu_driver"] = info.driver;
         machine["gpu_type"] = vk::toString(info.type);
         std::fprintf(stderr, "bench: GPU %s\n", vk::describe(info).c_str());
-        if (!f.noDriverRt) {
-            const std::string unsupported = rtPeerUnsupportedReason(session->context);
-            if (unsupported.empty())
-                cells.push_back({Cell::DriverRt, {}});
-            else
-                skipped.push_back(unsupported);
+    }
+    TracerEnvironment environment;
+    environment.vulkan = session ? &session->context : nullptr;
+
+    // The tracers the flags ask for, in the registry's order, each with its packet shapes.
+    json skipped = json::array();
+    std::vector<std::unique_ptr<Tracer>> tracers;
+    std::vector<Cell> cells;
+    for (const TracerInfo& info : listTracers(environment)) {
+        if (!(info.device == TracerDevice::Cpu ? cpu : gpu)) continue;
+        if ((info.kernel == "packet" && !packetKernel) || (info.kernel == "single" && !singleKernel)) continue;
+        if ((info.name == "embree" && f.noEmbree) || (info.name == "driver-rt" && f.noDriverRt)) continue;
+        if (!info.unavailable.empty()) {
+            skipped.push_back(info.unavailable);
+            continue;
         }
+        Tracer* tracer = tracers.emplace_back(makeTracer(info.name, environment)).get();
+        if (info.name == "embree") machine["embree_version"] = embreeVersion();
+        if (tracer->capabilities().packetShapes)
+            for (const PacketShape& p : info.device == TracerDevice::Cpu ? cpuPackets : packets)
+                cells.push_back({tracer, p});
+        else
+            cells.push_back({tracer, std::nullopt});
     }
 
     json records = json::array();
@@ -239,67 +164,30 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
         const json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
 
+        // The first frame tracer's hits (the CPU reference's, or without it the first GPU cell's)
+        // are what the others are compared with.
         std::vector<HitRecord> referenceHits;
-        double uploadSeconds = 0.0;
-        bool uploaded = false;
+        std::map<const Tracer*, Preparation> prepared;  // on a tracer's first cell of the scene
         for (const Cell& cell : cells) {
             progress.begin(benchScene.name, cell.label());
-            if (cell.kind == Cell::CpuPacket) {
-                const CpuSceneView view = makeCpuSceneView(loaded.scene, bvh);
-                RenderSettings packetSettings = settings;
-                packetSettings.packet = cell.packet;
-                FrameSource source;
-                source.cpu = &view;
-                source.cpuPackets = true;
-                const MeasuredFrames measured = measureFrames(source, packetSettings, repeats, false);
-                addRaypackRecords(records, scene, cell, measured, "");
-                // The packets' hits against the reference's (same rays): triangle, t to the
-                // bit and shadow state of every pixel.
-                if (!referenceHits.empty() && referenceHits.size() == measured.frame.hits.size()) {
-                    uint64_t same = 0;
-                    for (size_t i = 0; i < referenceHits.size(); ++i) {
-                        const HitRecord& a = referenceHits[i];
-                        const HitRecord& b = measured.frame.hits[i];
-                        same += a.prim == b.prim && std::memcmp(&a.t, &b.t, sizeof a.t) == 0 && a.shadow == b.shadow;
-                    }
-                    for (size_t k = records.size() - 2; k < records.size(); ++k)
-                        records[k]["hits_identical_to_reference_share"] = double(same) / double(referenceHits.size());
-                }
-            } else if (cell.kind == Cell::Cpu) {
-                const CpuSceneView view = makeCpuSceneView(loaded.scene, bvh);
-                FrameSource source;
-                source.cpu = &view;
-                MeasuredFrames measured = measureFrames(source, settings, repeats, false);
-                addRaypackRecords(records, scene, cell, measured, "");
-                referenceHits = std::move(measured.frame.hits);
-            } else if (cell.kind == Cell::DriverRt) {
-                const RtPeerResult result = runRtPeer(session->context, loaded.scene, settings, repeats);
-                std::optional<RtPeerAgreement> agreement;
-                if (!referenceHits.empty()) agreement = compareRtPeerHits(result.frame.hits, referenceHits);
-                for (json record : rtPeerRecords(result, agreement ? &*agreement : nullptr)) {
+            Tracer& tracer = *cell.tracer;
+            if (!prepared.count(&tracer)) prepared[&tracer] = tracer.prepare(loaded.scene, bvh);
+            RenderSettings cellSettings = settings;
+            if (cell.packet) cellSettings.packet = *cell.packet;
+            if (std::optional<json> peer = tracer.peerRecords(cellSettings, repeats, referenceHits)) {
+                for (json record : *peer) {
                     for (const char* key : {"scene", "scene_spec", "camera", "triangles", "degenerate_triangles"})
                         record[key] = scene[key];
                     records.push_back(record);
                 }
-            } else if (cell.kind == Cell::Embree) {
-                const EmbreeResults results = runEmbreePeer(loaded.scene, settings, referenceHits, repeats);
-                machine["embree_version"] = results.version;
-                addEmbreeRecords(records, scene, results, settings, repeats);
             } else {
-                if (!uploaded) {
-                    uploadSeconds = session->tracer->upload(loaded.scene, bvh);
-                    uploaded = true;
-                }
-                RenderSettings gpuSettings = settings;
-                gpuSettings.kernel = cell.kind == Cell::GpuPacket ? KernelKind::Packet : KernelKind::Single;
-                if (cell.kind == Cell::GpuPacket) gpuSettings.packet = cell.packet;
-                FrameSource source;
-                source.gpu = session->tracer.get();
-                source.uploadSeconds = uploadSeconds;
-                MeasuredFrames measured = measureFrames(source, gpuSettings, repeats, false);
-                addRaypackRecords(records, scene, cell, measured, session->context.info.driver);
-                // Without the CPU reference, the first GPU cell's hits are what the driver's ray
-                // tracing is compared with.
+                MeasuredFrames measured = measureFrames(tracer, prepared[&tracer], cellSettings, repeats, false);
+                addFrameRecords(records, scene, tracer, cell.packet, measured);
+                if (tracer.capabilities().bitExactWithReference && !referenceHits.empty() &&
+                    referenceHits.size() == measured.frame.hits.size())
+                    for (size_t k = records.size() - 2; k < records.size(); ++k)
+                        records[k]["hits_identical_to_reference_share"] =
+                            identicalHitShare(measured.frame.hits, referenceHits);
                 if (referenceHits.empty()) referenceHits = std::move(measured.frame.hits);
             }
             ++progress.done;

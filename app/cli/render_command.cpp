@@ -4,13 +4,16 @@
 #include "app/cli/scene_setup.h"
 #include "app/cli/tracing.h"
 #include "renderer/camera.h"
+#include "renderer/cpu_packet_tracer.h"
 #include "renderer/error.h"
 #include "renderer/hits_io.h"
 #include "renderer/image.h"
+#include "renderer/measure/protocol.h"
 #include "renderer/progressive.h"
 #include "renderer/settings_json.h"
 #include "renderer/settings_text.h"
 #include "renderer/start_view.h"
+#include "renderer/tracers/registry.h"
 
 #include <cstdio>
 #include <memory>
@@ -291,25 +294,24 @@ CommandRunner addRenderCommand(CLI::App& app) {
         if (setup.resolutionScale > 1 && !f.hits.empty())
             throw Error("--hits: a hits file has one record per pixel of the image, which --scale " +
                         std::to_string(setup.resolutionScale) + " does not trace");
-        MeasuredFrames measured;
-        std::optional<GpuSession> session;
-        std::optional<CpuSceneView> cpuView;
-        FrameSource source;
-        if (f.device == "gpu") {
+        // The tracer: the device and kernel the flags chose (renderer/tracers/registry.h).
+        const bool gpu = f.device == "gpu";
+        const bool packets = settings.kernel == KernelKind::Packet;
+        std::optional<VulkanSession> session;
+        TracerEnvironment environment;
+        if (gpu) {
             session.emplace(f.gpu, f.validation);
-            source.gpu = session->tracer.get();
-            source.uploadSeconds = source.gpu->upload(loaded.scene, bvh);
-        } else {
-            cpuView.emplace(makeCpuSceneView(loaded.scene, bvh));
-            source.cpu = &*cpuView;
-            source.cpuPackets = settings.kernel == KernelKind::Packet;
+            environment.vulkan = &session->context;
         }
+        const std::unique_ptr<Tracer> tracer = makeTracer(
+            gpu ? (packets ? "gpu-packet" : "gpu-single") : (packets ? "cpu-packet" : "cpu-reference"), environment);
+        const Preparation preparation = tracer->prepare(loaded.scene, bvh);
         // Progressive display (renderer/progressive.h): a reduced resolution, scaled up after.
         const uint32_t outWidth = settings.width, outHeight = settings.height;
         settings.width = scaledExtent(outWidth, setup.resolutionScale);
         settings.height = scaledExtent(outHeight, setup.resolutionScale);
         if (setup.samples > 1) settings.pixelJitter = samplePatternOffset(0, setup.samples);
-        measured = measureFrames(source, settings, f.repeat, wantImage);
+        MeasuredFrames measured = measureFrames(*tracer, preparation, settings, f.repeat, wantImage);
         if (wantImage && setup.samples > 1) {
             SampleAccumulator accumulator;
             accumulator.reset(settings.width, settings.height);
@@ -317,7 +319,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
             for (uint32_t k = 1; k < setup.samples; ++k) {
                 RenderSettings sample = settings;
                 sample.pixelJitter = samplePatternOffset(k, setup.samples);
-                accumulator.add(source.gpu ? source.gpu->render(sample).rgba : renderCpu(*source.cpu, sample).rgba);
+                accumulator.add(tracer->render(sample, FrameRequest{}).rgba);
             }
             measured.frame.rgba = accumulator.resolve();
             std::printf("samples    %u per pixel (%s)\n", setup.samples, kSamplePatternName);
@@ -336,7 +338,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         settings.height = outHeight;
         settings.pixelJitter = glm::vec2(0.0f);
 
-        if (source.gpu || source.cpuPackets)
+        if (gpu || packets)
             std::printf("kernel     %s, packet %s\n", toString(settings.kernel), toString(settings.packet).c_str());
         printCamera(settings.camera, !cameraGiven);
         printTable1(stdout, loaded.info, bvh.stats, setup.bvh);
@@ -353,7 +355,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         if (!f.json.empty()) {
             nlohmann::json json = toJson(setup);
             json["device"] = measured.stats.device;
-            json["device_kind"] = source.gpu ? "gpu" : "cpu";
+            json["device_kind"] = gpu ? "gpu" : "cpu";
             json["table1"] = table1Json(loaded.info, bvh.stats, setup.bvh);
             json["table2"] = toJson(measured.stats);
             writeJsonFile(f.json, json);

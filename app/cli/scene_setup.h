@@ -1,8 +1,8 @@
 #pragma once
 // The first two arrows of raypack's data flow as the CLI runs them, timed: scene spec -> Scene
 // (openScene) -> Bvh (buildBvh), plus the flags that choose the BVH build.
-#include "app/cli/statistics.h"
 #include "renderer/bvh.h"
+#include "renderer/measure/statistics.h"
 #include "renderer/scene.h"
 
 #include <CLI/CLI.hpp>

@@ -149,11 +149,6 @@ DeviceInfo queryDevice(VkPhysicalDevice physical, uint32_t index) {
         info.maxWorkgroupCount[i] = limits.maxComputeWorkGroupCount[i];
     }
     info.timestampPeriodNs = limits.timestampPeriod;
-    VkPhysicalDeviceMemoryProperties memory;
-    vkGetPhysicalDeviceMemoryProperties(physical, &memory);
-    for (uint32_t h = 0; h < memory.memoryHeapCount; ++h)
-        if (memory.memoryHeaps[h].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
-            info.deviceLocalBytes = std::max<uint64_t>(info.deviceLocalBytes, memory.memoryHeaps[h].size);
     return info;
 }
 

@@ -52,7 +52,6 @@ struct DeviceInfo {
     uint32_t maxWorkgroupCount[3] = {0, 0, 0};  // maxComputeWorkGroupCount
     float timestampPeriodNs = 0.0f;             // nanoseconds per timestamp tick
     bool timestamps = false;                    // the queue family writes timestamps
-    uint64_t deviceLocalBytes = 0;              // size of the largest device-local heap
 };
 
 const char* toString(VkPhysicalDeviceType type);

@@ -19,24 +19,11 @@ namespace raypack {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+using Clock = SteadyClock;
 
 uint64_t alignUp(uint64_t value, uint64_t alignment) {
     RAYPACK_CHECK(alignment != 0 && (alignment & (alignment - 1)) == 0);
     return (value + alignment - 1) & ~(alignment - 1);
-}
-
-RtPeerSpread spreadOf(std::vector<double> values) {
-    RtPeerSpread s;
-    if (values.empty()) return s;
-    std::sort(values.begin(), values.end());
-    const size_t n = values.size();
-    s.median = n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-    s.min = values.front();
-    s.max = values.back();
-    return s;
 }
 
 // The KHR entry points, loaded from the device (they are not exported by the loader).
@@ -662,55 +649,14 @@ RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene, con
     return result;
 }
 
-RtPeerResult runRtPeerOnDevice(vk::VulkanContextOptions options, const Scene& scene, const RenderSettings& settings,
-                               uint32_t repeats) {
-    options.enableRayTracing = true;
-    vk::VulkanContext context = vk::createVulkanContext(options);
-    try {
-        RtPeerResult result = runRtPeer(context, scene, settings, repeats);
-        vk::destroyVulkanContext(context);
-        return result;
-    } catch (...) {
-        vk::destroyVulkanContext(context);
-        throw;
-    }
-}
-
-RtPeerAgreement compareRtPeerHits(const std::vector<HitRecord>& peer, const std::vector<HitRecord>& reference) {
-    if (peer.size() != reference.size())
-        throw Error("driver ray tracing: cannot compare " + std::to_string(peer.size()) + " hits with " +
-                    std::to_string(reference.size()) + " reference hits");
-    RtPeerAgreement a;
-    for (size_t i = 0; i < peer.size(); ++i) {
-        const HitRecord& p = peer[i];
-        const HitRecord& r = reference[i];
-        ++a.comparedRays;
-        const bool peerHit = p.prim != gpu::kNoHit, refHit = r.prim != gpu::kNoHit;
-        if (!peerHit && !refHit) {
-            ++a.agreeingRays;
-            continue;
-        }
-        if (peerHit != refHit) continue;
-        const double error = std::abs(double(p.t) - double(r.t)) / std::max(std::abs(double(r.t)), 1e-30);
-        a.maxRelativeTError = std::max(a.maxRelativeTError, error);
-        if (error <= 1e-4) ++a.agreeingRays;
-        if (p.prim == r.prim) ++a.samePrim;
-        if (r.shadow == gpu::kShadowLit || r.shadow == gpu::kShadowOccluded) {
-            ++a.comparedShadows;
-            if (p.shadow == r.shadow) ++a.agreeingShadows;
-        }
-    }
-    return a;
-}
-
-nlohmann::json rtPeerRecords(const RtPeerResult& result, const RtPeerAgreement* agreement) {
+nlohmann::json rtPeerRecords(const RtPeerResult& result, const HitAgreement* agreement) {
     nlohmann::json records = nlohmann::json::array();
     const std::pair<const char*, bool> kinds[] = {{"primary", true}, {"shadow", result.shadowsTraced}};
     for (const auto& [kind, traced] : kinds) {
         if (!traced) continue;
         const bool isPrimary = std::string(kind) == "primary";
         const uint64_t rays = isPrimary ? result.primaryRays : result.shadowRays;
-        const RtPeerSpread& seconds = isPrimary ? result.primarySeconds : result.shadowSeconds;
+        const Spread& seconds = isPrimary ? result.primarySeconds : result.shadowSeconds;
         nlohmann::json r;
         r["tracer"] = "driver-rt";
         r["device"] = result.device;

@@ -12,6 +12,8 @@
 // Everything is created and destroyed inside one call: the peer is a function, not an object.
 #include "renderer/error.h"
 #include "renderer/frame.h"
+#include "renderer/measure/agreement.h"
+#include "renderer/measure/spread.h"
 #include "renderer/scene.h"
 #include "renderer/settings.h"
 #include "renderer/vk/context.h"
@@ -36,13 +38,6 @@ public:
 // offers the extensions and features (vk::rayTracingMissing), and its queue must write timestamps.
 std::string rtPeerUnsupportedReason(const vk::VulkanContext& context);
 
-// Median, minimum and maximum of the timed repetitions, in seconds.
-struct RtPeerSpread {
-    double median = 0.0;
-    double min = 0.0;
-    double max = 0.0;
-};
-
 struct RtPeerResult {
     std::string device;  // vk::describe() of the device
     uint64_t triangles = 0;
@@ -65,8 +60,8 @@ struct RtPeerResult {
     uint64_t primaryRays = 0;    // one per pixel
     bool shadowsTraced = false;  // settings.shadows: the shadow pass ran
     uint64_t shadowRays = 0;     // one per primary hit (0 when settings.shadows is off)
-    RtPeerSpread primarySeconds;
-    RtPeerSpread shadowSeconds;
+    Spread primarySeconds;       // median, minimum and maximum of the timed launches
+    Spread shadowSeconds;
 
     // The warm-up launch's hits: one HitRecord per pixel (t, the file-order triangle, the shadow
     // state), and the light. No image, no counters: the driver does not report its traversal.
@@ -91,35 +86,13 @@ struct RtPeerResult {
 RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene, const RenderSettings& settings,
                        uint32_t repeats);
 
-// The hook for `raypack-cli bench --peer rt`: creates a context from `options` with
-// enableRayTracing set (device choice and validation as given), runs runRtPeer and destroys the
-// context. Throws what runRtPeer throws, and raypack::Error when no context can be created.
-RtPeerResult runRtPeerOnDevice(vk::VulkanContextOptions options, const Scene& scene, const RenderSettings& settings,
-                               uint32_t repeats);
-
-// The peer's hits against reference hits (raypack's, same pixels, same rays), with the bar the
-// Embree comparison uses: a ray agrees when both miss, or both hit with
-// |t_peer - t_ref| <= 1e-4 * t_ref.
-struct RtPeerAgreement {
-    uint64_t comparedRays = 0;
-    uint64_t agreeingRays = 0;
-    uint64_t samePrim = 0;           // both hit the same triangle
-    double maxRelativeTError = 0.0;  // over rays that both hit
-    // Pixels where both primary rays hit and the reference cast a shadow ray: same lit/occluded.
-    uint64_t comparedShadows = 0;
-    uint64_t agreeingShadows = 0;
-    double rayShare() const { return comparedRays ? double(agreeingRays) / double(comparedRays) : 0.0; }
-    double shadowShare() const { return comparedShadows ? double(agreeingShadows) / double(comparedShadows) : 0.0; }
-};
-// Throws raypack::Error when the two differ in pixel count.
-RtPeerAgreement compareRtPeerHits(const std::vector<HitRecord>& peer, const std::vector<HitRecord>& reference);
-
 // The bench records of a run (issue 5's field names, as the Embree peer writes them): one for
 // primary rays and, when shadow rays were traced, one for shadow rays, with tracer "driver-rt",
 // kernel "vkCmdTraceRaysKHR", t_b_s (BLAS + TLAS build), t_cu_s (upload), n_q_rays, t_k_s (+ min,
 // max), t_r_us_per_ray, perf_mrays_s, the structure sizes and, when `agreement` is given, the hit
-// comparison. The caller adds the scene fields.
-nlohmann::json rtPeerRecords(const RtPeerResult& result, const RtPeerAgreement* agreement);
+// comparison (renderer/measure/agreement.h, the bar the Embree comparison uses). The caller adds
+// the scene fields.
+nlohmann::json rtPeerRecords(const RtPeerResult& result, const HitAgreement* agreement);
 
 // Two lines for the terminal: build and tracing figures.
 std::string describeRtPeer(const RtPeerResult& result);

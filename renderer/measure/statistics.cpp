@@ -1,19 +1,6 @@
-#include "app/cli/statistics.h"
+#include "renderer/measure/statistics.h"
 
-#include <algorithm>
-
-namespace raypack::cli {
-
-Spread spreadOf(std::vector<double> values) {
-    Spread s;
-    if (values.empty()) return s;
-    std::sort(values.begin(), values.end());
-    const size_t n = values.size();
-    s.min = values.front();
-    s.max = values.back();
-    s.median = n % 2 ? values[n / 2] : 0.5 * (values[n / 2 - 1] + values[n / 2]);
-    return s;
-}
+namespace raypack {
 
 nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const BvhBuildOptions& options) {
     const double triangles = double(scene.triangles);
@@ -143,4 +130,4 @@ void printTable2(std::FILE* out, const FrameStats& s) {
         std::fprintf(out, "           frame %.4f s\n", s.frameSeconds.median);
 }
 
-}  // namespace raypack::cli
+}  // namespace raypack

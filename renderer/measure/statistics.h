@@ -1,6 +1,7 @@
 #pragma once
-// The report's Table 1 (the BVH) and Table 2 (tracing) as the CLI prints them and writes them to
-// JSON. Every JSON key carries its unit ("_s" seconds, "_us_per_ray", "_mrays_s", "_bytes", ...).
+// The report's Table 1 (the BVH) and Table 2 (tracing) as text and JSON, for every program that
+// measures (raypack-cli render and bench, the viewer). Every JSON key carries its unit ("_s" seconds, "_us_per_ray",
+// "_mrays_s", "_bytes", ...).
 //
 // Table 2 quantities, per ray kind (primary, shadow), as the reference report defines them:
 //   N_Q   number of rays (queries) of that kind: one primary ray per pixel; one shadow ray per pixel
@@ -14,6 +15,7 @@
 //   PERF  N_Q / T_K in Mrays/s (the report's PERF), and N_Q / (T_CU + T_K) "with upload"
 #include "renderer/bvh.h"
 #include "renderer/frame.h"
+#include "renderer/measure/spread.h"
 
 #include <nlohmann/json.hpp>
 
@@ -22,16 +24,7 @@
 #include <string>
 #include <vector>
 
-namespace raypack::cli {
-
-// Median, minimum and maximum of repeated measurements.
-struct Spread {
-    double median = 0.0;
-    double min = 0.0;
-    double max = 0.0;
-};
-// Median of an even count is the mean of the two middle values. Empty input gives zeros.
-Spread spreadOf(std::vector<double> values);
+namespace raypack {
 
 // What loading the scene cost and what it holds (the columns of Table 1 beside the BVH's).
 struct SceneInfo {
@@ -97,4 +90,4 @@ nlohmann::json toJson(const RayKindStats& stats);
 nlohmann::json toJson(const FrameStats& stats);
 void printTable2(std::FILE* out, const FrameStats& stats);
 
-}  // namespace raypack::cli
+}  // namespace raypack

@@ -1,0 +1,57 @@
+// raypack's two Vulkan compute kernels (renderer/gpu_tracer.h) as tracers: "gpu-packet", the
+// shared-stack packet traversal (Gunther, Popov, Seidel 2007) of RenderSettings::packet, and
+// "gpu-single", one ray per invocation (Aila and Laine 2009), on the same node layout. One file
+// for both: they differ in the kernel the GpuTracer is told to dispatch, nothing else.
+#include "renderer/error.h"
+#include "renderer/gpu_tracer.h"
+#include "renderer/tracers/tracer_rows.h"
+
+namespace raypack {
+namespace {
+
+class GpuKernelTracer final : public Tracer {
+public:
+    GpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel)
+        : tracer_(std::make_unique<GpuTracer>(context)), kernel_(kernel) {}
+
+    std::string name() const override { return kernel_ == KernelKind::Packet ? "gpu-packet" : "gpu-single"; }
+    std::string kernel() const override { return toString(kernel_); }
+    TracerDevice device() const override { return TracerDevice::Gpu; }
+    std::string describe(const RenderSettings&) const override { return vk::describe(tracer_->device()); }
+    std::string driver() const override { return tracer_->device().driver; }
+    TracerCapabilities capabilities() const override {
+        TracerCapabilities c;
+        c.image = c.hits = c.counters = c.gpuTimestamps = true;
+        c.packetShapes = kernel_ == KernelKind::Packet;
+        return c;
+    }
+    Preparation prepare(const Scene& scene, const Bvh& bvh) override {
+        Preparation p;
+        p.seconds = tracer_->upload(scene, bvh);
+        p.bytes = tracer_->sceneBytes();
+        p.isUpload = true;
+        return p;
+    }
+    Frame render(const RenderSettings& settings, const FrameRequest& request) override {
+        return tracer_->render(withKernel(settings), request);
+    }
+    void warmUp(const RenderSettings& settings, uint32_t frames) override {
+        tracer_->traceBackToBack(withKernel(settings), frames);
+    }
+
+private:
+    RenderSettings withKernel(RenderSettings settings) const {
+        settings.kernel = kernel_;
+        return settings;
+    }
+    std::unique_ptr<GpuTracer> tracer_;
+    KernelKind kernel_;
+};
+
+}  // namespace
+
+std::unique_ptr<Tracer> makeGpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel) {
+    return std::make_unique<GpuKernelTracer>(context, kernel);
+}
+
+}  // namespace raypack

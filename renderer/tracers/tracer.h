@@ -1,0 +1,95 @@
+#pragma once
+// One shape for every way raypack traces rays, so that programs, the bench and the tests handle
+// them alike: the CPU reference, the CPU packet tracer, the Vulkan packet and single-ray kernels,
+// the driver's own ray tracing and Embree. A tracer is made by the registry
+// (renderer/tracers/registry.h), prepared once per scene (its own layout of the canonical BVH,
+// uploaded where it runs on a GPU), then renders frames of RenderSettings into a Frame.
+//
+// Data flow: Scene + Bvh --prepare--> the tracer's layout (Preparation: time, bytes);
+// RenderSettings + FrameRequest --render--> Frame (image, hits, counters, pass timings).
+// The measurement protocol over any tracer (warm-ups, timed runs, medians) is
+// renderer/measure/protocol.h.
+#include "renderer/bvh.h"
+#include "renderer/frame.h"
+#include "renderer/scene.h"
+#include "renderer/settings.h"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace raypack {
+
+enum class TracerDevice { Cpu, Gpu };
+
+// What a tracer's frames can hold and how they are timed.
+struct TracerCapabilities {
+    bool image = false;     // shaded / heat-map RGBA8 (FrameRequest::image)
+    bool hits = false;      // one HitRecord per pixel (FrameRequest::hits)
+    bool counters = false;  // N_TR / N_IT per pixel (FrameRequest::counters)
+    // Pass times (FrameTimings::primarySeconds / shadowSeconds) come from GPU timestamp queries,
+    // not the host's clock.
+    bool gpuTimestamps = false;
+    // RenderSettings::packet chooses the packet shape it traces (the packet kernels).
+    bool packetShapes = false;
+    // Traces with the CPU reference's arithmetic, so its hits must be the reference's to the bit
+    // (the bench records the share that is).
+    bool bitExactWithReference = false;
+};
+
+// What prepare() cost.
+struct Preparation {
+    double seconds = 0.0;  // host wall time converting to the tracer's layout (and uploading it)
+    uint64_t bytes = 0;    // what the tracer holds for the scene beside the Scene itself
+    // `seconds` is the report's T_CU, creating and uploading device data (a GPU tracer). The CPU
+    // tracers read the tree in host memory, and the report's CPU rows have T_CU = 0.
+    bool isUpload = false;
+};
+
+class Tracer {
+public:
+    virtual ~Tracer() = default;
+
+    // The registry's name and the bench's "tracer" field: "cpu-reference", "gpu-packet", ...
+    virtual std::string name() const = 0;
+    // The bench's "kernel" field: "reference", "packet", "single", or a peer's own.
+    virtual std::string kernel() const = 0;
+    virtual TracerDevice device() const = 0;
+    // What traced a frame of `settings`, as printed and recorded ("CPU reference, AMD EPYC (2
+    // threads)", vk::describe() of a GPU).
+    virtual std::string describe(const RenderSettings& settings) const = 0;
+    // The bench's "driver" field: the Vulkan driver, Embree's version, "" for raypack's CPU code.
+    virtual std::string driver() const = 0;
+    virtual TracerCapabilities capabilities() const = 0;
+
+    // Converts `bvh` over `scene` to the tracer's layout, replacing the previous scene. Both must
+    // outlive the frames rendered from them. Throws raypack::Error (out of memory, a tree too deep).
+    virtual Preparation prepare(const Scene& scene, const Bvh& bvh) = 0;
+    // One frame, synchronously. Throws raypack::Error before prepare() or for settings the tracer
+    // cannot run (a packet shape the device cannot hold).
+    virtual Frame render(const RenderSettings& settings, const FrameRequest& request) = 0;
+    // Traces `frames` frames back to back without reading them back, untimed: a GPU lowers its
+    // clocks when it idles, and timed frames follow at once (renderer/measure/protocol.cpp). A CPU
+    // tracer has nothing to warm.
+    virtual void warmUp(const RenderSettings& settings, uint32_t frames) {
+        (void)settings;
+        (void)frames;
+    }
+
+    // Tracers whose measurement is not a frame write their own bench records: Embree's five ray
+    // modes at two build qualities, the driver's acceleration structure build and launch figures.
+    // `reference` holds the reference tracer's hits of the same rays (or is empty). nullopt for
+    // the frame tracers, which the protocol of renderer/measure/protocol.h measures.
+    virtual std::optional<nlohmann::json> peerRecords(const RenderSettings& settings, uint32_t repeats,
+                                                      const std::vector<HitRecord>& reference) {
+        (void)settings;
+        (void)repeats;
+        (void)reference;
+        return std::nullopt;
+    }
+};
+
+}  // namespace raypack
