@@ -400,8 +400,9 @@ public:
     std::string name() const override { return "embree"; }
     std::string kernel() const override { return "rtcIntersect1"; }
     TracerDevice device() const override { return TracerDevice::Cpu; }
-    // As the bench records have always named the machine Embree ran on.
-    std::string describe(const RenderSettings&) const override { return describeCpuDevice("CPU reference"); }
+    // The machine Embree ran on ("Embree, AMD EPYC (2 threads)"); the records of earlier sessions
+    // said "CPU reference, ..." here, which named the wrong tracer.
+    std::string describe(const RenderSettings&) const override { return describeCpuDevice("Embree"); }
     std::string driver() const override { return "Embree " + embreeBuildVersion(); }
     TracerCapabilities capabilities() const override {
         TracerCapabilities c;
