@@ -42,10 +42,9 @@ std::string resolveSceneDir(const std::string& explicitDir) {
         return explicitDir;
     }
     if (const char* env = std::getenv("RAYPACK_SCENE_DIR"); env && *env) candidates.push_back(env);
-    // This file is app/cli/bench_suites.cpp of the source tree (CMake compiles it by its full
-    // path), so the source root is two folders up.
-    const fs::path source = fs::path(__FILE__).parent_path().parent_path().parent_path();
-    if (source.is_absolute()) candidates.push_back(source / ".." / "shared" / "scenes");
+    // The configured folder (CMake's RAYPACK_SHARED_SCENES, by default ../shared/scenes beside the
+    // source tree). Not derived from __FILE__: ccache's base_dir makes that relative.
+    candidates.push_back(RAYPACK_DEFAULT_SCENE_DIR);
     candidates.push_back(fs::current_path() / ".." / "shared" / "scenes");
     std::string tried;
     for (const fs::path& c : candidates) {
