@@ -1,14 +1,19 @@
 #!/usr/bin/env bash
 # Installs what is missing, builds in Release and opens the viewer on SCENE (default: the bundled
-# scene, scenes/data/default.ply). Further arguments go to the viewer (`build/raypack --help`).
+# scene, scenes/data/default.ply). Further arguments (or all of them, when the first is a flag) go
+# to the viewer (`build/raypack --help`).
 # Without a display it says so and renders the scene headless to out/render.png instead.
 set -euo pipefail
 root=$(cd "$(dirname "$0")" && pwd)
 "$root/scripts/install-deps.sh"
 "$root/scripts/build.sh"
 export XDG_RUNTIME_DIR=${XDG_RUNTIME_DIR:-$(mktemp -d)}
-scene=${1:-$root/scenes/data/default.ply}
-shift || true
+# The first argument is the scene unless it is a flag (`./run.sh --tracer cpu-reference`).
+scene=$root/scenes/data/default.ply
+if [ $# -gt 0 ] && [ "${1#-}" = "$1" ]; then
+  scene=$1
+  shift
+fi
 build=${RAYPACK_BUILD_DIR:-$root/build}
 if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
   exec "$build/raypack" --scene "$scene" "$@"
