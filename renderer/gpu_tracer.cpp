@@ -102,10 +102,7 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
     State& s = *state_;
     const VkDevice device = context.device;
     try {
-        VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-        poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-        poolInfo.queueFamilyIndex = context.queueFamily;
-        vk::check(vkCreateCommandPool(device, &poolInfo, nullptr, &s.pool), "vkCreateCommandPool");
+        s.pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, "vkCreateCommandPool");
 
         std::array<VkDescriptorSetLayoutBinding, gpu::kBindingCount> bindings{};
         for (uint32_t b = 0; b < gpu::kBindingCount; ++b)

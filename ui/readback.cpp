@@ -45,13 +45,4 @@ Image readBackImage(const vk::VulkanContext& context, VkCommandPool pool, VkBuff
     return image;
 }
 
-VkCommandPool createCommandPool(const vk::VulkanContext& context) {
-    VkCommandPoolCreateInfo info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-    info.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    info.queueFamilyIndex = context.queueFamily;
-    VkCommandPool pool = VK_NULL_HANDLE;
-    vk::check(vkCreateCommandPool(context.device, &info, nullptr, &pool), "vkCreateCommandPool");
-    return pool;
-}
-
 }  // namespace raypack::ui

@@ -26,7 +26,4 @@ void ensureHostBuffer(const vk::VulkanContext& context, vk::Buffer& buffer, VkDe
 Image readBackImage(const vk::VulkanContext& context, VkCommandPool pool, VkBuffer source, uint32_t width,
                     uint32_t height, bool bgra, vk::Buffer& staging);
 
-// A command pool on the context's queue family whose buffers can be reset.
-VkCommandPool createCommandPool(const vk::VulkanContext& context);
-
 }  // namespace raypack::ui

@@ -1291,7 +1291,8 @@ int runViewer(const ViewerOptions& options) {
     s.context = vk::createVulkanContext(contextOptions);
     s.cpuDevice = s.context.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
     if (s.offscreen) {
-        s.offscreenPool = createCommandPool(s.context);
+        s.offscreenPool = vk::createCommandPool(s.context, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
+                                                "vkCreateCommandPool (offscreen)");
     } else {
         ViewerWindowOptions windowOptions;
         windowOptions.width = options.width;

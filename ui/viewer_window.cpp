@@ -108,10 +108,8 @@ ViewerWindow createViewerWindow(const vk::VulkanContext& context, const ViewerWi
     w.swapchain = createSwapchain(context, w.surface, w.overlayPass, format, uint32_t(fbWidth), uint32_t(fbHeight),
                                   w.wantedPresentMode, VK_NULL_HANDLE);
 
-    VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-    poolInfo.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
-    poolInfo.queueFamilyIndex = context.queueFamily;
-    check(vkCreateCommandPool(context.device, &poolInfo, nullptr, &w.commandPool), "vkCreateCommandPool (viewer)");
+    w.commandPool =
+        vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, "vkCreateCommandPool (viewer)");
     VkCommandBufferAllocateInfo alloc{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
     alloc.commandPool = w.commandPool;
     alloc.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;

@@ -486,6 +486,15 @@ void destroyBuffer(const VulkanContext& ctx, Buffer& buffer) {
     buffer = Buffer{};
 }
 
+VkCommandPool createCommandPool(const VulkanContext& ctx, VkCommandPoolCreateFlags flags, const char* what) {
+    VkCommandPoolCreateInfo info{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    info.flags = flags;
+    info.queueFamilyIndex = ctx.queueFamily;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    check(vkCreateCommandPool(ctx.device, &info, nullptr, &pool), what);
+    return pool;
+}
+
 void submitAndWait(const VulkanContext& ctx, VkCommandPool pool, const std::function<void(VkCommandBuffer)>& record) {
     VkCommandBufferAllocateInfo allocate{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
     allocate.commandPool = pool;

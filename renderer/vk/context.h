@@ -109,6 +109,9 @@ Buffer createBuffer(const VulkanContext& context, VkDeviceSize size, VkBufferUsa
                     VkMemoryPropertyFlags properties, const char* what);
 void destroyBuffer(const VulkanContext& context, Buffer& buffer);
 
+// A command pool on the context's queue family (`flags`: e.g. reset-per-buffer, transient).
+VkCommandPool createCommandPool(const VulkanContext& context, VkCommandPoolCreateFlags flags, const char* what);
+
 // Records with `record` into a fresh command buffer from `pool`, submits it and waits.
 void submitAndWait(const VulkanContext& context, VkCommandPool pool,
                    const std::function<void(VkCommandBuffer)>& record);

@@ -587,10 +587,7 @@ RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene, con
     result.repeats = repeats;
 
     RtPeerObjects o(context, loadRtFunctions(context.device));
-    VkCommandPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
-    poolInfo.flags = VK_COMMAND_POOL_CREATE_TRANSIENT_BIT;
-    poolInfo.queueFamilyIndex = context.queueFamily;
-    vk::check(vkCreateCommandPool(context.device, &poolInfo, nullptr, &o.pool), "vkCreateCommandPool");
+    o.pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, "vkCreateCommandPool");
     VkQueryPoolCreateInfo queryInfo{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
     queryInfo.queryType = VK_QUERY_TYPE_TIMESTAMP;
     queryInfo.queryCount = kQueryCount;
