@@ -15,6 +15,8 @@
 #include "scenes/load.h"
 #include "shaders/intersect.h"
 
+#include "random_geometry.h"
+
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
@@ -28,6 +30,7 @@
 #include <thread>
 
 using namespace raypack;
+using raypack::test::randomDirection;
 
 namespace {
 
@@ -230,14 +233,6 @@ bool bruteOccluded(const Scene& scene, glm::vec3 org, glm::vec3 dir, float tmax,
             return true;
     }
     return false;
-}
-
-glm::vec3 randomDirection(std::mt19937& rng) {
-    std::normal_distribution<float> normal;
-    glm::vec3 d;
-    do d = glm::vec3(normal(rng), normal(rng), normal(rng));
-    while (glm::dot(d, d) < 1e-6f);
-    return glm::normalize(d);
 }
 
 // Rays from random points and towards vertices, edge midpoints and random triangle points.

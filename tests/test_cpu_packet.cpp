@@ -14,6 +14,8 @@
 
 #include "cli_runner.h"
 
+#include "random_geometry.h"
+
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -203,22 +205,10 @@ TEST(CpuPacket, SameHitsOnRandomScenesShapesAndOddSizes) {
     }
 }
 
-// Slivers 1e-4 wide in random orientations: most kept hits have their t recomputed from the plane
+// Slivers 1e-3 wide in random orientations: most kept hits have their t recomputed from the plane
 // (gpu::accurateHitDistance), which the packet kernel does lane by lane; the same bits.
 TEST(CpuPacket, SameHitsOnSlivers) {
-    Scene scene;
-    std::mt19937 rng(9);
-    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), length(0.2f, 3.0f);
-    for (uint32_t i = 0; i < 40000; ++i) {
-        const glm::vec3 centre = 3.0f * glm::vec3(unit(rng), unit(rng), unit(rng));
-        const glm::vec3 axis = glm::normalize(glm::vec3(unit(rng), unit(rng), unit(rng)) + glm::vec3(1e-3f));
-        const glm::vec3 across = glm::normalize(glm::cross(axis, glm::vec3(unit(rng), unit(rng), unit(rng))));
-        const float l = length(rng);
-        const uint32_t base = uint32_t(scene.positions.size());
-        scene.positions.insert(scene.positions.end(), {centre - 0.5f * l * axis, centre + 0.5f * l * axis,
-                                                       centre + 0.1f * l * axis + 1e-3f * across});
-        scene.triangles.emplace_back(base, base + 1, base + 2);
-    }
+    const Scene scene = test::randomSliverSoup(40000, 1e-3f, 3.0f, 9);
     const Bvh bvh = build(scene);
     const CpuSceneView view = makeCpuSceneView(scene, bvh);
     RenderSettings settings;

@@ -12,6 +12,8 @@
 #include "shaders/intersect.h"
 #include "shaders/shading.h"
 
+#include "random_geometry.h"
+
 #include <gtest/gtest.h>
 
 #include <bit>
@@ -26,6 +28,7 @@
 namespace {
 
 using namespace raypack;
+using raypack::test::randomDirection;
 
 Bvh build(const Scene& scene, uint32_t leafSize = 2) {
     std::vector<Aabb> bounds(scene.triangleCount());
@@ -144,14 +147,6 @@ Scene tessellatedCube(int n) {
         }
     }
     return scene;
-}
-
-glm::vec3 randomDirection(std::mt19937& rng) {
-    std::normal_distribution<float> normal;
-    glm::vec3 d;
-    do d = glm::vec3(normal(rng), normal(rng), normal(rng));
-    while (glm::dot(d, d) < 1e-6f);
-    return glm::normalize(d);
 }
 
 // Random rays (random origins and directions, rays aimed at vertices and edge points, and

@@ -3,6 +3,7 @@
 // made lavapipe end the kernels' loops early and rays silently missed. Now leaves hold at most
 // kMaxLeafPrimitives triangles (a median split where the SAH refuses), every traversal is bounded
 // by gpu::kMaxTraversalSteps, and a ray that reaches the bound makes render() throw.
+#include "random_geometry.h"
 #include "test_gpu_common.h"
 
 #include "eye_on_face.h"
@@ -108,35 +109,10 @@ TEST(RobustGpu, EyeOnAFaceSeesWhatLiesBeyondOnEveryKernel) {
     expectNoValidationMessages();
 }
 
-// `count` slivers 0.2-3 long and 1e-3 wide (needles and caps) in random orientations within the
-// cube [-5, 5]^3: the soup of issue 15 (1e-4 wide there, where the triangle test's own t was off
-// by up to 1e-3; at 1e-3 wide, by up to about 1e-4, and the rays hit more of them).
-Scene randomSliverSoup(uint32_t count) {
-    Scene scene;
-    std::mt19937 random(5);
-    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), length(0.2f, 3.0f);
-    const auto direction = [&] {
-        for (;;) {
-            const glm::vec3 d(unit(random), unit(random), unit(random));
-            if (glm::length(d) > 0.1f && glm::length(d) <= 1.0f) return glm::normalize(d);
-        }
-    };
-    for (uint32_t i = 0; i < count; ++i) {
-        const glm::vec3 centre = 5.0f * glm::vec3(unit(random), unit(random), unit(random));
-        const glm::vec3 axis = direction();
-        const glm::vec3 across = glm::normalize(glm::cross(axis, direction()));
-        const float l = length(random);
-        const glm::vec3 v0 = centre - 0.5f * l * axis, v1 = centre + 0.5f * l * axis;
-        const glm::vec3 v2 = i % 2 ? v0 + 1e-3f * across : centre + 0.1f * l * axis + 1e-3f * across;
-        const uint32_t base = uint32_t(scene.positions.size());
-        scene.positions.insert(scene.positions.end(), {v0, v1, v2});
-        scene.triangles.emplace_back(base, base + 1, base + 2);
-    }
-    return scene;
-}
-
+// The soup of issue 15 was 1e-4 wide, where the triangle test's own t was off by up to 1e-3; at
+// 1e-3 wide (tests/random_geometry.h), by up to about 1e-4, and the rays hit more of them.
 TEST(RobustGpu, HitDistancesOnSliversAreAccurateOnEveryTracer) {
-    const Scene scene = randomSliverSoup(60000);
+    const Scene scene = randomSliverSoup(60000, 1e-3f, 5.0f, 5);
     const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
     GpuTracer tracer(validatedContext());
     tracer.upload(scene, bvh);

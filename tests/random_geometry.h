@@ -1,0 +1,42 @@
+#pragma once
+// Random geometry the tests share: directions, and the sliver soups of issue 15.
+#include "renderer/scene.h"
+
+#include <glm/glm.hpp>
+
+#include <cstdint>
+#include <random>
+
+namespace raypack::test {
+
+// A uniformly distributed unit vector (a normalised Gaussian triple).
+inline glm::vec3 randomDirection(std::mt19937& rng) {
+    std::normal_distribution<float> normal;
+    glm::vec3 d;
+    do d = glm::vec3(normal(rng), normal(rng), normal(rng));
+    while (glm::dot(d, d) < 1e-6f);
+    return glm::normalize(d);
+}
+
+// `count` slivers 0.2-3 long and `width` wide in random orientations, centred within
+// [-halfExtent, halfExtent]^3: needles (one short edge) and caps (a vertex `width` off the long
+// edge, a tenth of its length from the middle), alternately.
+inline Scene randomSliverSoup(uint32_t count, float width, float halfExtent, uint32_t seed) {
+    Scene scene;
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), length(0.2f, 3.0f);
+    for (uint32_t i = 0; i < count; ++i) {
+        const glm::vec3 centre = halfExtent * glm::vec3(unit(rng), unit(rng), unit(rng));
+        const glm::vec3 axis = randomDirection(rng);
+        const glm::vec3 across = glm::normalize(glm::cross(axis, randomDirection(rng)));
+        const float l = length(rng);
+        const glm::vec3 v0 = centre - 0.5f * l * axis, v1 = centre + 0.5f * l * axis;
+        const glm::vec3 v2 = i % 2 ? v0 + width * across : centre + 0.1f * l * axis + width * across;
+        const uint32_t base = uint32_t(scene.positions.size());
+        scene.positions.insert(scene.positions.end(), {v0, v1, v2});
+        scene.triangles.emplace_back(base, base + 1, base + 2);
+    }
+    return scene;
+}
+
+}  // namespace raypack::test
