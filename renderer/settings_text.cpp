@@ -2,6 +2,7 @@
 
 #include "renderer/error.h"
 
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>

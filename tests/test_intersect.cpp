@@ -274,12 +274,7 @@ TEST(Triangle, OriginOnTheTriangleIsNoHit) {
 // edges), so t carried errors up to 1e-3 relative. The oracle: the same intersection in double,
 // where the differences of float vertices are exact.
 
-// The exact distance along org + t dir to the plane of (v0, v1, v2), in double.
-double exactPlaneT(vec3 org, vec3 dir, vec3 v0, vec3 v1, vec3 v2) {
-    const glm::dvec3 a(v0), e1 = glm::dvec3(v1) - a, e2 = glm::dvec3(v2) - a;
-    const glm::dvec3 n = glm::cross(e1, e2);
-    return glm::dot(a - glm::dvec3(org), n) / glm::dot(glm::dvec3(dir), n);
-}
+using raypack::test::exactPlaneDistance;
 
 struct SliverErrors {
     uint32_t hits = 0;
@@ -316,7 +311,7 @@ SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_
             bool inexactT = false;
             if (!intersectTriangle(makeTraceRay(org, dir), v0, v1, v2, kFloatHuge, t, bary, inexactT)) continue;
             if (inexactT || always) t = accurateHitDistance(org, dir, v0, v1, v2, t);
-            const double exact = exactPlaneT(org, dir, v0, v1, v2);
+            const double exact = exactPlaneDistance(org, dir, v0, v1, v2);
             ++errors.hits;
             errors.worst = std::max(errors.worst, std::abs(double(t) - exact) / std::abs(exact));
         }
@@ -376,7 +371,7 @@ TEST(Triangle, HitDistanceAtGrazingAnglesIsAccurate) {
                 if (!intersectTriangle(makeTraceRay(org, dir), v[0], v[1], v[2], kFloatHuge, t, bary, inexactT))
                     continue;
                 if (inexactT || always) t = accurateHitDistance(org, dir, v[0], v[1], v[2], t);
-                const double exact = exactPlaneT(org, dir, v[0], v[1], v[2]);
+                const double exact = exactPlaneDistance(org, dir, v[0], v[1], v[2]);
                 worst = std::max(worst, std::abs(double(t) - exact) / std::abs(exact));
                 ++hits;
             }

@@ -121,10 +121,9 @@ TEST(RobustGpu, HitDistancesOnSliversAreAccurateOnEveryTracer) {
         hits = 0;
         for (const HitRecord& h : frame.hits) {
             if (h.prim == gpu::kNoHit) continue;
-            const glm::dvec3 org(h.orgX, h.orgY, h.orgZ), dir(h.dirX, h.dirY, h.dirZ);
-            const glm::dvec3 v0(scene.vertex(h.prim, 0)), v1(scene.vertex(h.prim, 1)), v2(scene.vertex(h.prim, 2));
-            const glm::dvec3 n = glm::cross(v1 - v0, v2 - v0);
-            const double exact = glm::dot(v0 - org, n) / glm::dot(dir, n);
+            const double exact =
+                exactPlaneDistance(glm::vec3(h.orgX, h.orgY, h.orgZ), glm::vec3(h.dirX, h.dirY, h.dirZ),
+                                   scene.vertex(h.prim, 0), scene.vertex(h.prim, 1), scene.vertex(h.prim, 2));
             worst = std::max(worst, std::abs(double(h.t) - exact) / exact);
             ++hits;
         }
