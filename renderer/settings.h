@@ -19,6 +19,11 @@ struct PhongParams {
 
 enum class KernelKind { Packet, Single };
 enum class ViewMode { Shaded, HeatTraversal, HeatIntersections };
+// Which ray/triangle and ray/box tests every tracer runs (issue 15, docs/trade.md). Robust: the
+// watertight triangle test of Woop et al. 2013 with accurate hit distances and the conservative
+// slab test of Ize 2013; no ray leaks through a closed mesh. Fast: Moller-Trumbore 1997 and the
+// plain slab test, which can let a ray through a shared edge or vertex.
+enum class IntersectMode { Robust, Fast };
 
 struct PacketShape {
     uint32_t width = 8;
@@ -34,6 +39,7 @@ struct RenderSettings {
     float lightHeight = 0.25f;  // multiple of the scene's height above the camera (report 2.3)
     bool shadows = true;
     PhongParams phong;
+    IntersectMode intersect = IntersectMode::Robust;
     glm::vec3 background{0.08f, 0.09f, 0.11f};
     // Offset of every primary ray from its pixel's centre, in pixels (each component in
     // [-0.5, 0.5)): one sample of an anti-aliasing pattern (renderer/accumulate.h). Zero: centres.
@@ -50,5 +56,6 @@ struct RenderSettings {
 
 const char* toString(KernelKind kind);
 const char* toString(ViewMode mode);
+const char* toString(IntersectMode mode);
 
 }  // namespace raypack

@@ -114,6 +114,7 @@ nlohmann::json toJson(const RenderSettings& s) {
                   {"specular", s.phong.specular},
                   {"shininess", s.phong.shininess}};
     j["background"] = toJson(s.background);
+    j["intersect"] = toString(s.intersect);
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["collect_counters"] = s.collectCounters;
@@ -169,9 +170,14 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         readFloat(*phong, "shininess", "phong.", s.phong.shininess);
     }
     readVec3(j, "background", "", s.background);
+    if (const std::string intersect = readString(j, "intersect", ""); !intersect.empty()) {
+        const auto parsed = parseIntersectMode(intersect);
+        if (!parsed) badKey("intersect", "must be " + intersectModeNames() + ", got \"" + intersect + "\"");
+        s.intersect = *parsed;
+    }
     if (const std::string kernel = readString(j, "kernel", ""); !kernel.empty()) {
         const auto parsed = parseKernelKind(kernel);
-        if (!parsed) badKey("kernel", "must be \"packet\" or \"single\", got \"" + kernel + "\"");
+        if (!parsed) badKey("kernel", "must be " + kernelKindNames() + ", got \"" + kernel + "\"");
         s.kernel = *parsed;
     }
     if (const json* packet = readObject(j, "packet", "")) {

@@ -21,6 +21,7 @@ struct Named {
 constexpr Named<KernelKind> kKernelNames[] = {{KernelKind::Packet, "packet"}, {KernelKind::Single, "single"}};
 constexpr Named<ViewMode> kViewNames[] = {
     {ViewMode::Shaded, "shaded"}, {ViewMode::HeatTraversal, "nodes"}, {ViewMode::HeatIntersections, "tests"}};
+constexpr Named<IntersectMode> kIntersectNames[] = {{IntersectMode::Robust, "robust"}, {IntersectMode::Fast, "fast"}};
 
 template <class E>
 const char* nameOf(std::span<const Named<E>> table, E value) {
@@ -92,6 +93,11 @@ std::optional<KernelKind> parseKernelKind(std::string_view name) { return valueO
 std::optional<ViewMode> parseViewMode(std::string_view name) { return valueOf<ViewMode>(kViewNames, name); }
 std::string kernelKindNames() { return namesOf<KernelKind>(kKernelNames); }
 std::string viewModeNames() { return namesOf<ViewMode>(kViewNames); }
+const char* toString(IntersectMode mode) { return nameOf<IntersectMode>(kIntersectNames, mode); }
+std::optional<IntersectMode> parseIntersectMode(std::string_view name) {
+    return valueOf<IntersectMode>(kIntersectNames, name);
+}
+std::string intersectModeNames() { return namesOf<IntersectMode>(kIntersectNames); }
 
 PacketShape parsePacketShape(std::string_view what, std::string_view text) {
     const size_t x = text.find_first_of("xX");

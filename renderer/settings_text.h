@@ -26,9 +26,11 @@ inline constexpr uint32_t kMaxPacketSide = 1024;
 // the name the parsers accept, so what one program prints another can read back.
 std::optional<KernelKind> parseKernelKind(std::string_view name);
 std::optional<ViewMode> parseViewMode(std::string_view name);
+std::optional<IntersectMode> parseIntersectMode(std::string_view name);  // "robust" / "fast"
 // "packet or single", "shaded, nodes or tests": the valid names, for messages and help texts.
 std::string kernelKindNames();
 std::string viewModeNames();
+std::string intersectModeNames();
 
 // "WxH" (or "WXH") with 1 <= W, H <= kMaxPacketSide, digits only (no sign, no spaces).
 PacketShape parsePacketShape(std::string_view what, std::string_view text);

@@ -76,6 +76,14 @@ TEST(SettingsText, EveryNameReadsBackAndTheJsonUsesTheSameNames) {
         EXPECT_EQ(toJson(settings)["view"], toString(mode));
         EXPECT_EQ(renderSettingsFromJson(toJson(settings)).view, mode);
     }
+    for (IntersectMode mode : {IntersectMode::Robust, IntersectMode::Fast}) {
+        EXPECT_EQ(parseIntersectMode(toString(mode)), mode);
+        RenderSettings settings;
+        settings.intersect = mode;
+        EXPECT_EQ(toJson(settings)["intersect"], toString(mode));
+        EXPECT_EQ(renderSettingsFromJson(toJson(settings)).intersect, mode);
+    }
+    EXPECT_EQ(intersectModeNames(), "robust or fast");
     for (BvhBuilder builder : kAllBvhBuilders) {
         EXPECT_EQ(findBvhBuilder(toString(builder)), builder);
         EXPECT_EQ(parseBvhBuilder(toString(builder)), builder);
