@@ -203,6 +203,7 @@ void drawTracerSection(PanelState& state, const PanelInfo& info, PanelActions&) 
 
     // Every raypack tracer (CPU and Vulkan) honours it; docs/trade.md measures what it costs.
     int intersect = int(s.intersect);
+    ImGui::AlignTextToFramePadding();
     ImGui::Text("Intersection");
     ImGui::SameLine();
     ImGui::RadioButton("robust", &intersect, int(IntersectMode::Robust));
