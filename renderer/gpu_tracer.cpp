@@ -38,8 +38,10 @@ struct PipelineKey {
     uint32_t view;
     uint32_t stackEntries;
     IntersectMode intersect;
+    ShadowOrder shadowOrder;
     auto tie() const {
-        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect);
+        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect,
+                        shadowOrder);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -351,6 +353,9 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     data.packetIsOneSubgroup =
         packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
     data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
+    data.shadowOrder = key.shadowOrder == ShadowOrder::Tree     ? gpu::kShadowOrderTree
+                       : key.shadowOrder == ShadowOrder::Larger ? gpu::kShadowOrderLarger
+                                                                : gpu::kShadowOrderNearest;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
     std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
     for (size_t i = 0; i < entries.size(); ++i) {
@@ -476,8 +481,8 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel, shape.width, shape.height,   0u,
-                    statistics,      view,        s.stackEntries, settings.intersect};
+    PipelineKey key{settings.kernel, shape.width,        shape.height,        0u, statistics, view,
+                    s.stackEntries,  settings.intersect, settings.shadowOrder};
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
