@@ -75,6 +75,12 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["frame_min_s"] = s.frameSeconds.min;
         r["frame_max_s"] = s.frameSeconds.max;
         r.update(toJson(std::string(kind) == "primary" ? s.primary : s.shadow));
+        if (s.gpu) {
+            // T_CU split (issue 13): buffers created, layout written into staging memory, copied.
+            r["t_cu_allocation_s"] = s.uploadAllocationSeconds;
+            r["t_cu_conversion_s"] = s.uploadConversionSeconds;
+            r["t_cu_transfer_s"] = s.uploadTransferSeconds;
+        }
         records.push_back(r);
     }
 }
