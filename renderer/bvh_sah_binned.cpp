@@ -70,7 +70,7 @@ Aabb toAabb(const F4& lo, const F4& hi) {
 
 // measure.of(box) for a box that holds at least one primitive, without leaving the vector lanes in
 // the common case (SahMeasure::Area): the sweeps price about six boxes per primitive per level.
-double measureOf(const SahMeasure& measure, const F4& lo, const F4& hi) {
+inline __attribute__((always_inline)) double measureOf(const SahMeasure& measure, const F4& lo, const F4& hi) {
     if (measure.kind == SahMeasureKind::Area) return simd::halfArea(lo, hi);
     return measure.of(toAabb(lo, hi));
 }
@@ -182,6 +182,21 @@ struct Split {
     Aabb leftBox, rightBox;
     uint32_t leftCount = 0;
 };
+
+// The power of 2 that scales the node's largest extent into [0.5, 1), for the sweep's single
+// precision areas (exact scaling: the choice does not change when the scene is scaled by a power
+// of 2); 0 where the double path must price (a measure other than area, or extents so large or
+// small that the scale itself would leave the float range).
+float areaScaleOf(const Aabb& box, const SahMeasure& measure) {
+    if (measure.kind != SahMeasureKind::Area) return 0.0f;
+    const glm::vec3 extent = box.hi - box.lo;
+    const float largest = std::max(extent.x, std::max(extent.y, extent.z));
+    if (!(largest > 0.0f) || !std::isfinite(largest)) return 0.0f;
+    int exponent = 0;
+    std::frexp(largest, &exponent);
+    if (exponent < -100 || exponent > 100) return 0.0f;
+    return std::ldexp(1.0f, -exponent);
+}
 
 class SahBinnedBuilder {
 public:
@@ -374,12 +389,13 @@ private:
         }
     }
 
-    // Fills `grid` from refs_[begin, end) by fill(from, to, grid): serially, or for a large node by a
-    // parallel reduction (its merge is exact, so the bins do not depend on the split of the work).
+    // Fills the empty `grid` from refs_[begin, end) by fill(from, to, grid): serially, or for a
+    // large node by a parallel reduction (its merge is exact, so the bins do not depend on the split
+    // of the work). Small nodes' grids live on the stack: nothing is allocated per node.
     template <typename Grid, typename Fill>
-    void fillGrid(uint32_t begin, uint32_t end, std::unique_ptr<Grid>& grid, const Fill& fill) const {
+    void fillGrid(uint32_t begin, uint32_t end, Grid& grid, const Fill& fill) const {
         if (end - begin <= kParallelNodeMinPrimitives) {
-            fill(begin, end, *grid);
+            fill(begin, end, grid);
             return;
         }
         struct Body {
@@ -389,68 +405,125 @@ private:
             Body(Body& other, tbb::split) : fill(other.fill), grid(other.grid->emptyLike()) {}
             void operator()(const tbb::blocked_range<uint32_t>& range) { fill(range.begin(), range.end(), *grid); }
             void join(const Body& other) { grid->merge(*other.grid); }
-        } body(fill, std::move(grid));
+        } body(fill, grid.emptyLike());
         tbb::parallel_reduce(tbb::blocked_range<uint32_t>(begin, end, kCancelCheckInterval), body);
         throwIfInterrupted(progress_);
-        grid = std::move(body.grid);
+        grid.merge(*body.grid);
     }
 
     Split findBinnedSplit(const Work& work) const {
         const uint32_t total = work.end - work.begin;
         const Binner binner = binnerOf(work.centroidBox, total);
         if (!binner.active[0] && !binner.active[1] && !binner.active[2]) return Split();  // one point
+        if (total == 2) return pairSplit(work, binner);
         const uint32_t binCount = binner.binCount;
 
-        auto grid = std::make_unique<BinGrid>(binCount);
+        BinGrid grid(binCount);
         fillGrid(work.begin, work.end, grid,
                  [&](uint32_t from, uint32_t to, BinGrid& bins) { fillBins(binner, from, to, bins); });
 
         const SahMeasure measure = SahMeasure::forParent(work.box);
+        const float areaScale = areaScaleOf(work.box, measure);
         Split best;
-        double leftMeasure[kMaxBins];
-        F4 leftLo[kMaxBins], leftHi[kMaxBins];
+        // Prefix boxes (bins 0..b) and suffix boxes (bins b..end), padded for scaledHalfAreas.
+        F4 leftLo[kMaxBins + 4], leftHi[kMaxBins + 4], rightLo[kMaxBins + 4], rightHi[kMaxBins + 4];
+        uint32_t rightCounts[kMaxBins + 4];
+        float leftArea[kMaxBins + 4], rightArea[kMaxBins + 4];
+        double leftMeasure[kMaxBins], rightMeasure[kMaxBins];
         std::array<uint32_t, 3> axisBest{};     // per axis: the best boundary's last left bin
         for (int axis = 0; axis < 3; ++axis) {  // strict < below: ties go to the lower axis
             if (!binner.active[axis]) continue;
-            double axisWeighted = std::numeric_limits<double>::infinity();
             F4 lo = F4::splat(FLT_MAX), hi = F4::splat(-FLT_MAX);
             for (uint32_t b = 0; b + 1 < binCount; ++b) {
-                lo = F4::min(lo, grid->lo[axis][b]);
-                hi = F4::max(hi, grid->hi[axis][b]);
+                lo = F4::min(lo, grid.lo[axis][b]);
+                hi = F4::max(hi, grid.hi[axis][b]);
                 leftLo[b] = lo;
                 leftHi[b] = hi;
-                leftMeasure[b] = measureOf(measure, lo, hi);
             }
-            F4 rightLo = F4::splat(FLT_MAX), rightHi = F4::splat(-FLT_MAX);
+            lo = F4::splat(FLT_MAX);
+            hi = F4::splat(-FLT_MAX);
             uint32_t rightCount = 0;
-            for (uint32_t b = binCount - 1; b >= 1; --b) {  // split between bins b - 1 and b
-                rightLo = F4::min(rightLo, grid->lo[axis][b]);
-                rightHi = F4::max(rightHi, grid->hi[axis][b]);
-                rightCount += grid->count[axis][b];
-                const uint32_t leftCount = total - rightCount;
-                if (rightCount == 0 || leftCount == 0) continue;
-                const double weighted =
-                    leftMeasure[b - 1] * double(leftCount) + measureOf(measure, rightLo, rightHi) * double(rightCount);
+            for (uint32_t b = binCount - 1; b >= 1; --b) {
+                lo = F4::min(lo, grid.lo[axis][b]);
+                hi = F4::max(hi, grid.hi[axis][b]);
+                rightCount += grid.count[axis][b];
+                rightLo[b - 1] = lo;  // shifted: candidate b - 1 (between bins b - 1 and b) at b - 1
+                rightHi[b - 1] = hi;
+                rightCounts[b - 1] = rightCount;
+            }
+            const uint32_t candidates = binCount - 1;  // candidate c: bins 0..c left, c + 1.. right
+            auto priceOf = [&](uint32_t c) -> double {
+                if (areaScale > 0.0f)
+                    return double(leftArea[c]) * double(total - rightCounts[c]) +
+                           double(rightArea[c]) * double(rightCounts[c]);
+                return leftMeasure[c] * double(total - rightCounts[c]) + rightMeasure[c] * double(rightCounts[c]);
+            };
+            if (areaScale > 0.0f) {
+                // Areas of the node's children in single precision, the extents scaled by a power of 2
+                // (exact) into (0, 1], four candidates at a time; the winner is re-priced in double.
+                for (uint32_t c = candidates; c < (candidates + 3) / 4 * 4; ++c)
+                    leftLo[c] = leftHi[c] = rightLo[c] = rightHi[c] = F4::zero();
+                simd::scaledHalfAreas(leftLo, leftHi, candidates, areaScale, leftArea);
+                simd::scaledHalfAreas(rightLo, rightHi, candidates, areaScale, rightArea);
+            } else {
+                for (uint32_t c = 0; c < candidates; ++c) {
+                    leftMeasure[c] = measureOf(measure, leftLo[c], leftHi[c]);
+                    rightMeasure[c] = measureOf(measure, rightLo[c], rightHi[c]);
+                }
+            }
+            double axisWeighted = std::numeric_limits<double>::infinity();
+            for (uint32_t c = candidates; c-- > 0;) {  // high to low, as the suffix sweep ran
+                const uint32_t rightCount = rightCounts[c];
+                if (rightCount == 0 || rightCount == total) continue;
+                const double weighted = priceOf(c);
                 if (weighted <= axisWeighted) {
                     axisWeighted = weighted;
-                    axisBest[axis] = b - 1;
+                    axisBest[axis] = c;
                 }
                 if (weighted < best.weightedMeasures || (weighted == best.weightedMeasures && axis == best.axis)) {
                     best.weightedMeasures = weighted;
                     best.axis = axis;
-                    best.lastLeftBin = b - 1;
-                    best.leftBox = toAabb(leftLo[b - 1], leftHi[b - 1]);
-                    best.rightBox = toAabb(rightLo, rightHi);
-                    best.leftCount = leftCount;
+                    best.lastLeftBin = c;
+                    best.leftBox = toAabb(leftLo[c], leftHi[c]);
+                    best.rightBox = toAabb(rightLo[c], rightHi[c]);
+                    best.leftCount = total - rightCount;
                 }
             }
         }
         if (best.weightedMeasures == std::numeric_limits<double>::infinity()) return Split();
         best.binner = binner;
-        if (total > kRefineMinPrimitives) refine(work, *grid, measure, axisBest, best);
+        // The winner's price in double, as the refinement and the leaf test measure.
+        best.weightedMeasures = measure.of(best.leftBox) * double(best.leftCount) +
+                                measure.of(best.rightBox) * double(total - best.leftCount);
+        if (total > kRefineMinPrimitives) refine(work, grid, measure, axisBest, best);
         const double cost = splitCost(best.weightedMeasures, measure.of(work.box), options_);
         if (cost < leafCost(total, options_)) best.kind = SplitKind::Binned;
         return best;
+    }
+
+    // Two primitives (about a third of the inner nodes): the binned search's only candidate, one
+    // primitive on each side, priced directly. The same split as the bins give: the first active
+    // axis (ties go to the lower axis), the lower centroid in bin 0.
+    Split pairSplit(const Work& work, const Binner& binner) const {
+        const int axis = binner.active[0] ? 0 : binner.active[1] ? 1 : 2;
+        const PrimRef& a = refs_[work.begin];
+        const PrimRef& b = refs_[work.begin + 1];
+        const bool aLeft = binner.binsOf(a.centroid())[axis] == 0;
+        const PrimRef& left = aLeft ? a : b;
+        const PrimRef& right = aLeft ? b : a;
+        const SahMeasure measure = SahMeasure::forParent(work.box);
+        Split split;
+        split.axis = axis;
+        split.binner = binner;
+        split.lastLeftBin = 0;
+        split.weightedMeasures =
+            measureOf(measure, left.boxLo(), left.boxHi()) + measureOf(measure, right.boxLo(), right.boxHi());
+        split.leftBox = toAabb(left.boxLo(), left.boxHi());
+        split.rightBox = toAabb(right.boxLo(), right.boxHi());
+        split.leftCount = 1;
+        if (splitCost(split.weightedMeasures, measure.of(work.box), options_) < leafCost(2, options_))
+            split.kind = SplitKind::Binned;
+        return split;
     }
 
     // Equal bins over the centroids' box resolve the dense part of a skewed distribution poorly:
@@ -470,7 +543,7 @@ private:
                 for (int axis = 0; axis < 3; ++axis) axes[axis].merge(other.axes[axis]);
             }
         };
-        auto fine = std::make_unique<FineGrids>();
+        FineGrids fine;
         fillGrid(work.begin, work.end, fine, [&](uint32_t from, uint32_t to, FineGrids& bins) {
             for (uint32_t chunk = from; chunk < to; chunk += kCancelCheckInterval) {
                 throwIfCancelled(progress_);
@@ -494,7 +567,7 @@ private:
         for (int axis = 0; axis < 3; ++axis) {
             if (!binner.active[axis]) continue;
             const uint32_t first = axisBest[axis];  // bins first and first + 1 were re-binned
-            const FineGrid& bins = fine->axes[axis];
+            const FineGrid& bins = fine.axes[axis];
             // The coarse bins below and above the refined pair.
             F4 lo = F4::splat(FLT_MAX), hi = F4::splat(-FLT_MAX);
             uint32_t leftCount = 0;

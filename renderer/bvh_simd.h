@@ -111,6 +111,27 @@ inline double halfArea(const F4& lo, const F4& hi) {
 }
 #endif
 
+// Half the surface areas of boxes (lo[i], hi[i]), i < count, with the extents multiplied by
+// `scale`, four boxes at a time, into out[i]. Reads and writes up to 3 entries past `count`
+// (callers pad their arrays).
+inline void scaledHalfAreas(const F4* lo, const F4* hi, uint32_t count, float scale, float* out) {
+    const F4 factor = F4::splat(scale);
+    for (uint32_t i = 0; i < count; i += 4) {
+#if RAYPACK_BVH_SIMD_SSE
+        __m128 e0 = ((hi[i] - lo[i]) * factor).v, e1 = ((hi[i + 1] - lo[i + 1]) * factor).v;
+        __m128 e2 = ((hi[i + 2] - lo[i + 2]) * factor).v, e3 = ((hi[i + 3] - lo[i + 3]) * factor).v;
+        _MM_TRANSPOSE4_PS(e0, e1, e2, e3);  // e0: four x extents, e1: y, e2: z
+        const __m128 area = _mm_add_ps(_mm_add_ps(_mm_mul_ps(e0, e1), _mm_mul_ps(e1, e2)), _mm_mul_ps(e2, e0));
+        _mm_storeu_ps(out + i, area);
+#else
+        for (uint32_t k = i; k < i + 4; ++k) {
+            const F4 e = (hi[k] - lo[k]) * factor;
+            out[k] = e.v[0] * e.v[1] + e.v[1] * e.v[2] + e.v[2] * e.v[0];
+        }
+#endif
+    }
+}
+
 // The centroid as centroidOf (renderer/bvh_build.h) computes it, 0.5·lo + 0.5·hi, on lanes 0-2;
 // lane 3 is 0 (the box's lane 3 may hold other data, which must not enter the arithmetic: as a
 // float it can be a denormal, which some x86 cores handle in slow microcode).
