@@ -428,7 +428,7 @@ private:
         // Prefix boxes (bins 0..b) and suffix boxes (bins b..end), padded for scaledHalfAreas.
         F4 leftLo[kMaxBins + 4], leftHi[kMaxBins + 4], rightLo[kMaxBins + 4], rightHi[kMaxBins + 4];
         uint32_t rightCounts[kMaxBins + 4];
-        float leftArea[kMaxBins + 4], rightArea[kMaxBins + 4];
+        float rightCountsF[kMaxBins + 4], leftArea[kMaxBins + 4], rightArea[kMaxBins + 4], prices[kMaxBins + 4];
         double leftMeasure[kMaxBins], rightMeasure[kMaxBins];
         std::array<uint32_t, 3> axisBest{};     // per axis: the best boundary's last left bin
         for (int axis = 0; axis < 3; ++axis) {  // strict < below: ties go to the lower axis
@@ -450,12 +450,11 @@ private:
                 rightLo[b - 1] = lo;  // shifted: candidate b - 1 (between bins b - 1 and b) at b - 1
                 rightHi[b - 1] = hi;
                 rightCounts[b - 1] = rightCount;
+                rightCountsF[b - 1] = float(rightCount);
             }
             const uint32_t candidates = binCount - 1;  // candidate c: bins 0..c left, c + 1.. right
             auto priceOf = [&](uint32_t c) -> double {
-                if (areaScale > 0.0f)
-                    return double(leftArea[c]) * double(total - rightCounts[c]) +
-                           double(rightArea[c]) * double(rightCounts[c]);
+                if (areaScale > 0.0f) return double(prices[c]);
                 return leftMeasure[c] * double(total - rightCounts[c]) + rightMeasure[c] * double(rightCounts[c]);
             };
             if (areaScale > 0.0f) {
@@ -463,14 +462,18 @@ private:
                 // (exact) into (0, 1], four candidates at a time; the winner is re-priced in double.
                 for (uint32_t c = candidates; c < (candidates + 3) / 4 * 4; ++c)
                     leftLo[c] = leftHi[c] = rightLo[c] = rightHi[c] = F4::zero();
+                for (uint32_t c = candidates; c < (candidates + 3) / 4 * 4; ++c) rightCountsF[c] = 0.0f;
                 simd::scaledHalfAreas(leftLo, leftHi, candidates, areaScale, leftArea);
                 simd::scaledHalfAreas(rightLo, rightHi, candidates, areaScale, rightArea);
+                simd::sahPrices(leftArea, rightArea, rightCountsF, float(total), candidates, prices);
             } else {
                 for (uint32_t c = 0; c < candidates; ++c) {
                     leftMeasure[c] = measureOf(measure, leftLo[c], leftHi[c]);
                     rightMeasure[c] = measureOf(measure, rightLo[c], rightHi[c]);
                 }
             }
+            // The axis' cheapest candidate, ties to the lowest; across axes strict <, ties to the
+            // lower axis.
             double axisWeighted = std::numeric_limits<double>::infinity();
             for (uint32_t c = candidates; c-- > 0;) {  // high to low, as the suffix sweep ran
                 const uint32_t rightCount = rightCounts[c];
@@ -480,14 +483,15 @@ private:
                     axisWeighted = weighted;
                     axisBest[axis] = c;
                 }
-                if (weighted < best.weightedMeasures || (weighted == best.weightedMeasures && axis == best.axis)) {
-                    best.weightedMeasures = weighted;
-                    best.axis = axis;
-                    best.lastLeftBin = c;
-                    best.leftBox = toAabb(leftLo[c], leftHi[c]);
-                    best.rightBox = toAabb(rightLo[c], rightHi[c]);
-                    best.leftCount = total - rightCount;
-                }
+            }
+            if (axisWeighted < best.weightedMeasures) {
+                const uint32_t c = axisBest[axis];
+                best.weightedMeasures = axisWeighted;
+                best.axis = axis;
+                best.lastLeftBin = c;
+                best.leftBox = toAabb(leftLo[c], leftHi[c]);
+                best.rightBox = toAabb(rightLo[c], rightHi[c]);
+                best.leftCount = total - rightCounts[c];
             }
         }
         if (best.weightedMeasures == std::numeric_limits<double>::infinity()) return Split();

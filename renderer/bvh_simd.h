@@ -132,6 +132,23 @@ inline void scaledHalfAreas(const F4* lo, const F4* hi, uint32_t count, float sc
     }
 }
 
+// SAH prices of `count` candidates, four at a time: leftArea·(total - rightCount) +
+// rightArea·rightCount, into out[i]. Reads and writes up to 3 entries past `count`.
+inline void sahPrices(const float* leftArea, const float* rightArea, const float* rightCount, float total,
+                      uint32_t count, float* out) {
+    for (uint32_t i = 0; i < count; i += 4) {
+#if RAYPACK_BVH_SIMD_SSE
+        const __m128 right = _mm_loadu_ps(rightCount + i);
+        const __m128 left = _mm_sub_ps(_mm_set1_ps(total), right);
+        _mm_storeu_ps(out + i, _mm_add_ps(_mm_mul_ps(_mm_loadu_ps(leftArea + i), left),
+                                          _mm_mul_ps(_mm_loadu_ps(rightArea + i), right)));
+#else
+        for (uint32_t k = i; k < i + 4; ++k)
+            out[k] = leftArea[k] * (total - rightCount[k]) + rightArea[k] * rightCount[k];
+#endif
+    }
+}
+
 // The centroid as centroidOf (renderer/bvh_build.h) computes it, 0.5·lo + 0.5·hi, on lanes 0-2;
 // lane 3 is 0 (the box's lane 3 may hold other data, which must not enter the arithmetic: as a
 // float it can be a denormal, which some x86 cores handle in slow microcode).
