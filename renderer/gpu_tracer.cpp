@@ -39,9 +39,10 @@ struct PipelineKey {
     uint32_t stackEntries;
     IntersectMode intersect;
     ShadowOrder shadowOrder;
+    bool speculative;
     auto tie() const {
-        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect,
-                        shadowOrder);
+        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
+                        speculative);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -410,6 +411,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     data.shadowOrder = key.shadowOrder == ShadowOrder::Tree     ? gpu::kShadowOrderTree
                        : key.shadowOrder == ShadowOrder::Larger ? gpu::kShadowOrderLarger
                                                                 : gpu::kShadowOrderNearest;
+    data.speculative = !packet && key.speculative ? VK_TRUE : VK_FALSE;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
     std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
     for (size_t i = 0; i < entries.size(); ++i) {
@@ -536,8 +538,11 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel, shape.width,        shape.height,        0u, statistics, view,
-                    s.stackEntries,  settings.intersect, settings.shadowOrder};
+    PipelineKey key{settings.kernel,      shape.width,
+                    shape.height,         0u,
+                    statistics,           view,
+                    s.stackEntries,       settings.intersect,
+                    settings.shadowOrder, settings.speculativeTraversal};
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
@@ -717,8 +722,9 @@ std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const Re
     const uint32_t pass = shadowPass         ? gpu::kPassShadowShade
                           : settings.shadows ? gpu::kPassPrimary
                                              : gpu::kPassPrimaryShade;
-    const PipelineKey key{settings.kernel, settings.packet.width, settings.packet.height, pass, statistics, view,
-                          s.stackEntries,  settings.intersect,    settings.shadowOrder};
+    const PipelineKey key{
+        settings.kernel,    settings.packet.width, settings.packet.height,       pass, statistics, view, s.stackEntries,
+        settings.intersect, settings.shadowOrder,  settings.speculativeTraversal};
     VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
     pipelineInfo.pipeline = pipelineFor(s, key);
     uint32_t executables = 0;

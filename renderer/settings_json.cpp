@@ -116,6 +116,7 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["background"] = toJson(s.background);
     j["intersect"] = toString(s.intersect);
     j["shadow_order"] = toString(s.shadowOrder);
+    j["speculative_traversal"] = s.speculativeTraversal;
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["collect_counters"] = s.collectCounters;
@@ -192,6 +193,7 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         if (s.packet.width == 0 || s.packet.height == 0) badKey("packet", "width and height must both be at least 1");
     }
     readBool(j, "collect_counters", "", s.collectCounters);
+    readBool(j, "speculative_traversal", "", s.speculativeTraversal);
     if (const std::string view = readString(j, "view", ""); !view.empty()) {
         const auto parsed = parseViewMode(view);
         if (!parsed) badKey("view", "must be \"shaded\", \"nodes\" or \"tests\", got \"" + view + "\"");

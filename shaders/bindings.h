@@ -43,7 +43,8 @@ const uint kSpecRayStackEntries = 7u;      // each ray's own stack (1 for the pa
 const uint kSpecPacketIsOneSubgroup = 8u;  // bool: the packet is exactly one subgroup
 const uint kSpecFastIntersect = 9u;        // bool: IntersectMode::Fast (shaders/intersect.h)
 const uint kSpecShadowOrder = 10u;         // kShadowOrder*: a shadow ray's first child (single-ray kernel)
-const uint kSpecCount = 11u;
+const uint kSpecSpeculative = 11u;         // bool: speculative single-ray traversal (Aila and Laine 2009)
+const uint kSpecCount = 12u;
 
 // Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).
 const uint kShadowOrderNearest = 0u;
@@ -73,8 +74,9 @@ struct TraceSpecialization {
     uint packetIsOneSubgroup;  // VkBool32
     uint fastIntersect;        // VkBool32
     uint shadowOrder;
+    uint speculative;  // VkBool32
 };
-RP_CHECK_SIZE(TraceSpecialization, 44);
+RP_CHECK_SIZE(TraceSpecialization, 48);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -86,6 +88,7 @@ RP_CHECK_OFFSET(TraceSpecialization, rayStackEntries, 28);
 RP_CHECK_OFFSET(TraceSpecialization, packetIsOneSubgroup, 32);
 RP_CHECK_OFFSET(TraceSpecialization, fastIntersect, 36);
 RP_CHECK_OFFSET(TraceSpecialization, shadowOrder, 40);
+RP_CHECK_OFFSET(TraceSpecialization, speculative, 44);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -108,6 +111,7 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecPacketIsOneSubgroup, packetIsOneSubgroup),
     RP_SPEC_ENTRY(kSpecFastIntersect, fastIntersect),
     RP_SPEC_ENTRY(kSpecShadowOrder, shadowOrder),
+    RP_SPEC_ENTRY(kSpecSpeculative, speculative),
 };
 #undef RP_SPEC_ENTRY
 

@@ -35,6 +35,7 @@ struct BenchFlags {
     bool noEmbree = false;
     bool noDriverRt = false;
     bool pipelineStatistics = false;
+    bool speculative = false;
 };
 
 // What one cell traces: a tracer, with a packet shape where it traces packets.
@@ -174,6 +175,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         settings.height = height;
         settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
         settings.shadowOrder = shadowOrder;
+        settings.speculativeTraversal = f.speculative;
         const json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
 
         // The first frame tracer's hits (the CPU reference's, or without it the first GPU cell's)
@@ -224,6 +226,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
           {"devices", f.device},
           {"kernels", f.kernel},
           {"shadow_order", f.shadowOrder},
+          {"speculative_traversal", f.speculative},
           {"packets",
            [&] {
                json list = json::array();
@@ -311,6 +314,9 @@ CommandRunner addBenchCommand(CLI::App& app) {
     command->add_flag("--no-driver-rt", f.noDriverRt,
                       "Do not run the driver's ray tracing peer (VK_KHR_ray_tracing_pipeline; "
                       "it runs where the GPU offers it, after raypack's GPU cells)");
+    command->add_flag("--speculative", f.speculative,
+                      "The GPU single-ray kernel traverses speculatively (Aila and Laine 2009: a ray "
+                      "postpones the leaf it finds until its whole subgroup holds one; docs/gpu.md)");
     command->add_flag("--pipeline-statistics", f.pipelineStatistics,
                       "GPU cells also record the compiler's statistics of their kernels (registers, "
                       "spills, ... as the driver names them; VK_KHR_pipeline_executable_properties, where "
