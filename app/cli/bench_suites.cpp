@@ -162,7 +162,8 @@ BenchSuite benchSuite(const std::string& name, const std::string& sceneDir) {
         };
     } else if (name == "trade-quick") {
         // The trade suite's shape for CI on lavapipe and 2 cores (about 20 s): small generated
-        // scenes at 96x96, one timed run, three builders at two leaf sizes.
+        // scenes at 96x96, one timed run, three builders at two leaf sizes, the GPU packet and CPU
+        // packet tracers (and the CPU reference at the reference build).
         suite.width = 96;
         suite.height = 96;
         suite.repeats = 1;
@@ -170,7 +171,8 @@ BenchSuite benchSuite(const std::string& name, const std::string& sceneDir) {
         suite.cpuPackets = "16x16";
         TradeMatrix matrix;
         matrix.builds = tradeBuilds({BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit}, {8}, {1, 4});
-        matrix.firstWarmUpSeconds = 0.0;  // lavapipe has no clocks to raise
+        matrix.tracers = {"gpu-packet", "cpu-packet"};  // gpu-single: the full suite's (time on lavapipe)
+        matrix.firstWarmUpSeconds = 0.0;                // lavapipe has no clocks to raise
         matrix.warmUpSeconds = 0.0;
         suite.trade = matrix;
         suite.scenesFor = [](uint32_t width, uint32_t height) {
