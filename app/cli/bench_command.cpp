@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -154,7 +155,8 @@ std::vector<IntersectMode> parseIntersectModes(const std::string& text) {
 // first, right after it (renderer/measure/protocol.h: the first gets the long warm-up).
 json runTrade(const BenchSuite& suite, const TradeMatrix& matrix, const std::vector<IntersectMode>& modes,
               const std::vector<std::unique_ptr<Tracer>>& tracers, Tracer* cpuReference, const PacketShape& gpuPacket,
-              const PacketShape& cpuPacket, uint32_t width, uint32_t height, uint32_t repeats) {
+              const PacketShape& cpuPacket, uint32_t width, uint32_t height, uint32_t repeats,
+              const std::function<void(const json&)>& sceneDone) {
     json records = json::array();
     Progress progress;
     progress.total =
@@ -204,6 +206,7 @@ json runTrade(const BenchSuite& suite, const TradeMatrix& matrix, const std::vec
                 }
             }
         }
+        sceneDone(records);
     }
     return records;
 }
@@ -272,6 +275,60 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             cells.push_back({tracer, std::nullopt});
     }
 
+    // The results file; the trade suites also write it after every scene ("complete": false), so
+    // that a run cut short (a device's time limit) keeps what it measured.
+    const std::string out = f.out.empty() ? "bench-" + suite.name + ".json" : f.out;
+    const auto writeResults = [&](const json& records, bool complete) {
+        json result = {
+            {"format", "raypack-bench-1"},
+            {"date", utcDate()},
+            {"command", commandLine()},
+            {"machine", machine},
+            {"settings",
+             {{"suite", suite.name},
+              {"width_px", width},
+              {"height_px", height},
+              {"repeats", repeats},
+              {"devices", f.device},
+              {"kernels", f.kernel},
+              {"packets",
+               [&] {
+                   json list = json::array();
+                   for (const PacketShape& p : packets) list.push_back(toString(p));
+                   return list;
+               }()},
+              {"cpu_packets",
+               [&] {
+                   json list = json::array();
+                   for (const PacketShape& p : cpuPackets) list.push_back(toString(p));
+                   return list;
+               }()},
+              {"intersect",
+               [&] {
+                   json list = json::array();
+                   for (IntersectMode m : modes) list.push_back(toString(m));
+                   return list;
+               }()},
+              {"bvh", suite.trade ? json(nullptr) : toJson(bvhOptions)},
+              {"trade", suite.trade
+                            ? json{{"builds",
+                                    [&] {
+                                        json list = json::array();
+                                        for (const BvhBuildOptions& o : suite.trade->builds) list.push_back(toJson(o));
+                                        return list;
+                                    }()},
+                                   {"tracers", suite.trade->tracers},
+                                   {"cpu_reference_at_reference_build", suite.trade->cpuReferenceAtReferenceBuild},
+                                   {"reference", "the same tracer's robust frame at builds[0] (sah-exact, leaf 1)"},
+                                   {"gpu_warm_up_s", {suite.trade->firstWarmUpSeconds, suite.trade->warmUpSeconds}}}
+                            : json(nullptr)}}},
+            {"skipped", skipped},
+            {"records", records},
+            {"complete", complete},
+        };
+        writeJsonFile(out, result);
+    };
+
     json records = json::array();
     Progress progress;
     progress.total = cells.size() * suite.scenes.size();
@@ -287,8 +344,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             if (t && t->name() == "cpu-reference" && suite.trade->cpuReferenceAtReferenceBuild)
                 reference = std::move(t);
         tracers.clear();
-        records = runTrade(suite, *suite.trade, modes, matrixTracers, reference.get(), packets.front(),
-                           cpuPackets.front(), width, height, repeats);
+        records =
+            runTrade(suite, *suite.trade, modes, matrixTracers, reference.get(), packets.front(), cpuPackets.front(),
+                     width, height, repeats, [&](const json& partial) { writeResults(partial, false); });
         progress.total = records.size() / 2;
     }
     for (const BenchScene& benchScene : suite.trade ? std::vector<BenchScene>{} : suite.scenes) {
@@ -334,54 +392,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         }
     }
 
-    json result = {
-        {"format", "raypack-bench-1"},
-        {"date", utcDate()},
-        {"command", commandLine()},
-        {"machine", machine},
-        {"settings",
-         {{"suite", suite.name},
-          {"width_px", width},
-          {"height_px", height},
-          {"repeats", repeats},
-          {"devices", f.device},
-          {"kernels", f.kernel},
-          {"packets",
-           [&] {
-               json list = json::array();
-               for (const PacketShape& p : packets) list.push_back(toString(p));
-               return list;
-           }()},
-          {"cpu_packets",
-           [&] {
-               json list = json::array();
-               for (const PacketShape& p : cpuPackets) list.push_back(toString(p));
-               return list;
-           }()},
-          {"intersect",
-           [&] {
-               json list = json::array();
-               for (IntersectMode m : modes) list.push_back(toString(m));
-               return list;
-           }()},
-          {"bvh", suite.trade ? json(nullptr) : toJson(bvhOptions)},
-          {"trade", suite.trade ? json{{"builds",
-                                        [&] {
-                                            json list = json::array();
-                                            for (const BvhBuildOptions& o : suite.trade->builds)
-                                                list.push_back(toJson(o));
-                                            return list;
-                                        }()},
-                                       {"tracers", suite.trade->tracers},
-                                       {"cpu_reference_at_reference_build", suite.trade->cpuReferenceAtReferenceBuild},
-                                       {"reference", "the same tracer's robust frame at builds[0] (sah-exact, leaf 1)"},
-                                       {"gpu_warm_up_s", {suite.trade->firstWarmUpSeconds, suite.trade->warmUpSeconds}}}
-                                : json(nullptr)}}},
-        {"skipped", skipped},
-        {"records", records},
-    };
-    const std::string out = f.out.empty() ? "bench-" + suite.name + ".json" : f.out;
-    writeJsonFile(out, result);
+    writeResults(records, true);
     const double elapsed = std::chrono::duration<double>(Clock::now() - progress.start).count();
     std::printf("bench: %zu records (%zu cells) written to %s in %.1f s\n", records.size(), progress.total, out.c_str(),
                 elapsed);
