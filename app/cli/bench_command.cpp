@@ -278,6 +278,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     // The results file; the trade suites also write it after every scene ("complete": false), so
     // that a run cut short (a device's time limit) keeps what it measured.
     const std::string out = f.out.empty() ? "bench-" + suite.name + ".json" : f.out;
+    // The trade matrix's tracers that run here (the flags and the machine choose among them).
+    std::vector<std::string> tradeTracers;
+    bool tradeReference = false;
     const auto writeResults = [&](const json& records, bool complete) {
         json result = {
             {"format", "raypack-bench-1"},
@@ -317,8 +320,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                                         for (const BvhBuildOptions& o : suite.trade->builds) list.push_back(toJson(o));
                                         return list;
                                     }()},
-                                   {"tracers", suite.trade->tracers},
-                                   {"cpu_reference_at_reference_build", suite.trade->cpuReferenceAtReferenceBuild},
+                                   {"tracers", tradeTracers},
+                                   {"cpu_reference_at_reference_build", tradeReference},
                                    {"reference", "the same tracer's robust frame at builds[0] (sah-exact, leaf 1)"},
                                    {"gpu_warm_up_s", {suite.trade->firstWarmUpSeconds, suite.trade->warmUpSeconds}}}
                             : json(nullptr)}}},
@@ -344,6 +347,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             if (t && t->name() == "cpu-reference" && suite.trade->cpuReferenceAtReferenceBuild)
                 reference = std::move(t);
         tracers.clear();
+        for (const auto& t : matrixTracers) tradeTracers.push_back(t->name());
+        tradeReference = reference != nullptr;
         records =
             runTrade(suite, *suite.trade, modes, matrixTracers, reference.get(), packets.front(), cpuPackets.front(),
                      width, height, repeats, [&](const json& partial) { writeResults(partial, false); });
