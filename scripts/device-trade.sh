@@ -5,11 +5,17 @@
 # scripts/bench-report's tables and Pareto figures of it, all into $OUT (or OUT_DIR).
 #
 # Run from the repository root with the carried Vulkan packages and bundle (scripts/device-env.sh):
-#   .gl/    the Vulkan loader and glvnd .debs
-#   .device/ scripts/device-bundle.sh .device build/raypack-cli, plus the report scenes in
-#            .device/scenes/ laid out as in ../shared/scenes (sibenik/, dabrovic_sponza/,
-#            conference/, stanford/); the closed scenes are generated and need no files.
-#   bash scripts/device-trade.sh [EXTRA BENCH FLAGS...]
+#   .gl/     the Vulkan loader and glvnd .debs
+#   .device/ raypack-cli and its libraries, and the report scenes (about 22 MB) laid out as in
+#            ../shared/scenes; the closed scenes are generated and need no files. Made here with:
+#     cmake -S . -B build-device -G Ninja -DCMAKE_BUILD_TYPE=Release -DRAYPACK_WITH_EMBREE=OFF \
+#           -DRAYPACK_BUILD_VIEWER=OFF && ninja -C build-device -j2 raypack-cli
+#     scripts/device-bundle.sh .device build-device/raypack-cli
+#     for f in sibenik/sibenik_geom_75284.ply dabrovic_sponza/sponza.obj conference/conference_geom.ply \
+#              stanford/armadillo_decimated_99976.obj stanford/dragon_vrip_res2.ply; do
+#       mkdir -p .device/scenes/$(dirname $f) && cp ../shared/scenes/$f .device/scenes/$f; done
+#   then on the device (the run tool, carry [".gl", ".device"]):
+#     bash scripts/device-trade.sh [EXTRA BENCH FLAGS...]
 # The bench stops itself before the device's 10-minute limit (TRADE_TIMEOUT_S, default 560 s); it
 # writes its results after every scene, so a run cut short keeps the scenes it finished
 # ("complete": false in the JSON).
