@@ -37,7 +37,10 @@ struct PipelineKey {
     bool statistics;
     uint32_t view;
     uint32_t stackEntries;
-    auto tie() const { return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries); }
+    IntersectMode intersect;
+    auto tie() const {
+        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect);
+    }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
 
@@ -347,6 +350,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     data.rayStackEntries = packet ? 1u : key.stackEntries;
     data.packetIsOneSubgroup =
         packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
+    data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
     std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
     for (size_t i = 0; i < entries.size(); ++i) {
@@ -472,7 +476,8 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel, shape.width, shape.height, 0u, statistics, view, s.stackEntries};
+    PipelineKey key{settings.kernel, shape.width, shape.height,   0u,
+                    statistics,      view,        s.stackEntries, settings.intersect};
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));

@@ -41,7 +41,8 @@ const uint kSpecView = 5u;                 // kView*
 const uint kSpecPacketStackEntries = 6u;   // the packet's shared stack (1 for the single-ray kernel)
 const uint kSpecRayStackEntries = 7u;      // each ray's own stack (1 for the packet kernel)
 const uint kSpecPacketIsOneSubgroup = 8u;  // bool: the packet is exactly one subgroup
-const uint kSpecCount = 9u;
+const uint kSpecFastIntersect = 9u;        // bool: IntersectMode::Fast (shaders/intersect.h)
+const uint kSpecCount = 10u;
 
 // ---- shaders/rt/rt_peer.rgen (renderer/vk/rt_peer.cpp): set 0.
 const uint kRtBindTlas = 0u;  // the top-level acceleration structure
@@ -64,8 +65,9 @@ struct TraceSpecialization {
     uint packetStackEntries;
     uint rayStackEntries;
     uint packetIsOneSubgroup;  // VkBool32
+    uint fastIntersect;        // VkBool32
 };
-RP_CHECK_SIZE(TraceSpecialization, 36);
+RP_CHECK_SIZE(TraceSpecialization, 40);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -75,6 +77,7 @@ RP_CHECK_OFFSET(TraceSpecialization, view, 20);
 RP_CHECK_OFFSET(TraceSpecialization, packetStackEntries, 24);
 RP_CHECK_OFFSET(TraceSpecialization, rayStackEntries, 28);
 RP_CHECK_OFFSET(TraceSpecialization, packetIsOneSubgroup, 32);
+RP_CHECK_OFFSET(TraceSpecialization, fastIntersect, 36);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -95,6 +98,7 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecPacketStackEntries, packetStackEntries),
     RP_SPEC_ENTRY(kSpecRayStackEntries, rayStackEntries),
     RP_SPEC_ENTRY(kSpecPacketIsOneSubgroup, packetIsOneSubgroup),
+    RP_SPEC_ENTRY(kSpecFastIntersect, fastIntersect),
 };
 #undef RP_SPEC_ENTRY
 

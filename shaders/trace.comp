@@ -38,6 +38,10 @@ layout(constant_id = kSpecRayStackEntries) const uint kRayStackEntries = 1;
 // Whether one packet is exactly one subgroup (decided by the host, GpuTracer): then the vote needs
 // neither shared memory nor a barrier. Checked once per packet (kStatusSubgroupMismatch).
 layout(constant_id = kSpecPacketIsOneSubgroup) const bool kPacketIsOneSubgroup = false;
+// IntersectMode::Fast: Moller-Trumbore and the plain slab test instead of the watertight test, the
+// conservative slab test and the accurate hit distance (shaders/intersect.h). A constant, so that
+// each pipeline holds one path only and neither pays for the other.
+layout(constant_id = kSpecFastIntersect) const bool kFastIntersect = false;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
@@ -102,6 +106,20 @@ RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, b
     return q;
 }
 
+// The box and triangle tests of the pipeline's IntersectMode.
+bool boxTest(TraceRay r, vec3 lo, vec3 hi, float tmax, out float tEntry) {
+    if (kFastIntersect) return intersectBoxFast(r, lo, hi, tmax, tEntry);
+    return intersectBox(r, lo, hi, tmax, tEntry);
+}
+
+bool triangleTest(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary, out bool inexactT) {
+    if (kFastIntersect) {
+        inexactT = false;  // the fast path keeps the triangle test's t
+        return intersectTriangleFast(r, v0, v1, v2, tmax, t, bary);
+    }
+    return intersectTriangle(r, v0, v1, v2, tmax, t, bary, inexactT);
+}
+
 uvec2 nodeEntry(GpuNode n) { return uvec2(floatBitsToUint(n.lo.w), floatBitsToUint(n.hi.w)); }
 
 // Tests the `count` triangles from `first` (leaf order). Shadow rays stop at the first occluder
@@ -115,7 +133,7 @@ void intersectLeaf(inout RayQuery q, uint first, uint count) {
         float t;
         vec2 bary;
         bool inexactT;
-        if (!intersectTriangle(q.ray, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, q.tmax, t, bary, inexactT)) continue;
+        if (!triangleTest(q.ray, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, q.tmax, t, bary, inexactT)) continue;
         if (q.anyHit) {
             q.leafTri = i;
             q.fileTri = file;
@@ -203,7 +221,7 @@ uvec2 popEntry(uint slot) {
 void tracePacket(inout RayQuery q) {
     const GpuNode root = nodes[0];
     float entry;
-    bool wantCurrent = q.isActive && intersectBox(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+    bool wantCurrent = q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
     q.isActive = wantCurrent;
     uvec2 current = nodeEntry(root);
     uint parity = 0u;
@@ -252,9 +270,9 @@ void tracePacket(inout RayQuery q) {
             if (kStatistics && q.isActive) q.nodes += 1u;
             float entryLeft, entryRight;
             const bool hitLeft =
-                intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
+                boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
             const bool hitRight =
-                intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
+                boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
             const PacketVote votes = packetVote(hitLeft, hitRight, rightFirst, q.isActive,
                                                 countActive, parity);
@@ -327,7 +345,7 @@ void traceSingle(inout RayQuery q) {
     uint stackSize = 0u;
     const GpuNode root = nodes[0];
     float entry;
-    bool done = !(q.isActive && intersectBox(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry));
+    bool done = !(q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry));
     uvec2 current = nodeEntry(root);
     uint steps = 0u;  // inner nodes visited plus triangles tested, bounded by kMaxTraversalSteps
     while (!done) {
@@ -341,8 +359,8 @@ void traceSingle(inout RayQuery q) {
             const GpuNode right = nodes[current.x + 1u];
             if (kStatistics) q.nodes += 1u;
             float entryLeft, entryRight;
-            const bool hitLeft = intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
-            const bool hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
+            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
+            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
             if (hitLeft && hitRight) {
                 const bool rightFirst = entryRight < entryLeft;
                 current = nodeEntry(rightFirst ? right : left);
