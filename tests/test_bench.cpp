@@ -276,6 +276,11 @@ TEST(Bench, TradeQuickSuiteRecordsHaveTheTradeFields) {
         EXPECT_EQ(r.contains("rays_leaked_per_million"), closed) << r.dump();
         if (closed) {
             EXPECT_LE(r.at("rays_leaked").get<uint64_t>(), pixels);
+            // Every lattice ray crosses a shared vertex or edge: the fast path (Moller-Trumbore)
+            // lets some through, the watertight one none.
+            if (mode == "fast" && scene == "lattice") {
+                EXPECT_GT(r.at("rays_leaked").get<uint64_t>(), 0u) << "the trade is real: " << r.dump();
+            }
             if (mode == "robust") {
                 EXPECT_EQ(r.at("rays_leaked").get<uint64_t>(), 0u) << "robust leaked: " << r.dump();
                 EXPECT_EQ(r.at("t_error_hits").get<uint64_t>(), pixels) << "every ray hits: " << r.dump();
