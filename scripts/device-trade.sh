@@ -34,7 +34,8 @@ tail -3 "$out/trade-progress.log"
 # The report needs matplotlib; where the device's python3 lacks it, run the same command here on
 # the returned JSON.
 if [ -f "$out/h200-trade.json" ]; then
-  python3 scripts/bench-report "$out/h200-trade.json" --markdown "$out/h200-trade.md" --img-dir "$out/img" \
+  py=python3; [ -x /usr/bin/python3 ] && py=/usr/bin/python3
+  "$py" scripts/bench-report "$out/h200-trade.json" --markdown "$out/h200-trade.md" --img-dir "$out/img" \
     > "$out/report.log" 2>&1 || echo "bench-report failed here (see report.log); run it on the JSON at home"
 fi
 exit $rc
