@@ -38,8 +38,10 @@ struct PipelineKey {
     uint32_t view;
     uint32_t stackEntries;
     IntersectMode intersect;
+    ShadowOrder shadowOrder;
     auto tie() const {
-        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect);
+        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect,
+                        shadowOrder);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -66,6 +68,7 @@ uint32_t viewConstant(ViewMode view) {
 }  // namespace
 
 struct GpuTracer::State {
+    UploadTimings lastUpload;
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
     VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
@@ -202,14 +205,15 @@ void writeDescriptors(GpuTracer::State& s);
 double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     State& s = *state_;
     const auto start = Clock::now();
-    const GpuLayout layout = makeGpuLayout(scene, bvh);
+    const GpuLayoutCounts counts = gpuLayoutCounts(scene, bvh);
+    const uint32_t maxDepth = gpuTreeDepth(bvh);
 
     // Deepest leaf at depth D needs at most D pending siblings; one more for safety margin in the
     // entry count's arithmetic (a root leaf still gets a stack of one).
-    const uint32_t entries = layout.maxDepth + 1;
+    const uint32_t entries = maxDepth + 1;
     const uint64_t packetStackBytes = uint64_t(entries) * 8u;
     if (packetStackBytes + kVoteBytes > s.ctx.info.maxSharedMemoryBytes)
-        throw Error("GPU: the BVH is " + std::to_string(layout.maxDepth) + " levels deep; its packet stack needs " +
+        throw Error("GPU: the BVH is " + std::to_string(maxDepth) + " levels deep; its packet stack needs " +
                     std::to_string(packetStackBytes) + " bytes of shared memory but " + s.ctx.info.name + " has " +
                     std::to_string(s.ctx.info.maxSharedMemoryBytes) +
                     " (build with a larger leaf size or use the CPU tracer)");
@@ -219,42 +223,94 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
         vk::destroyBuffer(s.ctx, *b);
     s.hasScene = false;
 
+    // Each array gets its device-local buffer and a mapped staging buffer of the same size; the
+    // layout is written straight into the staging memory by parallel workers (writeGpuLayout: no
+    // host-side copy of the layout, no zero-filled temporaries), then one submission copies every
+    // array. Staging buffers are freed on every path out.
+    struct Staged {
+        vk::Buffer* device;
+        vk::Buffer staging;
+    };
+    std::vector<Staged> staged;
+    struct StagingGuard {
+        const vk::VulkanContext& ctx;
+        std::vector<Staged>& staged;
+        ~StagingGuard() {
+            for (Staged& b : staged) vk::destroyBuffer(ctx, b.staging);
+        }
+    } guard{s.ctx, staged};
     const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    auto make = [&](vk::Buffer& buffer, const void* data, size_t bytes, const char* what) {
+    const auto make = [&](vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) -> void* {
+        const size_t bytes = count * entryBytes;
         // A storage buffer binds at most maxStorageBufferRange bytes (the texels of large
         // textures are the likeliest to exceed it).
         if (s.ctx.info.maxStorageBufferBytes > 0 && bytes > s.ctx.info.maxStorageBufferBytes)
             throw Error("GPU: the " + std::string(what) + " need " + std::to_string(bytes) + " bytes, more than " +
                         s.ctx.info.name + " binds in one storage buffer (" +
                         std::to_string(s.ctx.info.maxStorageBufferBytes) + ")");
+        // Every bound array gets a buffer, an empty one too (an empty scene's triangles).
         buffer = vk::createBuffer(s.ctx, bytes, usage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
-        vk::uploadToBuffer(s.ctx, s.pool, buffer, data, bytes);
+        if (bytes == 0) return nullptr;
+        staged.push_back(
+            {&buffer, vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                       "a staging buffer")});
+        return staged.back().staging.mapped;
     };
-    make(s.nodes, layout.nodes.data(), layout.nodes.size() * sizeof(gpu::GpuNode), "BVH nodes");
-    make(s.triangles, layout.triangles.data(), layout.triangles.size() * sizeof(gpu::GpuTriangle), "triangles");
-    s.hasNormals = !layout.normals.empty();
-    s.hasMaterials = !layout.materials.empty();
-    if (s.hasNormals)
-        make(s.normals, layout.normals.data(), layout.normals.size() * sizeof(gpu::GpuTriangleNormals),
-             "vertex normals");
-    if (s.hasMaterials)
-        make(s.materials, layout.materials.data(), layout.materials.size() * sizeof(gpu::GpuMaterial), "materials");
     // UVs come with textures (Scene::uvs): the UVs, the texture table and the texels together.
-    s.hasUvs = !layout.uvs.empty() && !layout.texels.empty();
-    s.hasColors = !layout.colors.empty();
+    s.hasNormals = counts.normals;
+    s.hasMaterials = counts.materials > 0;
+    s.hasUvs = counts.uvs && counts.texels > 0;
+    s.hasColors = counts.colors;
+    GpuLayoutCounts written = counts;
+    if (!s.hasUvs) {
+        // Without texels the kernels never read UVs: neither is converted nor uploaded.
+        written.uvs = false;
+        written.textures = 0;
+        written.texels = 0;
+    }
+    GpuLayoutTargets targets;
+    targets.nodes = static_cast<gpu::GpuNode*>(make(s.nodes, counts.nodes, sizeof(gpu::GpuNode), "BVH nodes"));
+    targets.triangles =
+        static_cast<gpu::GpuTriangle*>(make(s.triangles, counts.triangles, sizeof(gpu::GpuTriangle), "triangles"));
+    if (s.hasNormals)
+        targets.normals = static_cast<gpu::GpuTriangleNormals*>(
+            make(s.normals, counts.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals"));
+    if (s.hasMaterials)
+        targets.materials =
+            static_cast<gpu::GpuMaterial*>(make(s.materials, counts.materials, sizeof(gpu::GpuMaterial), "materials"));
     if (s.hasUvs) {
-        make(s.uvs, layout.uvs.data(), layout.uvs.size() * sizeof(gpu::GpuTriangleUvs), "UVs");
-        make(s.textures, layout.textures.data(), layout.textures.size() * sizeof(gpu::GpuTexture), "the texture table");
-        make(s.texels, layout.texels.data(), layout.texels.size() * sizeof(uint32_t), "texels");
+        targets.uvs =
+            static_cast<gpu::GpuTriangleUvs*>(make(s.uvs, counts.triangles, sizeof(gpu::GpuTriangleUvs), "UVs"));
+        targets.textures = static_cast<gpu::GpuTexture*>(
+            make(s.textures, counts.textures, sizeof(gpu::GpuTexture), "the texture table"));
+        targets.texels = static_cast<uint32_t*>(make(s.texels, counts.texels, sizeof(uint32_t), "texels"));
     }
     if (s.hasColors)
-        make(s.colors, layout.colors.data(), layout.colors.size() * sizeof(gpu::GpuTriangleColors), "vertex colours");
+        targets.colors = static_cast<gpu::GpuTriangleColors*>(
+            make(s.colors, counts.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours"));
+    const auto converted = Clock::now();
+    writeGpuLayout(scene, bvh, written, targets);
+    const auto transferStart = Clock::now();
+    s.lastUpload.allocationSeconds = std::chrono::duration<double>(converted - start).count();
+    s.lastUpload.conversionSeconds = std::chrono::duration<double>(transferStart - converted).count();
+    if (!staged.empty()) {
+        vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
+            for (const Staged& b : staged) {
+                const VkBufferCopy region{0, 0, b.staging.size};
+                vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
+            }
+        });
+    }
+    s.lastUpload.transferSeconds = secondsSince(transferStart);
     s.stackEntries = entries;
     s.sceneBounds = scene.bounds();
     s.hasScene = true;
     if (s.width > 0) writeDescriptors(s);
     return secondsSince(start);
 }
+
+GpuTracer::UploadTimings GpuTracer::lastUploadTimings() const { return state_->lastUpload; }
 
 bool GpuTracer::hasScene() const { return state_->hasScene; }
 uint32_t GpuTracer::stackEntries() const { return state_->stackEntries; }
@@ -351,6 +407,9 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     data.packetIsOneSubgroup =
         packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
     data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
+    data.shadowOrder = key.shadowOrder == ShadowOrder::Tree     ? gpu::kShadowOrderTree
+                       : key.shadowOrder == ShadowOrder::Larger ? gpu::kShadowOrderLarger
+                                                                : gpu::kShadowOrderNearest;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
     std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
     for (size_t i = 0; i < entries.size(); ++i) {
@@ -476,8 +535,8 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel, shape.width, shape.height,   0u,
-                    statistics,      view,        s.stackEntries, settings.intersect};
+    PipelineKey key{settings.kernel, shape.width,        shape.height,        0u, statistics, view,
+                    s.stackEntries,  settings.intersect, settings.shadowOrder};
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));

@@ -42,6 +42,15 @@ public:
     // stack the device's shared memory can hold.
     double upload(const Scene& scene, const Bvh& bvh);
     bool hasScene() const;
+    // Where the last upload's T_CU went (issue 13): creating the device and staging buffers, writing
+    // the layout into the staging memory (writeGpuLayout, page faults of fresh memory included),
+    // and the copies to the device.
+    struct UploadTimings {
+        double allocationSeconds = 0.0;
+        double conversionSeconds = 0.0;
+        double transferSeconds = 0.0;
+    };
+    UploadTimings lastUploadTimings() const;
 
     // Everything synchronously: records both passes, submits, waits and reads back what `request`
     // asks for. Frame::timings.primarySeconds / shadowSeconds are kernel times (T_K) from

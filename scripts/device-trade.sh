@@ -4,24 +4,18 @@
 # GPU single and CPU packet, plus the CPU reference at sah-exact leaf 1; docs/trade.md), then
 # scripts/bench-report's tables and Pareto figures of it, all into $OUT (or OUT_DIR).
 #
-# Run from the repository root with the carried Vulkan packages and bundle (scripts/device-env.sh):
-#   .gl/     the Vulkan loader and glvnd .debs
-#   .device/ raypack-cli and its libraries, and the report scenes (about 22 MB) laid out as in
-#            ../shared/scenes; the closed scenes are generated and need no files. Made here with:
-#     cmake -S . -B build-device -G Ninja -DCMAKE_BUILD_TYPE=Release -DRAYPACK_WITH_EMBREE=OFF \
-#           -DRAYPACK_BUILD_VIEWER=OFF && ninja -C build-device -j2 raypack-cli
-#     scripts/device-bundle.sh .device build-device/raypack-cli
-#     for f in sibenik/sibenik_geom_75284.ply dabrovic_sponza/sponza.obj conference/conference_geom.ply \
-#              stanford/armadillo_decimated_99976.obj stanford/dragon_vrip_res2.ply; do
-#       mkdir -p .device/scenes/$(dirname $f) && cp ../shared/scenes/$f .device/scenes/$f; done
-#   then on the device (the run tool, carry [".gl", ".device"]):
-#     bash scripts/device-trade.sh [EXTRA BENCH FLAGS...]
+# Prepare here: scripts/device-pack.sh build (.device/round.tar.xz: raypack-cli, its libraries and
+# the report scenes; the closed scenes are generated and need no files). Then on the device, from
+# the repository root (the run tool, carry [".gl", ".device"]):
+#   bash scripts/device-trade.sh [EXTRA BENCH FLAGS...]
+# It unpacks .device/round.tar.xz when .device/bin is not there yet, and sources scripts/device-env.sh.
 # The bench stops itself before the device's 10-minute limit (TRADE_TIMEOUT_S, default 560 s); it
 # writes its results after every scene, so a run cut short keeps the scenes it finished
 # ("complete": false in the JSON).
 set -uo pipefail
 out=${OUT:-${OUT_DIR:-out}}
 mkdir -p "$out"
+if [ ! -x .device/bin/raypack-cli ] && [ -f .device/round.tar.xz ]; then tar xJf .device/round.tar.xz; fi
 source scripts/device-env.sh
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv > "$out/gpu.txt" 2>&1
 lscpu > "$out/lscpu.txt" 2>&1

@@ -42,7 +42,13 @@ const uint kSpecPacketStackEntries = 6u;   // the packet's shared stack (1 for t
 const uint kSpecRayStackEntries = 7u;      // each ray's own stack (1 for the packet kernel)
 const uint kSpecPacketIsOneSubgroup = 8u;  // bool: the packet is exactly one subgroup
 const uint kSpecFastIntersect = 9u;        // bool: IntersectMode::Fast (shaders/intersect.h)
-const uint kSpecCount = 10u;
+const uint kSpecShadowOrder = 10u;         // kShadowOrder*: a shadow ray's first child (single-ray kernel)
+const uint kSpecCount = 11u;
+
+// Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).
+const uint kShadowOrderNearest = 0u;
+const uint kShadowOrderTree = 1u;
+const uint kShadowOrderLarger = 2u;
 
 // ---- shaders/rt/rt_peer.rgen (renderer/vk/rt_peer.cpp): set 0.
 const uint kRtBindTlas = 0u;  // the top-level acceleration structure
@@ -66,8 +72,9 @@ struct TraceSpecialization {
     uint rayStackEntries;
     uint packetIsOneSubgroup;  // VkBool32
     uint fastIntersect;        // VkBool32
+    uint shadowOrder;
 };
-RP_CHECK_SIZE(TraceSpecialization, 40);
+RP_CHECK_SIZE(TraceSpecialization, 44);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -78,6 +85,7 @@ RP_CHECK_OFFSET(TraceSpecialization, packetStackEntries, 24);
 RP_CHECK_OFFSET(TraceSpecialization, rayStackEntries, 28);
 RP_CHECK_OFFSET(TraceSpecialization, packetIsOneSubgroup, 32);
 RP_CHECK_OFFSET(TraceSpecialization, fastIntersect, 36);
+RP_CHECK_OFFSET(TraceSpecialization, shadowOrder, 40);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -99,6 +107,7 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecRayStackEntries, rayStackEntries),
     RP_SPEC_ENTRY(kSpecPacketIsOneSubgroup, packetIsOneSubgroup),
     RP_SPEC_ENTRY(kSpecFastIntersect, fastIntersect),
+    RP_SPEC_ENTRY(kSpecShadowOrder, shadowOrder),
 };
 #undef RP_SPEC_ENTRY
 

@@ -33,6 +33,7 @@ using Clock = std::chrono::steady_clock;
 struct BenchFlags {
     std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
     std::string intersect;  // "robust", "fast" or a list of them (the trade suites); "": the suite's
+    std::string shadowOrder = "nearest";
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
     bool noEmbree = false;
@@ -78,6 +79,12 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["frame_min_s"] = s.frameSeconds.min;
         r["frame_max_s"] = s.frameSeconds.max;
         r.update(toJson(std::string(kind) == "primary" ? s.primary : s.shadow));
+        if (s.gpu) {
+            // T_CU split (issue 13): buffers created, layout written into staging memory, copied.
+            r["t_cu_allocation_s"] = s.uploadAllocationSeconds;
+            r["t_cu_conversion_s"] = s.uploadConversionSeconds;
+            r["t_cu_transfer_s"] = s.uploadTransferSeconds;
+        }
         records.push_back(r);
     }
 }
@@ -155,7 +162,7 @@ std::vector<IntersectMode> parseIntersectModes(const std::string& text) {
 // first, right after it (renderer/measure/protocol.h: the first gets the long warm-up).
 json runTrade(const BenchSuite& suite, const TradeMatrix& matrix, const std::vector<IntersectMode>& modes,
               const std::vector<std::unique_ptr<Tracer>>& tracers, Tracer* cpuReference, const PacketShape& gpuPacket,
-              const PacketShape& cpuPacket, uint32_t width, uint32_t height, uint32_t repeats,
+              const PacketShape& cpuPacket, uint32_t width, uint32_t height, uint32_t repeats, ShadowOrder shadowOrder,
               const std::function<void(const json&)>& sceneDone) {
     json records = json::array();
     Progress progress;
@@ -167,6 +174,7 @@ json runTrade(const BenchSuite& suite, const TradeMatrix& matrix, const std::vec
         RenderSettings settings;
         settings.width = width;
         settings.height = height;
+        settings.shadowOrder = shadowOrder;
         settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
         std::map<std::string, TradeReference> references;  // by tracer, from the reference build
         for (size_t b = 0; b < matrix.builds.size(); ++b) {
@@ -236,6 +244,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                     "--builder, --leaf-size and --bins do not apply");
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
+    const std::optional<ShadowOrder> parsedOrder = parseShadowOrder(f.shadowOrder);
+    if (!parsedOrder) throw Error("--shadow-order: \"" + f.shadowOrder + "\" is not " + shadowOrderNames());
+    const ShadowOrder shadowOrder = *parsedOrder;
     const bool packetKernel = f.kernel != "single";
     const bool singleKernel = f.kernel != "packet";
 
@@ -294,6 +305,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
               {"repeats", repeats},
               {"devices", f.device},
               {"kernels", f.kernel},
+              {"shadow_order", f.shadowOrder},
               {"packets",
                [&] {
                    json list = json::array();
@@ -351,7 +363,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         tradeReference = reference != nullptr;
         records =
             runTrade(suite, *suite.trade, modes, matrixTracers, reference.get(), packets.front(), cpuPackets.front(),
-                     width, height, repeats, [&](const json& partial) { writeResults(partial, false); });
+                     width, height, repeats, shadowOrder, [&](const json& partial) { writeResults(partial, false); });
         progress.total = records.size() / 2;
     }
     for (const BenchScene& benchScene : suite.trade ? std::vector<BenchScene>{} : suite.scenes) {
@@ -364,6 +376,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         settings.height = height;
         settings.intersect = modes.front();
         settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
+        settings.shadowOrder = shadowOrder;
         json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
         scene["intersect"] = toString(settings.intersect);
 
@@ -478,6 +491,12 @@ CommandRunner addBenchCommand(CLI::App& app) {
     command->add_flag("--no-driver-rt", f.noDriverRt,
                       "Do not run the driver's ray tracing peer (VK_KHR_ray_tracing_pipeline; "
                       "it runs where the GPU offers it, after raypack's GPU cells)");
+    command
+        ->add_option("--shadow-order", f.shadowOrder,
+                     "The child a shadow ray of the GPU single-ray kernel enters first: nearest, tree "
+                     "or larger (docs/gpu.md); the other tracers ignore it")
+        ->check(CLI::IsMember({"nearest", "tree", "larger"}))
+        ->capture_default_str();
     addBvhFlags(*command, f.bvh);
     return [flags, command] { return runBench(*flags, *command); };
 }

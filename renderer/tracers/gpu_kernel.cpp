@@ -31,6 +31,10 @@ public:
         p.seconds = tracer_->upload(scene, bvh);
         p.bytes = tracer_->sceneBytes();
         p.isUpload = true;
+        const GpuTracer::UploadTimings split = tracer_->lastUploadTimings();
+        p.allocationSeconds = split.allocationSeconds;
+        p.conversionSeconds = split.conversionSeconds;
+        p.transferSeconds = split.transferSeconds;
         return p;
     }
     Frame render(const RenderSettings& settings, const FrameRequest& request) override {

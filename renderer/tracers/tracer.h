@@ -50,6 +50,11 @@ struct Preparation {
     // `seconds` is the report's T_CU, creating and uploading device data (a GPU tracer). The CPU
     // tracers read the tree in host memory, and the report's CPU rows have T_CU = 0.
     bool isUpload = false;
+    // A GPU tracer's T_CU split (issue 13): buffer creation, writing the layout into staging
+    // memory, and the copies to the device; all 0 where not measured.
+    double allocationSeconds = 0.0;
+    double conversionSeconds = 0.0;
+    double transferSeconds = 0.0;
 };
 
 class Tracer {
