@@ -424,6 +424,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     info.stage.pName = "main";
     info.stage.pSpecializationInfo = &specialization;
     info.layout = s.pipelineLayout;
+    if (s.ctx.pipelineStatistics) info.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
     VkPipeline pipeline = VK_NULL_HANDLE;
     const VkResult result = vkCreateComputePipelines(s.ctx.device, s.pipelineCache, 1, &info, nullptr, &pipeline);
     if (result < 0)
@@ -699,6 +700,59 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
     }
     frame.timings.totalSeconds = secondsSince(start);
     return frame;
+}
+
+std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const RenderSettings& settings,
+                                                                        bool shadowPass) {
+    State& s = *state_;
+    std::vector<PipelineStatistic> out;
+    if (!s.ctx.pipelineStatistics) return out;
+    const auto getProperties = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(
+        vkGetDeviceProcAddr(s.ctx.device, "vkGetPipelineExecutablePropertiesKHR"));
+    const auto getStatistics = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
+        vkGetDeviceProcAddr(s.ctx.device, "vkGetPipelineExecutableStatisticsKHR"));
+    if (!getProperties || !getStatistics) return out;
+    const uint32_t view = viewConstant(settings.view);
+    const bool statistics = settings.collectCounters || settings.view != ViewMode::Shaded;
+    const uint32_t pass = shadowPass         ? gpu::kPassShadowShade
+                          : settings.shadows ? gpu::kPassPrimary
+                                             : gpu::kPassPrimaryShade;
+    const PipelineKey key{settings.kernel, settings.packet.width, settings.packet.height, pass, statistics, view,
+                          s.stackEntries,  settings.intersect,    settings.shadowOrder};
+    VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
+    pipelineInfo.pipeline = pipelineFor(s, key);
+    uint32_t executables = 0;
+    vk::check(getProperties(s.ctx.device, &pipelineInfo, &executables, nullptr),
+              "vkGetPipelineExecutablePropertiesKHR");
+    std::vector<VkPipelineExecutablePropertiesKHR> properties(executables,
+                                                              {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR});
+    vk::check(getProperties(s.ctx.device, &pipelineInfo, &executables, properties.data()),
+              "vkGetPipelineExecutablePropertiesKHR");
+    for (uint32_t e = 0; e < executables; ++e) {
+        VkPipelineExecutableInfoKHR executable{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
+        executable.pipeline = pipelineInfo.pipeline;
+        executable.executableIndex = e;
+        uint32_t count = 0;
+        vk::check(getStatistics(s.ctx.device, &executable, &count, nullptr), "vkGetPipelineExecutableStatisticsKHR");
+        std::vector<VkPipelineExecutableStatisticKHR> stats(count,
+                                                            {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
+        vk::check(getStatistics(s.ctx.device, &executable, &count, stats.data()),
+                  "vkGetPipelineExecutableStatisticsKHR");
+        const std::string prefix = executables > 1 ? std::string(properties[e].name) + ": " : std::string();
+        for (const VkPipelineExecutableStatisticKHR& stat : stats) {
+            PipelineStatistic p;
+            p.name = prefix + stat.name;
+            switch (stat.format) {
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR: p.value = stat.value.b32 ? 1.0 : 0.0; break;
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR: p.value = double(stat.value.i64); break;
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR: p.value = double(stat.value.u64); break;
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_FLOAT64_KHR: p.value = stat.value.f64; break;
+            default: continue;
+            }
+            out.push_back(p);
+        }
+    }
+    return out;
 }
 
 }  // namespace raypack

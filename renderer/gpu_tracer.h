@@ -19,6 +19,8 @@
 
 #include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace raypack {
 
@@ -51,6 +53,16 @@ public:
         double transferSeconds = 0.0;
     };
     UploadTimings lastUploadTimings() const;
+
+    // The compiler's statistics of the pipeline that traces `settings`' primary (or shadow) pass
+    // (VK_KHR_pipeline_executable_properties: register count, spills, ... as the driver names
+    // them), building the pipeline if needed. Empty where the context was made without
+    // VulkanContextOptions::enablePipelineStatistics or the device does not offer them.
+    struct PipelineStatistic {
+        std::string name;
+        double value = 0.0;
+    };
+    std::vector<PipelineStatistic> pipelineStatistics(const RenderSettings& settings, bool shadowPass);
 
     // Everything synchronously: records both passes, submits, waits and reads back what `request`
     // asks for. Frame::timings.primarySeconds / shadowSeconds are kernel times (T_K) from

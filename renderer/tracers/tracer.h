@@ -87,6 +87,13 @@ public:
         (void)frames;
     }
 
+    // The compiler's statistics of the kernels that trace `settings` (a GPU tracer on a context made
+    // with pipeline statistics: {"primary": {name: value, ...}, "shadow": {...}}); null elsewhere.
+    virtual nlohmann::json pipelineStatistics(const RenderSettings& settings) {
+        (void)settings;
+        return nullptr;
+    }
+
     // Tracers whose measurement is not a frame write their own bench records: Embree's five ray
     // modes at two build qualities, the driver's acceleration structure build and launch figures.
     // `reference` holds the reference tracer's hits of the same rays (or is empty). nullopt for
