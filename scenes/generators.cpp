@@ -441,3 +441,98 @@ Scene makeDefaultScene() {
 }
 
 }  // namespace raypack
+
+namespace raypack {
+
+Scene makeIcosphere(uint32_t levels) {
+    if (levels > 12)
+        throw Error("gen:icosphere:" + std::to_string(levels) + ": at most 12 levels (20 * 4^12 triangles)");
+    // The icosahedron's 12 vertices are the cyclic permutations of (0, +-1, +-phi); its 20 faces,
+    // counter-clockwise seen from outside.
+    const float phi = 0.5f * (1.0f + std::sqrt(5.0f));
+    Scene base;
+    base.positions = {{-1, phi, 0},  {1, phi, 0},  {-1, -phi, 0}, {1, -phi, 0}, {0, -1, phi},  {0, 1, phi},
+                      {0, -1, -phi}, {0, 1, -phi}, {phi, 0, -1},  {phi, 0, 1},  {-phi, 0, -1}, {-phi, 0, 1}};
+    base.triangles = {{0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+                      {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
+                      {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+    base.source = "icosahedron";
+    // subdivide() shares each edge's midpoint between its two triangles, so the result is closed.
+    Scene scene = subdivide(base, levels);
+    for (glm::vec3& p : scene.positions) p = glm::normalize(p);
+    scene.normals = scene.positions;
+    scene.source = "gen:icosphere:" + std::to_string(levels);
+    return scene;
+}
+
+Camera icosphereCamera() {
+    Camera camera;
+    camera.eye = glm::vec3(0.0f);
+    camera.at = glm::vec3(0.0f, 1.0f, 0.5f * (1.0f + std::sqrt(5.0f)));
+    camera.up = glm::vec3(1.0f, 0.0f, 0.0f);
+    camera.fovYDegrees = 70.0f;
+    return camera;
+}
+
+Scene makeLattice(uint32_t cellsX, uint32_t cellsY) {
+    const std::string name = "gen:lattice:" + std::to_string(cellsX) + "x" + std::to_string(cellsY);
+    if (cellsX == 0 || cellsY == 0) throw Error(name + ": the lattice needs at least one cell each way");
+    if (uint64_t(cellsX) * uint64_t(cellsY) > (uint64_t(1) << 30)) throw Error(name + ": more than 2^31 triangles");
+    Scene scene;
+    scene.source = name;
+    const int32_t x0 = int32_t(cellsX / 2), y0 = int32_t(cellsY / 2);
+    scene.positions.reserve(size_t(cellsX + 1) * (cellsY + 1));
+    for (uint32_t j = 0; j <= cellsY; ++j)
+        for (uint32_t i = 0; i <= cellsX; ++i)
+            scene.positions.emplace_back(float(int32_t(i) - x0), float(int32_t(j) - y0), 0.0f);
+    scene.normals.assign(scene.positions.size(), glm::vec3(0.0f, 0.0f, 1.0f));
+    scene.triangles.reserve(size_t(2) * cellsX * cellsY);
+    const auto index = [&](uint32_t i, uint32_t j) { return j * (cellsX + 1) + i; };
+    for (uint32_t j = 0; j < cellsY; ++j)
+        for (uint32_t i = 0; i < cellsX; ++i) {
+            const uint32_t a = index(i, j), b = index(i + 1, j), c = index(i + 1, j + 1), d = index(i, j + 1);
+            scene.triangles.emplace_back(a, b, c);  // counter-clockwise seen from +z
+            scene.triangles.emplace_back(a, c, d);
+        }
+    return scene;
+}
+
+glm::uvec2 latticeCellsFor(uint32_t width, uint32_t height) {
+    // latticeCamera sees x in [-1/4 - width/4, -1/4 + width/4] at z = 0 (and y alike): a lattice
+    // of half-extent ceil(width / 4) + 1 holds that with a cell to spare.
+    return {2 * ((width + 3) / 4 + 1), 2 * ((height + 3) / 4 + 1)};
+}
+
+Camera latticeCamera(uint32_t width, uint32_t height) {
+    if (width == 0 || height == 0) throw Error("lattice camera: the image is empty");
+    // With tan(45 degrees) = 1 the pixel (x, y) of shaders/camera.h has u = (2x + 1 - W) / H and
+    // v = (H - 2y - 1) / H; at distance H / 4 its ray meets z = 0 at the eye's (x, y) plus
+    // ((2x + 1 - W) / 4, (H - 2y - 1) / 4): for even W and H, odd multiples of 1/4, which the eye's
+    // offset of -1/4 turns into multiples of 1/2.
+    Camera camera;
+    camera.eye = glm::vec3(-0.25f, -0.25f, float(height) / 4.0f);
+    camera.at = glm::vec3(-0.25f, -0.25f, 0.0f);
+    camera.up = glm::vec3(0.0f, 1.0f, 0.0f);
+    camera.fovYDegrees = 90.0f;
+    return camera;
+}
+
+Scene placeScene(Scene scene, float scale, glm::vec3 offset) {
+    if (!(std::isfinite(scale) && scale != 0.0f))
+        throw Error("place: the scale " + std::to_string(scale) + " must be finite and not zero");
+    if (!(std::isfinite(offset.x) && std::isfinite(offset.y) && std::isfinite(offset.z)))
+        throw Error("place: the offset must be finite");
+    for (glm::vec3& p : scene.positions) p = scale * p + offset;
+    if (scale < 0.0f)
+        for (glm::vec3& n : scene.normals) n = -n;
+    return scene;
+}
+
+Camera placeCamera(const Camera& camera, float scale, glm::vec3 offset) {
+    Camera placed = camera;
+    placed.eye = scale * camera.eye + offset;
+    placed.at = scale * camera.at + offset;
+    return placed;
+}
+
+}  // namespace raypack

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <string_view>
@@ -87,7 +88,14 @@ const char* sceneSpecHelp() {
         "                       (N from 1 to " +
         std::to_string(kDeepSceneMaxTriangles) +
         ")\n"
+        "  gen:icosphere:L      a closed icosphere: the icosahedron subdivided L times (20*4^L triangles),\n"
+        "                       vertices shared, on the unit sphere (L from 0 to 12)\n"
+        "  gen:lattice:N        a flat lattice of N x N unit cells in z = 0, two triangles each, integer\n"
+        "  gen:lattice:NxM      vertices (shared); N x M cells\n"
         "  subdiv:L:SCENE       SCENE (a path or spec) with every triangle split in four, L times\n"
+        "  place:S:X,Y,Z:SCENE  SCENE scaled by S about the origin, then moved by (X, Y, Z), e.g.\n"
+        "                       place:1:1e5,1e5,0:gen:lattice:64 (far) or place:6.103515625e-5:0,0,0:...\n"
+        "                       (tiny, 2^-14)\n"
         "N may end in k (thousand) or M (million): gen:terrain:2M is 2,000,000 triangles.";
     return help.c_str();
 }
@@ -110,6 +118,16 @@ uint64_t parseCount(std::string_view text, const std::string& spec) {
     return value * multiplier;
 }
 
+// A finite float of place:'s scale or offset ("1e5", "-0.25", "6.103515625e-5").
+float parsePlaceNumber(std::string_view text, const std::string& spec) {
+    const std::string copy(text);
+    char* end = nullptr;
+    const float value = copy.empty() ? 0.0f : std::strtof(copy.c_str(), &end);
+    if (copy.empty() || end != copy.c_str() + copy.size() || !std::isfinite(value))
+        throw Error("scene spec \"" + spec + "\": \"" + copy + "\" is not a finite number\n" + sceneSpecHelp());
+    return value;
+}
+
 }  // namespace
 
 Scene openScene(const std::string& spec, LoadProgress* progress) {
@@ -124,6 +142,15 @@ Scene openScene(const std::string& spec, LoadProgress* progress) {
         }
         if (colon == std::string_view::npos)
             throw Error("scene spec \"" + spec + "\": missing triangle count\n" + sceneSpecHelp());
+        if (name == "icosphere") return makeIcosphere(uint32_t(parseCount(rest.substr(colon + 1), spec)));
+        if (name == "lattice") {
+            const std::string_view cells = rest.substr(colon + 1);
+            const size_t x = cells.find('x');
+            const uint32_t cellsX = uint32_t(parseCount(cells.substr(0, x), spec));
+            const uint32_t cellsY =
+                x == std::string_view::npos ? cellsX : uint32_t(parseCount(cells.substr(x + 1), spec));
+            return makeLattice(cellsX, cellsY);
+        }
         const uint32_t count = uint32_t(parseCount(rest.substr(colon + 1), spec));
         if (name == "terrain") return makeTerrain(count);
         if (name == "sphereflake") return makeSphereFlake(count);
@@ -137,6 +164,27 @@ Scene openScene(const std::string& spec, LoadProgress* progress) {
             throw Error("scene spec \"" + spec + "\": expected subdiv:LEVELS:SCENE\n" + sceneSpecHelp());
         const uint32_t levels = uint32_t(parseCount(rest.substr(0, colon), spec));
         return subdivide(openScene(std::string(rest.substr(colon + 1)), progress), levels);
+    }
+    if (text.starts_with("place:")) {
+        // place:S:X,Y,Z:SCENE; the scene may itself contain colons (gen:..., a Windows path).
+        const std::string_view rest = text.substr(6);
+        const size_t first = rest.find(':');
+        const size_t second = first == std::string_view::npos ? first : rest.find(':', first + 1);
+        if (second == std::string_view::npos || second + 1 == rest.size())
+            throw Error("scene spec \"" + spec + "\": expected place:SCALE:X,Y,Z:SCENE\n" + sceneSpecHelp());
+        const float scale = parsePlaceNumber(rest.substr(0, first), spec);
+        const std::string_view offsetText = rest.substr(first + 1, second - first - 1);
+        glm::vec3 offset;
+        size_t start = 0;
+        for (int axis = 0; axis < 3; ++axis) {
+            const size_t comma = offsetText.find(',', start);
+            if ((axis < 2) == (comma == std::string_view::npos))
+                throw Error("scene spec \"" + spec + "\": the offset \"" + std::string(offsetText) +
+                            "\" is not X,Y,Z\n" + sceneSpecHelp());
+            offset[axis] = parsePlaceNumber(offsetText.substr(start, comma - start), spec);
+            start = comma + 1;
+        }
+        return placeScene(openScene(std::string(rest.substr(second + 1)), progress), scale, offset);
     }
     return loadScene(std::filesystem::path(spec), progress);
 }

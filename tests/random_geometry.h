@@ -1,6 +1,7 @@
 #pragma once
 // Geometry the tests share: random directions, the sliver soups of issue 15, and the exact hit
 // distance they are checked against.
+#include "renderer/measure/accuracy.h"
 #include "renderer/scene.h"
 
 #include <glm/glm.hpp>
@@ -40,12 +41,8 @@ inline Scene randomSliverSoup(uint32_t count, float width, float halfExtent, uin
     return scene;
 }
 
-// The exact distance along org + t dir to the plane of the float triangle (v0, v1, v2): in double,
-// where the differences of float coordinates are exact. The oracle of issue 15's t accuracy.
-inline double exactPlaneDistance(glm::vec3 org, glm::vec3 dir, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2) {
-    const glm::dvec3 a(v0), e1 = glm::dvec3(v1) - a, e2 = glm::dvec3(v2) - a;
-    const glm::dvec3 n = glm::cross(e1, e2);
-    return glm::dot(a - glm::dvec3(org), n) / glm::dot(glm::dvec3(dir), n);
-}
+// The double-precision oracle of issue 15's t accuracy: the library's one definition
+// (renderer/measure/accuracy.h), which the trade suite measures with too.
+using raypack::exactPlaneDistance;
 
 }  // namespace raypack::test

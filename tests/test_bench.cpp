@@ -212,6 +212,128 @@ TEST(Bench, ReportScriptWritesTablesAndFigures) {
     EXPECT_GT(fs::file_size(images / "quick-figure2.png"), 1000u);
 }
 
+// The trade suite's quick variant (issue 15), run once for the whole program (about 20-30 s on 2
+// cores with lavapipe): every cell of its matrix, every record with every field, the accuracy
+// fields on primary records only, leaks only on the closed scenes, and none on the robust path.
+const json& tradeQuickResults() {
+    static const json results = [] {
+        const fs::path out = scratch() / "trade-quick.json";
+        const CliResult r = runCli("bench --suite trade-quick --out " + quoted(out));
+        EXPECT_EQ(r.exitCode, 0) << r.output;
+        if (r.exitCode != 0) return json();
+        return readJsonFile(out.string());
+    }();
+    return results;
+}
+
+TEST(Bench, TradeQuickSuiteRecordsHaveTheTradeFields) {
+    const json& results = tradeQuickResults();
+    ASSERT_TRUE(results.is_object());
+    const json& settings = results.at("settings");
+    EXPECT_EQ(settings.at("suite"), "trade-quick");
+    EXPECT_EQ(settings.at("intersect"), json::array({"robust", "fast"}));
+    const json& trade = settings.at("trade");
+    const size_t builds = trade.at("builds").size();
+    ASSERT_GE(builds, 2u);
+    EXPECT_EQ(trade.at("builds")[0].at("builder"), "sah-exact");
+    EXPECT_EQ(trade.at("builds")[0].at("leaf_size"), 1);
+    const std::vector<std::string> tracers = trade.at("tracers");
+    std::set<std::string> scenes, closedScenes;
+    // (scene, build, tracer, intersect, ray kind)
+    std::set<std::tuple<std::string, std::string, std::string, std::string, std::string>> cells;
+    for (const json& r : results.at("records")) {
+        const std::string scene = r.at("scene"), build = r.at("build"), tracer = r.at("tracer");
+        const std::string mode = r.at("intersect"), kind = r.at("ray_kind");
+        EXPECT_TRUE(mode == "robust" || mode == "fast") << mode;
+        scenes.insert(scene);
+        const bool closed = r.at("closed").get<bool>();
+        if (closed) closedScenes.insert(scene);
+        EXPECT_TRUE(cells.emplace(scene, build, tracer, mode, kind).second) << "twice: " << r.dump();
+        for (const char* key : kTable1Keys) expectFiniteNumber(r, key);
+        for (const char* key : kTable2Keys) expectFiniteNumber(r, key);
+        EXPECT_GT(r.at("perf_mrays_s").get<double>(), 0.0) << r.dump();
+        EXPECT_GT(r.at("bvh_bytes_per_triangle").get<double>(), 0.0) << r.dump();
+        EXPECT_EQ(r.at("reference_build").get<bool>(), build == "sah-exact leaf 1") << r.dump();
+        if (r.at("builder") == "sah-binned") {
+            EXPECT_GE(r.at("bin_count").get<int>(), 2);
+        }
+        if (kind == "shadow") {
+            for (const char* key : {"rays_leaked", "t_rel_error_max", "pixels_differing"})
+                EXPECT_FALSE(r.contains(key)) << key << " on a shadow record: " << r.dump();
+            continue;
+        }
+        const uint64_t pixels = r.at("width_px").get<uint64_t>() * r.at("height_px").get<uint64_t>();
+        expectFiniteNumber(r, "t_rel_error_max");
+        expectFiniteNumber(r, "t_rel_error_p999");
+        EXPECT_GT(r.at("t_error_hits").get<uint64_t>(), 0u) << r.dump();
+        EXPECT_LE(r.at("t_error_hits").get<uint64_t>(), pixels);
+        EXPECT_GE(r.at("t_rel_error_p999").get<double>(), 0.0);
+        EXPECT_LE(r.at("t_rel_error_p999").get<double>(), r.at("t_rel_error_max").get<double>());
+        if (mode == "robust") {
+            EXPECT_LE(r.at("t_rel_error_max").get<double>(), 1e-5) << "issue 15's bar: " << r.dump();
+        }
+        EXPECT_EQ(r.contains("rays_leaked"), closed) << r.dump();
+        EXPECT_EQ(r.contains("rays_leaked_per_million"), closed) << r.dump();
+        if (closed) {
+            EXPECT_LE(r.at("rays_leaked").get<uint64_t>(), pixels);
+            // Every lattice ray crosses a shared vertex or edge: the fast path (Moller-Trumbore)
+            // lets some through, the watertight one none.
+            if (mode == "fast" && scene == "lattice") {
+                EXPECT_GT(r.at("rays_leaked").get<uint64_t>(), 0u) << "the trade is real: " << r.dump();
+            }
+            if (mode == "robust") {
+                EXPECT_EQ(r.at("rays_leaked").get<uint64_t>(), 0u) << "robust leaked: " << r.dump();
+                EXPECT_EQ(r.at("t_error_hits").get<uint64_t>(), pixels) << "every ray hits: " << r.dump();
+            }
+        }
+        ASSERT_TRUE(r.at("pixels_differing").is_number_unsigned()) << r.dump();
+        EXPECT_LE(r.at("pixels_differing").get<uint64_t>(), pixels);
+        EXPECT_LE(r.at("hits_differing").get<uint64_t>(), pixels);
+        expectFiniteNumber(r, "pixels_differing_share");
+        if (mode == "robust" && build == "sah-exact leaf 1") {
+            EXPECT_EQ(r.at("pixels_differing").get<uint64_t>(), 0u) << "the reference itself: " << r.dump();
+        }
+    }
+    EXPECT_GE(scenes.size(), 2u);
+    EXPECT_GE(closedScenes.size(), 1u);
+    EXPECT_LT(closedScenes.size(), scenes.size()) << "no scene without the leak field";
+    // Every build x tracer x mode x kind on every scene, and the CPU reference at the reference build.
+    std::set<std::string> buildLabels;
+    for (const auto& cell : cells) buildLabels.insert(std::get<1>(cell));
+    EXPECT_EQ(buildLabels.size(), builds);
+    for (const std::string& scene : scenes)
+        for (const char* mode : {"robust", "fast"})
+            for (const char* kind : {"primary", "shadow"}) {
+                EXPECT_TRUE(cells.count({scene, "sah-exact leaf 1", "cpu-reference", mode, kind})) << scene;
+                for (const std::string& build : buildLabels)
+                    for (const std::string& tracer : tracers)
+                        EXPECT_TRUE(cells.count({scene, build, tracer, mode, kind}))
+                            << scene << ", " << build << ", " << tracer << ", " << mode << ", " << kind;
+            }
+    EXPECT_EQ(cells.size(), scenes.size() * 2 * 2 * (builds * tracers.size() + 1));
+}
+
+TEST(Bench, ReportScriptDrawsTheTradeFronts) {
+    const json& results = tradeQuickResults();
+    ASSERT_TRUE(results.is_object());
+    const fs::path json = scratch() / "trade-quick.json";
+    const fs::path markdown = scratch() / "trade.md";
+    const fs::path images = scratch() / "img";
+    std::ofstream(markdown) << "# Trade\n";
+    const std::string script = std::string(RAYPACK_SOURCE_DIR) + "/scripts/bench-report";
+    const std::string command = "/usr/bin/python3 '" + script + "' " + quoted(json) + " --markdown " +
+                                quoted(markdown) + " --img-dir " + quoted(images) + " > /dev/null 2>&1";
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+    std::stringstream text;
+    text << std::ifstream(markdown).rdbuf();
+    const std::string md = text.str();
+    for (const char* expected : {"bench-report:begin trade-quick", "Pareto", "rays leaked per million",
+                                 "trade-quick-build-vs-trace.png", "trade-quick-frames.png", "trade-quick-leaks.png"})
+        EXPECT_NE(md.find(expected), std::string::npos) << expected << " in\n" << md;
+    for (const char* figure : {"trade-quick-build-vs-trace.png", "trade-quick-frames.png", "trade-quick-leaks.png"})
+        EXPECT_GT(fs::file_size(images / figure), 1000u) << figure;
+}
+
 TEST(Bench, BadArgumentsGiveOneClearLineAndExitCodeTwo) {
     for (const auto& [args, mentions] : std::vector<std::pair<std::string, std::string>>{
              {"bench --suite nope", "--suite"},
@@ -219,6 +341,9 @@ TEST(Bench, BadArgumentsGiveOneClearLineAndExitCodeTwo) {
              {"bench --suite report --scene-dir /no/such/folder", "/no/such/folder"},
              {"bench --scenes gen:terrain:1k --suite quick", "either --scenes or --suite"},
              {"bench --scenes /no/such/scene.ply --device cpu", "/no/such/scene.ply"},
+             {"bench --suite trade-quick --builder sah-exact", "--builder"},
+             {"bench --suite quick --intersect robust,fast", "--intersect"},
+             {"bench --suite trade-quick --intersect sloppy", "sloppy"},
          }) {
         const CliResult r = runCli(args);
         EXPECT_EQ(r.exitCode, 2) << args << ":\n" << r.output;

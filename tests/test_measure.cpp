@@ -1,10 +1,12 @@
 // The measurement library (renderer/measure/): medians and spreads, hit agreement, and the
 // protocol over a tracer (warm-ups, timed runs, Table 2), on the CPU.
 #include "renderer/bvh.h"
+#include "renderer/measure/accuracy.h"
 #include "renderer/measure/agreement.h"
 #include "renderer/measure/protocol.h"
 #include "renderer/measure/spread.h"
 #include "renderer/tracers/registry.h"
+#include "scenes/generators.h"
 #include "scenes/load.h"
 
 #include <gtest/gtest.h>
@@ -71,6 +73,110 @@ TEST(Measure, ProtocolOverTheCpuReference) {
     EXPECT_EQ(m.frame.hits.size(), 64u * 48u);
     EXPECT_EQ(m.frame.rgba.size(), 64u * 48u);
     EXPECT_EQ(m.frame.counters.size(), 64u * 48u);
+}
+
+// ---- The trade suite's accuracy measures (renderer/measure/accuracy.h).
+
+HitRecord rayHit(glm::vec3 org, glm::vec3 dir, float t, uint32_t prim) {
+    return gpu::makeHitRecord(org, dir, t, prim, gpu::kShadowNone);
+}
+
+TEST(Accuracy, ExactPlaneDistanceAndItsErrors) {
+    Scene scene;
+    scene.positions = {{-1, -1, 3}, {1, -1, 3}, {0, 1, 3}};
+    scene.triangles = {{0, 1, 2}};
+    EXPECT_EQ(exactPlaneDistance({0, 0, 0}, {0, 0, 1}, scene.positions[0], scene.positions[1], scene.positions[2]),
+              3.0);
+    EXPECT_EQ(exactPlaneDistance({0, 0, 1}, {0, 0, -0.5f}, scene.positions[0], scene.positions[1], scene.positions[2]),
+              -4.0);
+    // 2000 hits at the exact t, three of them moved by 1e-3, 2e-3 and 4e-3 (relative), and misses.
+    std::vector<HitRecord> hits;
+    for (int i = 0; i < 2000; ++i) {
+        const glm::vec3 dir = glm::normalize(glm::vec3(0.0001f * float(i % 50), 0.0001f * float(i / 50), 1.0f));
+        const double exact =
+            exactPlaneDistance({0, 0, 0}, dir, scene.positions[0], scene.positions[1], scene.positions[2]);
+        hits.push_back(rayHit({0, 0, 0}, dir, float(exact), 0));
+    }
+    const HitDistanceErrors roundedOnly = hitDistanceErrors(scene, hits);
+    EXPECT_EQ(roundedOnly.hits, 2000u);
+    EXPECT_LE(roundedOnly.maxRelative, 0x1p-24) << "t rounded once to float";
+    const auto perturb = [&](HitRecord& h, double relative) {
+        h.t = float(exactPlaneDistance({0, 0, 0}, {h.dirX, h.dirY, h.dirZ}, scene.positions[0], scene.positions[1],
+                                       scene.positions[2]) *
+                    (1.0 + relative));
+    };
+    perturb(hits[10], 1e-3);
+    perturb(hits[500], -2e-3);
+    perturb(hits[1999], 4e-3);
+    hits.push_back(rayHit({0, 0, 0}, {0, 0, 1}, INFINITY, gpu::kNoHit));
+    const HitDistanceErrors errors = hitDistanceErrors(scene, hits);
+    EXPECT_EQ(errors.hits, 2000u) << "misses are not compared";
+    EXPECT_NEAR(errors.maxRelative, 4e-3, 1e-6);
+    // Nearest rank ceil(0.999 * 2000) = 1998 of the sorted errors: the smallest of the three.
+    EXPECT_NEAR(errors.p999Relative, 1e-3, 1e-6);
+    hits.push_back(rayHit({0, 0, 0}, {0, 0, 1}, 3.0f, 7));
+    EXPECT_THROW(hitDistanceErrors(scene, hits), Error) << "triangle 7 of a scene of 1";
+    EXPECT_EQ(nearestRankQuantile({}, 0.5), 0.0);
+    EXPECT_EQ(nearestRankQuantile({5, 1, 3, 2, 4}, 0.5), 3.0);
+    EXPECT_EQ(nearestRankQuantile({5, 1, 3, 2, 4}, 1.0), 5.0);
+}
+
+TEST(Accuracy, LeaksAndDifferences) {
+    std::vector<HitRecord> hits(1000, rayHit({0, 0, 0}, {0, 0, 1}, 1.0f, 3));
+    EXPECT_EQ(countLeaks(hits).leaked, 0u);
+    hits[17].prim = gpu::kNoHit;
+    hits[18].prim = gpu::kNoHit;
+    const LeakCount leaks = countLeaks(hits);
+    EXPECT_EQ(leaks.rays, 1000u);
+    EXPECT_EQ(leaks.leaked, 2u);
+    EXPECT_DOUBLE_EQ(leaks.perMillion(), 2000.0);
+    std::vector<HitRecord> other = hits;
+    other[2].prim = 4;
+    other[17].prim = 3;
+    EXPECT_EQ(differingHits(other, hits), 2u);
+    EXPECT_THROW(differingHits(other, {}), Error);
+    std::vector<uint32_t> image(64, 0xff102030u), changed = image;
+    changed[5] = 0xff102031u;
+    EXPECT_EQ(differingPixels(changed, image), 1u);
+    EXPECT_EQ(differingPixels(image, image), 0u);
+    EXPECT_THROW(differingPixels(image, {1u}), Error);
+}
+
+// The robust CPU reference on the closed scenes: no primary ray leaks, and every hit distance is
+// within issue 15's 1e-5 of the exact one (the same figures the trade suite records).
+TEST(Accuracy, RobustReferenceDoesNotLeakOnTheClosedScenes) {
+    const std::unique_ptr<Tracer> tracer = makeTracer("cpu-reference", TracerEnvironment{});
+    struct Case {
+        const char* name;
+        Scene scene;
+        Camera camera;
+    };
+    const uint32_t width = 64, height = 48;
+    const glm::uvec2 cells = latticeCellsFor(width, height);
+    const glm::vec3 far(1e5f, 1e5f, 1e5f);
+    std::vector<Case> cases;
+    cases.push_back({"icosphere", makeIcosphere(3), icosphereCamera()});
+    cases.push_back({"lattice", makeLattice(cells.x, cells.y), latticeCamera(width, height)});
+    cases.push_back({"far lattice", placeScene(makeLattice(cells.x, cells.y), 1.0f, far),
+                     placeCamera(latticeCamera(width, height), 1.0f, far)});
+    cases.push_back({"tiny icosphere", placeScene(makeIcosphere(3), 0x1p-14f, glm::vec3(0.0f)),
+                     placeCamera(icosphereCamera(), 0x1p-14f, glm::vec3(0.0f))});
+    for (const Case& c : cases) {
+        const Bvh bvh = buildBvh(c.scene, BvhBuildOptions{});
+        tracer->prepare(c.scene, bvh);
+        RenderSettings settings;
+        settings.width = width;
+        settings.height = height;
+        settings.camera = c.camera;
+        FrameRequest request;
+        request.hits = true;
+        const Frame frame = tracer->render(settings, request);
+        EXPECT_EQ(countLeaks(frame.hits).leaked, 0u) << c.name;
+        const HitDistanceErrors errors = hitDistanceErrors(c.scene, frame.hits);
+        EXPECT_EQ(errors.hits, uint64_t(width) * height) << c.name;
+        EXPECT_LE(errors.maxRelative, 1e-5) << c.name;
+        EXPECT_LE(errors.p999Relative, errors.maxRelative) << c.name;
+    }
 }
 
 }  // namespace

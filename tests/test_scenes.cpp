@@ -600,6 +600,119 @@ TEST(Generators, SubdivisionKeepsClosedMeshesClosedAndCarriesAttributes) {
     EXPECT_NEAR(area(fine), area(sphere), 1e-4 * area(sphere));
 }
 
+// Issue 15's closed test scenes: the icosphere is closed with every vertex stored once, the
+// lattice's vertices are exact integers, and its camera's pixel rays cross it at vertices and edges.
+TEST(Generators, IcosphereIsClosedWithSharedVertices) {
+    for (uint32_t levels : {0u, 1u, 3u}) {
+        const Scene sphere = makeIcosphere(levels);
+        const size_t faces = size_t(20) << (2 * levels);
+        ASSERT_EQ(sphere.triangleCount(), faces);
+        // Euler: V - E + F = 2 with E = 3F/2 gives V = F/2 + 2, so no vertex is stored twice.
+        EXPECT_EQ(sphere.positions.size(), faces / 2 + 2);
+        std::map<std::array<float, 3>, int> distinct;
+        for (const glm::vec3& p : sphere.positions) ++distinct[{p.x, p.y, p.z}];
+        EXPECT_EQ(distinct.size(), sphere.positions.size()) << "two vertices at one position";
+        const auto use = edgeUse(sphere);
+        EXPECT_EQ(use.size(), faces * 3 / 2);
+        for (const auto& [edge, count] : use) ASSERT_EQ(count, 2) << edge.first << "-" << edge.second;
+        for (const glm::vec3& p : sphere.positions) EXPECT_NEAR(glm::length(p), 1.0f, 1e-6f);
+        for (uint32_t t = 0; t < sphere.triangleCount(); ++t) {
+            const glm::vec3 a = sphere.vertex(t, 0), b = sphere.vertex(t, 1), c = sphere.vertex(t, 2);
+            EXPECT_GT(glm::dot(glm::cross(b - a, c - a), a + b + c), 0.0f) << "triangle " << t << " faces inwards";
+        }
+    }
+    EXPECT_EQ(openScene("gen:icosphere:2").triangleCount(), 320u);
+    EXPECT_THROW(makeIcosphere(13), Error);
+}
+
+TEST(Generators, LatticeVerticesAreExactAndShared) {
+    const Scene lattice = openScene("gen:lattice:6x4");
+    ASSERT_EQ(lattice.triangleCount(), 48u);
+    ASSERT_EQ(lattice.positions.size(), 7u * 5u);
+    for (uint32_t j = 0; j <= 4; ++j)
+        for (uint32_t i = 0; i <= 6; ++i) {
+            const glm::vec3 p = lattice.positions[j * 7 + i];
+            EXPECT_EQ(p, glm::vec3(float(int(i) - 3), float(int(j) - 2), 0.0f)) << i << "," << j;
+        }
+    // Inner edges belong to two triangles, border edges to one: 2NM + N + M inner... counted.
+    int inner = 0, border = 0;
+    for (const auto& [edge, count] : edgeUse(lattice)) {
+        ASSERT_TRUE(count == 1 || count == 2);
+        (count == 2 ? inner : border) += 1;
+    }
+    EXPECT_EQ(border, 2 * (6 + 4));
+    EXPECT_EQ(inner, 3 * 6 * 4 - 6 - 4);  // 3 edges per cell, the top and right border counted apart
+    for (uint32_t t = 0; t < lattice.triangleCount(); ++t) {
+        const glm::vec3 n =
+            glm::cross(lattice.vertex(t, 1) - lattice.vertex(t, 0), lattice.vertex(t, 2) - lattice.vertex(t, 0));
+        EXPECT_EQ(n, glm::vec3(0, 0, 1)) << "unit cells, half each, facing +z";
+    }
+    EXPECT_EQ(openScene("gen:lattice:5").triangleCount(), 50u);
+    for (const char* bad : {"gen:lattice:0", "gen:lattice:4x", "gen:lattice:x4", "gen:lattice:4y4"})
+        EXPECT_THROW(openScene(bad), Error) << bad;
+}
+
+// The pixel rays of latticeCamera cross z = 0 at multiples of 1/2 to within a few ulps, all inside
+// the lattice latticeCellsFor sizes: a quarter at vertices, half at edge midpoints, a quarter at the
+// middle of a diagonal.
+TEST(Generators, LatticeCameraRaysCrossVerticesAndEdges) {
+    for (auto [width, height] : {std::pair<uint32_t, uint32_t>{96, 96}, {64, 48}, {1024, 768}}) {
+        const glm::uvec2 cells = latticeCellsFor(width, height);
+        const Scene lattice = makeLattice(cells.x, cells.y);
+        Aabb bounds;
+        for (const glm::vec3& p : lattice.positions) bounds.grow(p);
+        const GpuCamera camera = makeGpuCamera(latticeCamera(width, height), width, height);
+        const glm::vec3 eye = gpu::cameraEye(camera);
+        // Distance from the intended point, in ulps of the ray's length to it (the precision a ray
+        // from the eye can have there: its direction is a float vector).
+        double worst = 0.0;
+        std::map<int, int> kinds;  // 0 vertex, 1 axis-parallel edge, 2 diagonal
+        for (uint32_t y = 0; y < height; ++y)
+            for (uint32_t x = 0; x < width; ++x) {
+                const glm::dvec3 dir(gpu::primaryRayDirection(camera, x, y));
+                const double t = -double(eye.z) / dir.z;
+                const glm::dvec3 p = glm::dvec3(eye) + t * dir;
+                const glm::dvec2 target(std::round(2.0 * p.x) / 2.0, std::round(2.0 * p.y) / 2.0);
+                const double ulp = std::ldexp(1.0, std::ilogb(t * glm::length(dir)) - 23);
+                worst = std::max(worst, glm::length(glm::dvec2(p) - target) / ulp);
+                ASSERT_GT(target.x, bounds.lo.x + 0.5);
+                ASSERT_LT(target.x, bounds.hi.x - 0.5);
+                ASSERT_GT(target.y, bounds.lo.y + 0.5);
+                ASSERT_LT(target.y, bounds.hi.y - 0.5);
+                ++kinds[int(target.x != std::floor(target.x)) + int(target.y != std::floor(target.y))];
+            }
+        EXPECT_LT(worst, 4.0) << width << "x" << height;
+        const int rays = int(width * height);
+        EXPECT_EQ(kinds[0], rays / 4);
+        EXPECT_EQ(kinds[1], rays / 2);
+        EXPECT_EQ(kinds[2], rays / 4);
+        std::printf("lattice camera %ux%u: rays within %.2f ulps (of their length) of a vertex or edge point\n", width,
+                    height, worst);
+    }
+}
+
+TEST(SceneSpecs, PlaceScalesAndMovesExactly) {
+    const Scene lattice = makeLattice(8, 8);
+    const Scene far = openScene("place:1:100000,100000,100000:gen:lattice:8");
+    const Scene tiny = openScene("place:6.103515625e-5:0,0,0:gen:lattice:8");
+    ASSERT_EQ(far.positions.size(), lattice.positions.size());
+    EXPECT_EQ(far.triangles, lattice.triangles);
+    for (size_t i = 0; i < lattice.positions.size(); ++i) {
+        EXPECT_EQ(glm::dvec3(far.positions[i]), glm::dvec3(lattice.positions[i]) + 1e5) << "exact far away";
+        EXPECT_EQ(glm::dvec3(tiny.positions[i]), glm::dvec3(lattice.positions[i]) * std::ldexp(1.0, -14));
+    }
+    const Scene sphere = openScene("place:-2:1,2,3:gen:icosphere:1");
+    for (const auto& [edge, count] : edgeUse(sphere)) ASSERT_EQ(count, 2);
+    EXPECT_NEAR(glm::length(sphere.positions[0] - glm::vec3(1, 2, 3)), 2.0f, 1e-5f);
+    const Camera placed = placeCamera(latticeCamera(8, 8), 2.0f, glm::vec3(1, 0, 0));
+    EXPECT_EQ(placed.eye, glm::vec3(0.5f, -0.5f, 4.0f));
+    for (const char* bad :
+         {"place:1:0,0:gen:lattice:2", "place:0:0,0,0:gen:lattice:2", "place:x:0,0,0:gen:lattice:2", "place:1:0,0,0",
+          "place:1:0,0,0:", "place:inf:0,0,0:gen:lattice:2", "place:1:0,0,0,0:gen:lattice:2"})
+        EXPECT_THROW(openScene(bad), Error) << bad;
+    EXPECT_NE(std::string(sceneSpecHelp()).find("place:S:X,Y,Z:SCENE"), std::string::npos);
+}
+
 TEST(Generators, DeepSceneIsASpine) {
     for (uint32_t n : {8u, 30u, kDeepSceneMaxTriangles}) {
         const Scene deep = makeDeepScene(n);

@@ -8,6 +8,7 @@
 #include "app/cli/scene_setup.h"
 #include "app/cli/tracing.h"
 #include "renderer/error.h"
+#include "renderer/measure/accuracy.h"
 #include "renderer/measure/agreement.h"
 #include "renderer/measure/machine.h"
 #include "renderer/measure/protocol.h"
@@ -15,8 +16,10 @@
 #include "renderer/settings_text.h"
 #include "renderer/tracers/registry.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <map>
 #include <memory>
 #include <optional>
@@ -29,6 +32,7 @@ using Clock = std::chrono::steady_clock;
 
 struct BenchFlags {
     std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
+    std::string intersect;  // "robust", "fast" or a list of them (the trade suites); "": the suite's
     std::string shadowOrder = "nearest";
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
@@ -105,6 +109,118 @@ struct Progress {
     }
 };
 
+// "sah-binned/16 leaf 4": one build of the trade matrix, as its records and figures name it.
+std::string buildLabel(const BvhBuildOptions& o) {
+    std::string label = toString(o.builder);
+    if (o.builder == BvhBuilder::SahBinned) label += "/" + std::to_string(o.binCount);
+    return label + " leaf " + std::to_string(o.leafSize);
+}
+
+// What the cells of a tracer are compared with: its robust frame at the reference build.
+struct TradeReference {
+    std::vector<uint32_t> image;
+    std::vector<HitRecord> hits;
+};
+
+// The accuracy fields of a trade cell's primary record (docs/trade.md): rays leaked on a closed
+// scene, the hit distances against the double-precision oracle, and the pixels and hits that differ
+// from the tracer's robust frame at the reference build.
+void addAccuracyFields(json& primary, const BenchScene& scene, const Scene& geometry, const Frame& frame,
+                       const TradeReference* reference) {
+    if (scene.closed) {
+        const LeakCount leaks = countLeaks(frame.hits);
+        primary["rays_leaked"] = leaks.leaked;
+        primary["rays_leaked_per_million"] = leaks.perMillion();
+    }
+    const HitDistanceErrors errors = hitDistanceErrors(geometry, frame.hits);
+    primary["t_error_hits"] = errors.hits;
+    primary["t_rel_error_max"] = errors.maxRelative;
+    primary["t_rel_error_p999"] = errors.p999Relative;
+    if (reference) {
+        const uint64_t pixels = differingPixels(frame.rgba, reference->image);
+        primary["pixels_differing"] = pixels;
+        primary["pixels_differing_share"] = frame.rgba.empty() ? 0.0 : double(pixels) / double(frame.rgba.size());
+        primary["hits_differing"] = differingHits(frame.hits, reference->hits);
+    } else {
+        primary["pixels_differing"] = nullptr;
+        primary["pixels_differing_share"] = nullptr;
+        primary["hits_differing"] = nullptr;
+    }
+}
+
+std::vector<IntersectMode> parseIntersectModes(const std::string& text) {
+    std::vector<IntersectMode> modes;
+    for (const std::string& name : splitList(text)) {
+        const std::optional<IntersectMode> mode = parseIntersectMode(name);
+        if (!mode) throw Error("--intersect: \"" + name + "\" is not " + intersectModeNames());
+        if (std::find(modes.begin(), modes.end(), *mode) == modes.end()) modes.push_back(*mode);
+    }
+    if (modes.empty()) throw Error("--intersect: no mode given");
+    return modes;
+}
+
+// The trade suites (issue 15): per scene, every build of the matrix, and per build every tracer x
+// intersection mode; the CPU reference at the reference build only. The GPU cells of a build run
+// first, right after it (renderer/measure/protocol.h: the first gets the long warm-up).
+json runTrade(const BenchSuite& suite, const TradeMatrix& matrix, const std::vector<IntersectMode>& modes,
+              const std::vector<std::unique_ptr<Tracer>>& tracers, Tracer* cpuReference, const PacketShape& gpuPacket,
+              const PacketShape& cpuPacket, uint32_t width, uint32_t height, uint32_t repeats, ShadowOrder shadowOrder,
+              const std::function<void(const json&)>& sceneDone) {
+    json records = json::array();
+    Progress progress;
+    progress.total =
+        suite.scenes.size() * modes.size() * (matrix.builds.size() * tracers.size() + (cpuReference ? 1 : 0));
+    for (const BenchScene& benchScene : suite.scenes) {
+        std::fprintf(stderr, "bench: loading %s (%s)\n", benchScene.name.c_str(), benchScene.spec.c_str());
+        const LoadedScene loaded = loadSceneTimed(benchScene.spec);
+        RenderSettings settings;
+        settings.width = width;
+        settings.height = height;
+        settings.shadowOrder = shadowOrder;
+        settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
+        std::map<std::string, TradeReference> references;  // by tracer, from the reference build
+        for (size_t b = 0; b < matrix.builds.size(); ++b) {
+            const BvhBuildOptions& build = matrix.builds[b];
+            const Bvh bvh = buildBvh(loaded.scene, build);
+            json scene = sceneFields(benchScene, loaded, bvh, build, settings.camera);
+            scene["closed"] = benchScene.closed;
+            scene["bin_count"] = build.builder == BvhBuilder::SahBinned ? json(build.binCount) : json(nullptr);
+            scene["build"] = buildLabel(build);
+            scene["reference_build"] = b == 0;
+            std::vector<Tracer*> cells;
+            for (const auto& t : tracers) cells.push_back(t.get());
+            if (b == 0 && cpuReference) cells.push_back(cpuReference);
+            bool gpuWarm = false;
+            for (Tracer* tracer : cells) {
+                const Preparation preparation = tracer->prepare(loaded.scene, bvh);
+                const bool gpu = tracer->device() == TracerDevice::Gpu;
+                std::optional<PacketShape> packet;
+                if (tracer->capabilities().packetShapes) packet = gpu ? gpuPacket : cpuPacket;
+                for (IntersectMode mode : modes) {
+                    progress.begin(benchScene.name, buildLabel(build) + ", " + tracer->name() + ", " + toString(mode));
+                    RenderSettings cellSettings = settings;
+                    cellSettings.intersect = mode;
+                    if (packet) cellSettings.packet = *packet;
+                    const double warmUp = gpuWarm ? matrix.warmUpSeconds : matrix.firstWarmUpSeconds;
+                    MeasuredFrames measured = measureFrames(*tracer, preparation, cellSettings, repeats, true, warmUp);
+                    gpuWarm = gpuWarm || gpu;
+                    if (b == 0 && mode == IntersectMode::Robust)
+                        references[tracer->name()] = {measured.frame.rgba, measured.frame.hits};
+                    addFrameRecords(records, scene, *tracer, packet, measured);
+                    for (size_t k = records.size() - 2; k < records.size(); ++k)
+                        records[k]["intersect"] = toString(mode);
+                    const auto reference = references.find(tracer->name());
+                    addAccuracyFields(records[records.size() - 2], benchScene, loaded.scene, measured.frame,
+                                      reference == references.end() ? nullptr : &reference->second);
+                    ++progress.done;
+                }
+            }
+        }
+        sceneDone(records);
+    }
+    return records;
+}
+
 int runBench(const BenchFlags& f, const CLI::App& command) {
     const auto given = [&](const char* name) { return command.get_option(name)->count() > 0; };
     if (given("--scenes") && given("--suite")) throw Error("bench: give either --scenes or --suite, not both");
@@ -118,6 +234,16 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const std::vector<PacketShape> cpuPackets =
         parsePacketShapes("--cpu-packets", given("--cpu-packets") ? f.cpuPackets : suite.cpuPackets);
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
+    if (suite.scenesFor && (given("--width") || given("--height"))) suite.scenes = suite.scenesFor(width, height);
+    const std::vector<IntersectMode> modes =
+        f.intersect.empty() ? (suite.trade ? suite.trade->modes : std::vector<IntersectMode>{IntersectMode::Robust})
+                            : parseIntersectModes(f.intersect);
+    if (!suite.trade && modes.size() > 1)
+        throw Error("--intersect: one mode outside the trade suites (robust or fast)");
+    if (suite.trade && (given("--builder") || given("--leaf-size") || given("--bins")))
+        throw Error("bench --suite " + suite.name +
+                    ": the suite builds every builder and leaf size itself; "
+                    "--builder, --leaf-size and --bins do not apply");
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
     const std::optional<ShadowOrder> parsedOrder = parseShadowOrder(f.shadowOrder);
@@ -162,10 +288,88 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             cells.push_back({tracer, std::nullopt});
     }
 
+    // The results file; the trade suites also write it after every scene ("complete": false), so
+    // that a run cut short (a device's time limit) keeps what it measured.
+    const std::string out = f.out.empty() ? "bench-" + suite.name + ".json" : f.out;
+    // The trade matrix's tracers that run here (the flags and the machine choose among them).
+    std::vector<std::string> tradeTracers;
+    bool tradeReference = false;
+    const auto writeResults = [&](const json& records, bool complete) {
+        json result = {
+            {"format", "raypack-bench-1"},
+            {"date", utcDate()},
+            {"command", commandLine()},
+            {"machine", machine},
+            {"settings",
+             {{"suite", suite.name},
+              {"width_px", width},
+              {"height_px", height},
+              {"repeats", repeats},
+              {"devices", f.device},
+              {"kernels", f.kernel},
+              {"shadow_order", f.shadowOrder},
+              {"speculative_traversal", f.speculative},
+              {"packets",
+               [&] {
+                   json list = json::array();
+                   for (const PacketShape& p : packets) list.push_back(toString(p));
+                   return list;
+               }()},
+              {"cpu_packets",
+               [&] {
+                   json list = json::array();
+                   for (const PacketShape& p : cpuPackets) list.push_back(toString(p));
+                   return list;
+               }()},
+              {"intersect",
+               [&] {
+                   json list = json::array();
+                   for (IntersectMode m : modes) list.push_back(toString(m));
+                   return list;
+               }()},
+              {"bvh", suite.trade ? json(nullptr) : toJson(bvhOptions)},
+              {"trade", suite.trade
+                            ? json{{"builds",
+                                    [&] {
+                                        json list = json::array();
+                                        for (const BvhBuildOptions& o : suite.trade->builds) list.push_back(toJson(o));
+                                        return list;
+                                    }()},
+                                   {"tracers", tradeTracers},
+                                   {"cpu_reference_at_reference_build", tradeReference},
+                                   {"reference", "the same tracer's robust frame at builds[0] (sah-exact, leaf 1)"},
+                                   {"gpu_warm_up_s", {suite.trade->firstWarmUpSeconds, suite.trade->warmUpSeconds}}}
+                            : json(nullptr)}}},
+            {"skipped", skipped},
+            {"records", records},
+            {"complete", complete},
+        };
+        writeJsonFile(out, result);
+    };
+
     json records = json::array();
     Progress progress;
     progress.total = cells.size() * suite.scenes.size();
-    for (const BenchScene& benchScene : suite.scenes) {
+    if (suite.trade) {
+        // The matrix's tracers among those the flags ask for, in the matrix's order (GPU first).
+        std::vector<std::unique_ptr<Tracer>> matrixTracers;
+        std::unique_ptr<Tracer> reference;
+        cells.clear();
+        for (const std::string& name : suite.trade->tracers)
+            for (auto& t : tracers)
+                if (t && t->name() == name) matrixTracers.push_back(std::move(t));
+        for (auto& t : tracers)
+            if (t && t->name() == "cpu-reference" && suite.trade->cpuReferenceAtReferenceBuild)
+                reference = std::move(t);
+        tracers.clear();
+        for (const auto& t : matrixTracers) tradeTracers.push_back(t->name());
+        tradeReference = reference != nullptr;
+        records =
+            runTrade(suite, *suite.trade, modes, matrixTracers, reference.get(), packets.front(), cpuPackets.front(),
+                     width, height, repeats, shadowOrder, [&](const json& partial) { writeResults(partial, false); });
+        progress.total = records.size() / 2;
+    }
+    for (const BenchScene& benchScene : suite.trade ? std::vector<BenchScene>{} : suite.scenes) {
         std::fprintf(stderr, "bench: loading %s (%s) and building its BVH\n", benchScene.name.c_str(),
                      benchScene.spec.c_str());
         const LoadedScene loaded = loadSceneTimed(benchScene.spec);
@@ -173,10 +377,12 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         RenderSettings settings;
         settings.width = width;
         settings.height = height;
+        settings.intersect = modes.front();
         settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
         settings.shadowOrder = shadowOrder;
         settings.speculativeTraversal = f.speculative;
-        const json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
+        json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
+        scene["intersect"] = toString(settings.intersect);
 
         // The first frame tracer's hits (the CPU reference's, or without it the first GPU cell's)
         // are what the others are compared with.
@@ -213,38 +419,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         }
     }
 
-    json result = {
-        {"format", "raypack-bench-1"},
-        {"date", utcDate()},
-        {"command", commandLine()},
-        {"machine", machine},
-        {"settings",
-         {{"suite", suite.name},
-          {"width_px", width},
-          {"height_px", height},
-          {"repeats", repeats},
-          {"devices", f.device},
-          {"kernels", f.kernel},
-          {"shadow_order", f.shadowOrder},
-          {"speculative_traversal", f.speculative},
-          {"packets",
-           [&] {
-               json list = json::array();
-               for (const PacketShape& p : packets) list.push_back(toString(p));
-               return list;
-           }()},
-          {"cpu_packets",
-           [&] {
-               json list = json::array();
-               for (const PacketShape& p : cpuPackets) list.push_back(toString(p));
-               return list;
-           }()},
-          {"bvh", toJson(bvhOptions)}}},
-        {"skipped", skipped},
-        {"records", records},
-    };
-    const std::string out = f.out.empty() ? "bench-" + suite.name + ".json" : f.out;
-    writeJsonFile(out, result);
+    writeResults(records, true);
     const double elapsed = std::chrono::duration<double>(Clock::now() - progress.start).count();
     std::printf("bench: %zu records (%zu cells) written to %s in %.1f s\n", records.size(), progress.total, out.c_str(),
                 elapsed);
@@ -276,13 +451,24 @@ CommandRunner addBenchCommand(CLI::App& app) {
         "the results says why where it does not. A progress line per cell goes to "
         "stderr. Suites: report (Sibenik, Sponza, Conference, Armadillo, Dragon from the scene "
         "folder, with fixed cameras), scaling (terrain 10k..10M, the dragon subdivided to 13M), "
-        "quick (two small generated scenes at 96x96, for CI).");
+        "quick (two small generated scenes at 96x96, for CI), "
+        "trade (issue 15's speed/accuracy matrix: the report scenes and closed generated scenes -- an icosphere seen "
+        "from inside, a lattice whose pixel rays cross its vertices and edges, each also far from the origin and "
+        "tiny -- at 1024x768, every builder (sah-exact, sah-binned at 8/16/32 bins, sah-split) x leaf size 1/2/4/8 x "
+        "--intersect robust/fast x GPU packet 8x4, GPU single and CPU packet 16x16, plus the CPU reference at "
+        "sah-exact leaf 1; its primary records add rays_leaked(_per_million) on closed scenes, t_rel_error_max / "
+        "t_rel_error_p999 against a double-precision oracle, and pixels_differing / hits_differing from the same "
+        "tracer's robust frame at sah-exact leaf 1; docs/trade.md), trade-quick (its shape on small scenes at 96x96, "
+        "for CI).");
     command->add_option("--scenes", f.scenes,
                         "Comma-separated scene files or generator specs instead of a suite "
                         "(framed by the default camera)");
-    command->add_option("--suite", f.suite, "Suite: report, scaling or quick")
-        ->check(CLI::IsMember({"report", "scaling", "quick"}))
+    command->add_option("--suite", f.suite, "Suite: report, scaling, quick, trade or trade-quick")
+        ->check(CLI::IsMember(benchSuiteNames()))
         ->capture_default_str();
+    command->add_option("--intersect", f.intersect,
+                        "Intersection tests: robust (watertight, accurate t) or fast (Moller-Trumbore, plain slabs); "
+                        "the trade suites take a list (default robust,fast), the others one mode (default robust)");
     command->add_option("--scene-dir", f.sceneDir,
                         "Folder of the suite's scene files (default: $RAYPACK_SCENE_DIR, else "
                         "../shared/scenes beside the source tree, else ../shared/scenes from the "

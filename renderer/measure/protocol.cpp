@@ -8,14 +8,13 @@
 namespace raypack {
 namespace {
 
-// GPU time traced back to back right before the timed frames (at most so many frames).
-constexpr double kGpuWarmUpSeconds = 0.3;
+// The GPU warm-up's frames at most.
 constexpr uint32_t kGpuWarmUpMaxFrames = 2000;
 
 }  // namespace
 
 MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, const RenderSettings& settings,
-                             uint32_t repeats, bool wantImage) {
+                             uint32_t repeats, bool wantImage, double gpuWarmUpSeconds) {
     RAYPACK_CHECK(repeats >= 1);
     MeasuredFrames measured;
     // Warm-up: counts N_TR / N_IT, and collects the hits, which also tell which pixels cast a
@@ -37,15 +36,15 @@ MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, con
     // A second warm-up in the timed configuration: the counting run used another kernel variant
     // on the GPU, and a driver may compile a pipeline at its first dispatch (lavapipe's JIT).
     const Frame first = tracer.render(timed, timedRequest);
-    // On a GPU, then kGpuWarmUpSeconds of frames back to back: a GPU lowers its clocks when it
-    // idles, and frames of a millisecond, each followed by a wait and a read-back, leave it mostly
-    // idle. On the H100 the SM clock fell from 1980 to its idle 345 MHz a few seconds into a bench
-    // run (nvidia-smi, 2026-11-22), and later cells measured up to 5.7x slower than the same cell
-    // in a process of its own. The timed frames follow at once, before the clocks can fall again.
+    // On a GPU, then gpuWarmUpSeconds (by default kGpuWarmUpSeconds) of frames back to back: a GPU lowers its clocks
+    // when it idles, and frames of a millisecond, each followed by a wait and a read-back, leave it mostly idle. On the
+    // H100 the SM clock fell from 1980 to its idle 345 MHz a few seconds into a bench run (nvidia-smi, 2026-11-22), and
+    // later cells measured up to 5.7x slower than the same cell in a process of its own. The timed frames follow at
+    // once, before the clocks can fall again.
     const bool gpu = tracer.device() == TracerDevice::Gpu;
     if (gpu) {
         const double frameSeconds = std::max(first.timings.primarySeconds + first.timings.shadowSeconds, 1e-6);
-        const double frames = std::ceil(kGpuWarmUpSeconds / frameSeconds);
+        const double frames = std::ceil(gpuWarmUpSeconds / frameSeconds);
         tracer.warmUp(timed, uint32_t(std::clamp(frames, 1.0, double(kGpuWarmUpMaxFrames))));
     }
     std::vector<FrameTimings> timings;
