@@ -34,14 +34,16 @@ const uint kBindingCount = 13u;
 // Specialization constants of shaders/trace.comp (constant_id, local_size_*_id).
 const uint kSpecPacketWidth = 0u;          // local_size_x: packet width PW
 const uint kSpecPacketHeight = 1u;         // local_size_y: packet height PH
-const uint kSpecKernel = 2u;               // kKernelPacket or kKernelSingle
+const uint kSpecKernel = 2u;               // kKernelPacket, kKernelSingle or kKernelHybrid
 const uint kSpecPass = 3u;                 // kPass*
 const uint kSpecStatistics = 4u;           // bool: count N_TR / N_IT per ray
 const uint kSpecView = 5u;                 // kView*
 const uint kSpecPacketStackEntries = 6u;   // the packet's shared stack (1 for the single-ray kernel)
 const uint kSpecRayStackEntries = 7u;      // each ray's own stack (1 for the packet kernel)
 const uint kSpecPacketIsOneSubgroup = 8u;  // bool: the packet is exactly one subgroup
-const uint kSpecCount = 9u;
+const uint kSpecHybridMinRays = 9u;        // hybrid kernel: split when fewer rays want the node (K)
+const uint kSpecHybridVisitRatio = 10u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
+const uint kSpecCount = 11u;
 
 // ---- shaders/rt/rt_peer.rgen (renderer/vk/rt_peer.cpp): set 0.
 const uint kRtBindTlas = 0u;  // the top-level acceleration structure
@@ -64,8 +66,10 @@ struct TraceSpecialization {
     uint packetStackEntries;
     uint rayStackEntries;
     uint packetIsOneSubgroup;  // VkBool32
+    uint hybridMinRays;
+    uint hybridVisitRatio;
 };
-RP_CHECK_SIZE(TraceSpecialization, 36);
+RP_CHECK_SIZE(TraceSpecialization, 44);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -75,6 +79,8 @@ RP_CHECK_OFFSET(TraceSpecialization, view, 20);
 RP_CHECK_OFFSET(TraceSpecialization, packetStackEntries, 24);
 RP_CHECK_OFFSET(TraceSpecialization, rayStackEntries, 28);
 RP_CHECK_OFFSET(TraceSpecialization, packetIsOneSubgroup, 32);
+RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 36);
+RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 40);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -95,6 +101,8 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecPacketStackEntries, packetStackEntries),
     RP_SPEC_ENTRY(kSpecRayStackEntries, rayStackEntries),
     RP_SPEC_ENTRY(kSpecPacketIsOneSubgroup, packetIsOneSubgroup),
+    RP_SPEC_ENTRY(kSpecHybridMinRays, hybridMinRays),
+    RP_SPEC_ENTRY(kSpecHybridVisitRatio, hybridVisitRatio),
 };
 #undef RP_SPEC_ENTRY
 

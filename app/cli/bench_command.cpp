@@ -15,6 +15,7 @@
 #include "renderer/settings_text.h"
 #include "renderer/tracers/registry.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <map>
@@ -29,17 +30,32 @@ using Clock = std::chrono::steady_clock;
 
 struct BenchFlags {
     std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
+    std::string only;  // names of the suite's scenes to run, comma-separated; empty: all
+    std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
+    std::string hybridVisitRatios = "0";
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
     bool noEmbree = false;
     bool noDriverRt = false;
 };
 
-// What one cell traces: a tracer, with a packet shape where it traces packets.
+// What one cell traces: a tracer, with a packet shape where it traces packets, and the split rules
+// for the hybrid kernel.
 struct Cell {
     Tracer* tracer;
     std::optional<PacketShape> packet;
-    std::string label() const { return tracer->name() + (packet ? " " + toString(*packet) : std::string()); }
+    std::optional<HybridParams> hybrid;
+    std::string hybridMinRaysText;  // the --hybrid-min-rays entry ("1/4" or "8")
+    std::string label() const {
+        std::string text = tracer->name() + (packet ? " " + toString(*packet) : std::string());
+        if (hybrid) {
+            char rules[96];
+            std::snprintf(rules, sizeof rules, " K=%u (%s) visit ratio %g", hybrid->minRays, hybridMinRaysText.c_str(),
+                          double(hybrid->visitRatio));
+            text += rules;
+        }
+        return text;
+    }
 };
 
 json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& bvh, const BvhBuildOptions& options,
@@ -56,8 +72,9 @@ json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& 
 }
 
 // Two records (primary, shadow) of a frame tracer's cell.
-void addFrameRecords(json& records, const json& scene, const Tracer& tracer, const std::optional<PacketShape>& packet,
+void addFrameRecords(json& records, const json& scene, const Tracer& tracer, const Cell& cell,
                      const MeasuredFrames& measured) {
+    const std::optional<PacketShape>& packet = cell.packet;
     const FrameStats& s = measured.stats;
     for (const char* kind : {"primary", "shadow"}) {
         json r = scene;
@@ -66,6 +83,9 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["driver"] = tracer.driver();
         r["kernel"] = tracer.kernel();
         r["packet"] = packet ? json(toString(*packet)) : json(nullptr);
+        r["hybrid_min_rays"] = cell.hybrid ? json(cell.hybrid->minRays) : json(nullptr);
+        r["hybrid_min_rays_spec"] = cell.hybrid ? json(cell.hybridMinRaysText) : json(nullptr);
+        r["hybrid_visit_ratio"] = cell.hybrid ? json(cell.hybrid->visitRatio) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;
         r["height_px"] = s.height;
@@ -101,6 +121,20 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     if (given("--scenes") && given("--suite")) throw Error("bench: give either --scenes or --suite, not both");
     BenchSuite suite =
         given("--scenes") ? customSuite(splitList(f.scenes)) : benchSuite(f.suite, resolveSceneDir(f.sceneDir));
+    if (given("--only")) {
+        std::vector<BenchScene> chosen;
+        for (const std::string& name : splitList(f.only)) {
+            const auto it = std::find_if(suite.scenes.begin(), suite.scenes.end(),
+                                         [&](const BenchScene& s) { return s.name == name; });
+            if (it == suite.scenes.end()) {
+                std::string names;
+                for (const BenchScene& s : suite.scenes) names += (names.empty() ? "" : ", ") + s.name;
+                throw Error("--only: \"" + name + "\" is not a scene of suite " + suite.name + " (" + names + ")");
+            }
+            chosen.push_back(*it);
+        }
+        suite.scenes = chosen;
+    }
     const uint32_t width = given("--width") ? f.width : suite.width;
     const uint32_t height = given("--height") ? f.height : suite.height;
     const uint32_t repeats = given("--repeat") ? f.repeat : suite.repeats;
@@ -111,8 +145,11 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
-    const bool packetKernel = f.kernel != "single";
-    const bool singleKernel = f.kernel != "packet";
+    const bool packetKernel = f.kernel == "all" || f.kernel == "packet";
+    const bool singleKernel = f.kernel == "all" || f.kernel == "single";
+    const bool hybridKernel = f.kernel == "all" || f.kernel == "hybrid";
+    const std::vector<HybridMinRaysSpec> hybridMinRays = parseHybridMinRaysList("--hybrid-min-rays", f.hybridMinRays);
+    const std::vector<float> hybridVisitRatios = parseHybridVisitRatios("--hybrid-visit-ratios", f.hybridVisitRatios);
 
     std::optional<VulkanSession> session;
     json machine = {{"cpu_model", cpuModel()},  {"cpu_threads", cpuThreads()}, {"os", operatingSystem()},
@@ -135,7 +172,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     std::vector<Cell> cells;
     for (const TracerInfo& info : listTracers(environment)) {
         if (!(info.device == TracerDevice::Cpu ? cpu : gpu)) continue;
-        if ((info.kernel == "packet" && !packetKernel) || (info.kernel == "single" && !singleKernel)) continue;
+        if ((info.kernel == "packet" && !packetKernel) || (info.kernel == "single" && !singleKernel) ||
+            (info.kernel == "hybrid" && !hybridKernel))
+            continue;
         if ((info.name == "embree" && f.noEmbree) || (info.name == "driver-rt" && f.noDriverRt)) continue;
         if (!info.unavailable.empty()) {
             skipped.push_back(info.unavailable);
@@ -143,11 +182,17 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         }
         Tracer* tracer = tracers.emplace_back(makeTracer(info.name, environment)).get();
         if (info.name == "embree") machine["embree_version"] = embreeVersion();
-        if (tracer->capabilities().packetShapes)
+        if (info.kernel == "hybrid") {
+            for (const PacketShape& p : packets)
+                for (const HybridMinRaysSpec& k : hybridMinRays)
+                    for (const float ratio : hybridVisitRatios)
+                        cells.push_back({tracer, p, HybridParams{k.resolve(p), ratio}, k.text});
+        } else if (tracer->capabilities().packetShapes) {
             for (const PacketShape& p : info.device == TracerDevice::Cpu ? cpuPackets : packets)
-                cells.push_back({tracer, p});
-        else
-            cells.push_back({tracer, std::nullopt});
+                cells.push_back({tracer, p, std::nullopt, ""});
+        } else {
+            cells.push_back({tracer, std::nullopt, std::nullopt, ""});
+        }
     }
 
     json records = json::array();
@@ -174,6 +219,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             if (!prepared.count(&tracer)) prepared[&tracer] = tracer.prepare(loaded.scene, bvh);
             RenderSettings cellSettings = settings;
             if (cell.packet) cellSettings.packet = *cell.packet;
+            if (cell.hybrid) cellSettings.hybrid = *cell.hybrid;
             if (std::optional<json> peer = tracer.peerRecords(cellSettings, repeats, referenceHits)) {
                 for (json record : *peer) {
                     for (const char* key : {"scene", "scene_spec", "camera", "triangles", "degenerate_triangles"})
@@ -182,7 +228,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 }
             } else {
                 MeasuredFrames measured = measureFrames(tracer, prepared[&tracer], cellSettings, repeats, false);
-                addFrameRecords(records, scene, tracer, cell.packet, measured);
+                addFrameRecords(records, scene, tracer, cell, measured);
                 if (tracer.capabilities().bitExactWithReference && !referenceHits.empty() &&
                     referenceHits.size() == measured.frame.hits.size())
                     for (size_t k = records.size() - 2; k < records.size(); ++k)
@@ -206,6 +252,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
           {"repeats", repeats},
           {"devices", f.device},
           {"kernels", f.kernel},
+          {"hybrid_min_rays", f.hybridMinRays},
+          {"hybrid_visit_ratios", f.hybridVisitRatios},
           {"packets",
            [&] {
                json list = json::array();
@@ -239,7 +287,8 @@ CommandRunner addBenchCommand(CLI::App& app) {
     CLI::App* command = app.add_subcommand(
         "bench",
         "Run a benchmark matrix and write one JSON record per cell and ray kind (primary, shadow): "
-        "scene, triangles, tracer (cpu-reference, cpu-packet, gpu-packet, gpu-single, embree, driver-rt), device and "
+        "scene, triangles, tracer (cpu-reference, cpu-packet, gpu-packet, gpu-single, gpu-hybrid, embree, driver-rt), "
+        "device and "
         "driver, kernel, packet shape, Table 1 (n_l_leaves, d_avg_leaf_depth, d_max_leaf_depth, "
         "o_avg_prims_per_leaf, t_b_s, sah_cost, bvh_bytes_per_triangle, ...) and Table 2 "
         "(t_r_us_per_ray, n_it_tests_per_ray, n_tr_nodes_per_ray, n_q_rays, t_f_s, t_cu_s, "
@@ -271,10 +320,26 @@ CommandRunner addBenchCommand(CLI::App& app) {
         ->capture_default_str();
     command
         ->add_option("--kernel", f.kernel,
-                     "Kernels: packet (GPU packets, CPU packets), single (GPU single rays) or "
-                     "all; the CPU reference and Embree always run with --device cpu/all")
-        ->check(CLI::IsMember({"packet", "single", "all"}))
+                     "Kernels: packet (GPU packets, CPU packets), single (GPU single rays), hybrid "
+                     "(GPU packets splitting into single rays, docs/gpu.md) or all; the CPU "
+                     "reference and Embree always run with --device cpu/all")
+        ->check(CLI::IsMember({"packet", "single", "hybrid", "all"}))
         ->capture_default_str();
+    command
+        ->add_option("--hybrid-min-rays", f.hybridMinRays,
+                     "Hybrid kernel: the values of K to run, comma-separated, each a ray count or a share "
+                     "of the packet (1/4: a quarter of its rays); the packet splits into single rays at "
+                     "the first node fewer than K of its active rays want (0: never by this rule)")
+        ->capture_default_str();
+    command
+        ->add_option("--hybrid-visit-ratios", f.hybridVisitRatios,
+                     "Hybrid kernel: the visit ratios to run, comma-separated (0: the rule off); the "
+                     "packet also splits once its inner-node visits over its active rays pass this "
+                     "multiple of the visits they wanted. One cell per packet shape, K and ratio")
+        ->capture_default_str();
+    command->add_option("--only", f.only,
+                        "Run only these scenes of the suite, comma-separated names as the suite "
+                        "names them (e.g. \"Sibenik,terrain 10M,Dragon subdiv 3\")");
     command->add_option("--packets", f.packets,
                         "Packet shapes of the packet kernel, e.g. 8x4,4x8,5x6,8x8,16x16 (default: "
                         "the suite's; quick: 8x4,5x6)");
