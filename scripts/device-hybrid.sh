@@ -17,7 +17,7 @@
 # seconds; a run gets at most what is left, none starts with less than 30 s left), REPEAT (default 5), PACKETS (default 8x4,8x8), HYBRID_K (default 1/4,1/8,1/16),
 # HYBRID_RATIOS (default 0,2), BUILDER (default: bench's; sah-binned to save time on the scans);
 # for a try on another machine: CLI, DEVICE_ENV (/dev/null: none), WIDTH, HEIGHT, ONLY (scene names,
-# comma-separated).
+# comma-separated), LIMIT_S (each run's timeout instead of the table's).
 # Measured build and load times: docs/benchmarks.md (13M dragon: 4.6 s exact SAH on 16 threads).
 set -u
 out=${1:-${OUT:-}}
@@ -79,7 +79,7 @@ for path in sorted(glob.glob(os.path.join(out, "bench-*.json"))):
             s = single[0]
             base = s["perf_mrays_s"]
             tri = s.get("triangles", 0)
-            rows.append(f"| {scene} | {tri:,} | {kind} | single | | {base:.0f} | 1.00 | {s['n_tr_nodes_per_ray']:.1f} |")
+            rows.append(f"| {scene} | {tri:,} | {kind} | single | | {base:.4g} | 1.00 | {s['n_tr_nodes_per_ray']:.1f} |")
             for r in rs:
                 if r["tracer"] not in ("gpu-packet", "gpu-hybrid"):
                     continue
@@ -87,7 +87,7 @@ for path in sorted(glob.glob(os.path.join(out, "bench-*.json"))):
                     cfg = "packet"
                 else:
                     cfg = f"hybrid K={r['hybrid_min_rays']} ({r['hybrid_min_rays_spec']}) ratio {r['hybrid_visit_ratio']:g}"
-                rows.append(f"| {scene} | {tri:,} | {kind} | {cfg} | {r['packet']} | {r['perf_mrays_s']:.0f} | "
+                rows.append(f"| {scene} | {tri:,} | {kind} | {cfg} | {r['packet']} | {r['perf_mrays_s']:.4g} | "
                             f"{r['perf_mrays_s'] / base:.2f} | {r['n_tr_nodes_per_ray']:.1f} |")
 print("| scene | triangles | rays | kernel | packet | Mrays/s | / single | N_TR |")
 print("|---|---:|---|---|---|---:|---:|---:|")
@@ -97,6 +97,7 @@ EOF
 
 for run in "${runs[@]}"; do
   IFS='|' read -r suite name limit <<< "$run"
+  limit=${LIMIT_S:-$limit}
   now=$(date +%s)
   left=$((budget - (now - start)))
   if [ "$left" -lt 30 ]; then
