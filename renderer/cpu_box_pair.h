@@ -3,8 +3,9 @@
 // one ray at once, with SSE on x86-64 (SSE2 is part of the x86-64 baseline, so no dispatch is
 // needed and the binary runs on any x86-64). Used by the CPU reference tracer (cpu_tracer.cpp).
 //
-// Exactness: for each child this computes bit for bit the result of gpu::intersectBox
-// (shaders/intersect.h), which the GPU kernels and every test of the reference use:
+// Exactness: for each child this computes bit for bit the result of gpu::intersectBox, or of
+// gpu::intersectBoxFast for a ray made with `fast` (shaders/intersect.h), which the GPU kernels and every test of the
+// reference use:
 //  - the same operations in the same order: (lo - org) * invDir, (hi - org) * invDir, a min and a
 //    max per axis, max(max(x, y), max(z, 0)) for the entry, min(min(x, y), z) * kSlabFarWiden for
 //    the exit, then entry <= min(exit, tmax * kBoxTmaxWiden). IEEE single precision, rounding to
@@ -47,24 +48,35 @@ struct ChildBoxRay {
     __m128 invXY;  // (invDir.x, invDir.x, invDir.y, invDir.y)
     __m128 orgZ;   // org.z in every lane
     __m128 invZ;   // invDir.z in every lane
-    // tmax * gpu::kBoxTmaxWiden in every lane, for the tmax of the last setTmax: the product
-    // intersectBox forms per call, formed here once per change of tmax (a closer hit).
+    // tmax * tmaxWiden in every lane, for the tmax of the last setTmax: the product intersectBox
+    // forms per call, formed here once per change of tmax (a closer hit).
     __m128 tmaxWidened;
+    __m128 farWidenLanes;  // farWiden in every lane
 #endif
     float tmax = 0.0f;
+    // gpu::intersectBoxWidened's factors: Ize's (gpu::intersectBox), or 1 and 1 for the plain
+    // slab test of IntersectMode::Fast (gpu::intersectBoxFast).
+    float farWiden = gpu::kSlabFarWiden;
+    float tmaxWiden = gpu::kBoxTmaxWiden;
 
     void setTmax(float newTmax) {
         tmax = newTmax;
 #if RAYPACK_CPU_BOX_PAIR_SSE
-        tmaxWidened = _mm_set1_ps(newTmax * gpu::kBoxTmaxWiden);
+        tmaxWidened = _mm_set1_ps(newTmax * tmaxWiden);
 #endif
     }
 };
 
-inline ChildBoxRay makeChildBoxRay(const gpu::TraceRay& ray, float tmax) {
+// `fast`: the plain slab test (IntersectMode::Fast) instead of the conservative one.
+inline ChildBoxRay makeChildBoxRay(const gpu::TraceRay& ray, float tmax, bool fast = false) {
     ChildBoxRay pair;
     pair.ray = &ray;
     pair.parallel = ray.anyParallel;
+    pair.farWiden = fast ? 1.0f : gpu::kSlabFarWiden;
+    pair.tmaxWiden = fast ? 1.0f : gpu::kBoxTmaxWiden;
+#if RAYPACK_CPU_BOX_PAIR_SSE
+    pair.farWidenLanes = _mm_set1_ps(pair.farWiden);
+#endif
 #if RAYPACK_CPU_BOX_PAIR_SSE
     pair.orgXY = _mm_setr_ps(ray.org.x, ray.org.x, ray.org.y, ray.org.y);
     pair.invXY = _mm_setr_ps(ray.invDir.x, ray.invDir.x, ray.invDir.y, ray.invDir.y);
@@ -115,10 +127,10 @@ __attribute__((always_inline)) inline ChildBoxHits intersectChildBoxes(const Chi
         const __m128 nearMaxXY = _mm_max_ps(nearY, nearXY);
         const __m128 nearMaxZ0 = _mm_max_ps(_mm_setzero_ps(), nearZ);
         const __m128 tNear = _mm_max_ps(nearMaxZ0, nearMaxXY);
-        // tFar = min(min(far.x, far.y), far.z) * kSlabFarWiden.
+        // tFar = min(min(far.x, far.y), far.z) * farWiden.
         const __m128 farMinXY = _mm_min_ps(farY, farXY);
-        const __m128 tFar = _mm_mul_ps(_mm_min_ps(farZ, farMinXY), _mm_set1_ps(gpu::kSlabFarWiden));
-        // tNear <= min(tFar, tmax * kBoxTmaxWiden).
+        const __m128 tFar = _mm_mul_ps(_mm_min_ps(farZ, farMinXY), pair.farWidenLanes);
+        // tNear <= min(tFar, tmax * tmaxWiden).
         const __m128 limit = _mm_min_ps(pair.tmaxWidened, tFar);
         ChildBoxHits hits;
         hits.mask = uint32_t(_mm_movemask_ps(_mm_cmple_ps(tNear, limit))) & 3u;
@@ -129,8 +141,10 @@ __attribute__((always_inline)) inline ChildBoxHits intersectChildBoxes(const Chi
 #endif
     const gpu::TraceRay& ray = *pair.ray;
     ChildBoxHits hits;
-    const bool hitLeft = gpu::intersectBox(ray, children[0].lo, children[0].hi, pair.tmax, hits.tLeft);
-    const bool hitRight = gpu::intersectBox(ray, children[1].lo, children[1].hi, pair.tmax, hits.tRight);
+    const bool hitLeft = gpu::intersectBoxWidened(ray, children[0].lo, children[0].hi, pair.tmax, pair.farWiden,
+                                                  pair.tmaxWiden, hits.tLeft);
+    const bool hitRight = gpu::intersectBoxWidened(ray, children[1].lo, children[1].hi, pair.tmax, pair.farWiden,
+                                                   pair.tmaxWiden, hits.tRight);
     hits.mask = (hitLeft ? 1u : 0u) | (hitRight ? 2u : 0u);
     return hits;
 }

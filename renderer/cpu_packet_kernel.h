@@ -32,6 +32,7 @@ struct PacketFrame {
     ClosestHit* hits = nullptr;       // one per pixel: written by the primary pass, read by shadow
     uint32_t* shadowState = nullptr;  // one per pixel: written by the shadow pass
     RayCounters* counters = nullptr;  // one per pixel; null: do not count (the faster kernel)
+    IntersectMode intersect = IntersectMode::Robust;
 };
 
 void tracePrimaryPacketSse41(const PacketFrame& frame, uint32_t x0, uint32_t y0);

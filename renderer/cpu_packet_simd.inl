@@ -234,8 +234,11 @@ RP_SIMD_INLINE bool intervalMayHit(const PacketInterval& interval, const NodeSla
 }
 
 // Lanes of `group` whose ray may touch `node`'s box for t in [0, tmax]: gpu::intersectBox lane by
-// lane, bit for bit (see cpu_box_pair.h for the operand order).
+// lane, bit for bit (see cpu_box_pair.h for the operand order), or gpu::intersectBoxFast (kFast).
+template <bool kFast>
 RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const NodeSlabs& slabs, const BvhNode& node) {
+    const float kFarWiden = kFast ? 1.0f : gpu::kSlabFarWiden;
+    const float kTmaxWiden = kFast ? 1.0f : gpu::kBoxTmaxWiden;
     using S = Simd;
     const F invX = S::load(group.invX), invY = S::load(group.invY), invZ = S::load(group.invZ);
     const F tLoX = S::mul(slabs.lo[0], invX), tHiX = S::mul(slabs.hi[0], invX);
@@ -245,10 +248,10 @@ RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const NodeSlabs& slabs, c
     const F nearX = S::glmMin(tLoX, tHiX), farX = S::glmMax(tLoX, tHiX);
     const F nearY = S::glmMin(tLoY, tHiY), farY = S::glmMax(tLoY, tHiY);
     const F nearZ = S::glmMin(tLoZ, tHiZ), farZ = S::glmMax(tLoZ, tHiZ);
-    // tNear = max(max(x, y), max(z, 0)); tFar = min(min(x, y), z) * kSlabFarWiden.
+    // tNear = max(max(x, y), max(z, 0)); tFar = min(min(x, y), z) * farWiden.
     const F tNear = S::glmMax(S::glmMax(nearX, nearY), S::glmMax(nearZ, S::set1(0.0f)));
-    const F tFar = S::mul(S::glmMin(S::glmMin(farX, farY), farZ), S::set1(gpu::kSlabFarWiden));
-    const F tmaxWidened = S::mul(S::load(group.tmax), S::set1(gpu::kBoxTmaxWiden));
+    const F tFar = S::mul(S::glmMin(S::glmMin(farX, farY), farZ), S::set1(kFarWiden));
+    const F tmaxWidened = S::mul(S::load(group.tmax), S::set1(kTmaxWiden));
     const F hit = S::le(tNear, S::glmMin(tFar, tmaxWidened));
     uint32_t mask = S::bits(hit) & group.activeBits;
     if (group.parallelBits) {  // rare: those lanes take gpu::intersectBox itself
@@ -256,7 +259,9 @@ RP_SIMD_INLINE uint32_t boxMask(const RayGroup& group, const NodeSlabs& slabs, c
         for (uint32_t bits = group.parallelBits & group.activeBits; bits; bits &= bits - 1) {
             const int lane = __builtin_ctz(bits);
             float tEntry;
-            if (gpu::intersectBox(group.rays[lane], node.lo, node.hi, group.tmax[lane], tEntry)) mask |= 1u << lane;
+            if (gpu::intersectBoxWidened(group.rays[lane], node.lo, node.hi, group.tmax[lane], kFarWiden, kTmaxWiden,
+                                         tEntry))
+                mask |= 1u << lane;
         }
     }
     return mask;
@@ -354,6 +359,48 @@ RP_SIMD_INLINE TriangleHits intersectTriangle(const RayGroup& group, const F she
     const F reach = S::mul(S::set1(std::max(std::max(farthest.x, farthest.y), farthest.z)), scale);
     hits.inexactT =
         S::gt(S::mul(S::mul(depthSpread, reach), S::set1(gpu::kInexactTSpread)), S::mul(S::andF(det, absMask), hits.t));
+    return hits;
+}
+
+// dot(a, b) for one vector a and one per lane: (a.x b.x + a.y b.y) + a.z b.z, as glm::dot.
+RP_SIMD_INLINE F dotLanes(const glm::vec3& a, F bx, F by, F bz) {
+    using S = Simd;
+    return S::add(S::add(S::mul(S::set1(a.x), bx), S::mul(S::set1(a.y), by)), S::mul(S::set1(a.z), bz));
+}
+
+// gpu::intersectTriangleFast (Moller-Trumbore) lane by lane, operation for operation as glm's
+// cross and dot order them (cross(x, y) = (x.y y.z - y.y x.z, x.z y.x - y.z x.x, x.x y.y - y.x x.y),
+// dot(a, b) = (a.x b.x + a.y b.y) + a.z b.z). Every ray of the packet starts at `org`, so
+// s = org - v0, q = cross(s, e1) and dot(e2, q) are the same in every lane and computed once.
+RP_SIMD_INLINE TriangleHits intersectTriangleFastLanes(const RayGroup& group, const glm::vec3& v0, const glm::vec3& v1,
+                                                       const glm::vec3& v2, const glm::vec3& org, F tmax) {
+    using S = Simd;
+    const glm::vec3 e1 = v1 - v0;
+    const glm::vec3 e2 = v2 - v0;
+    const glm::vec3 s = org - v0;
+    const glm::vec3 q = glm::cross(s, e1);
+    const float tNumerator = glm::dot(e2, q);
+    const F dx = S::load(group.dirX), dy = S::load(group.dirY), dz = S::load(group.dirZ);
+    const F e2x = S::set1(e2.x), e2y = S::set1(e2.y), e2z = S::set1(e2.z);
+    // p = cross(dir, e2).
+    const F px = S::sub(S::mul(dy, e2z), S::mul(e2y, dz));
+    const F py = S::sub(S::mul(dz, e2x), S::mul(e2z, dx));
+    const F pz = S::sub(S::mul(dx, e2y), S::mul(e2x, dy));
+    const F det = dotLanes(e1, px, py, pz);
+    const F zero = S::set1(0.0f), one = S::set1(1.0f);
+    const F invDet = S::div(one, det);
+    const F u = S::mul(dotLanes(s, px, py, pz), invDet);
+    // dot(dir, q) = (dir.x q.x + dir.y q.y) + dir.z q.z.
+    const F v =
+        S::mul(S::add(S::add(S::mul(dx, S::set1(q.x)), S::mul(dy, S::set1(q.y))), S::mul(dz, S::set1(q.z))), invDet);
+    F reject = S::orF(S::eq(det, zero), S::orF(S::lt(u, zero), S::gt(u, one)));
+    reject = S::orF(reject, S::orF(S::lt(v, zero), S::gt(S::add(u, v), one)));
+    TriangleHits hits;
+    hits.t = S::mul(S::set1(tNumerator), invDet);
+    hits.baryU = u;
+    hits.baryV = v;
+    hits.mask = S::andNot(reject, S::andF(S::gt(hits.t, zero), S::le(hits.t, tmax)));
+    hits.inexactT = zero;
     return hits;
 }
 
@@ -465,7 +512,7 @@ RP_SIMD_INLINE void countLanes(uint32_t* counts, uint32_t laneBits, uint32_t amo
 
 // The closest-hit leaf step of one group: every triangle of the leaf against the lanes in
 // `laneBits`, keeping per lane the least (t, triangle index) (gpu::isCloserHit).
-template <bool kCount>
+template <bool kCount, bool kFast>
 RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const BvhNode& leaf,
                                    const glm::vec3* leafVertices, const uint32_t* primIndices, const glm::vec3& org) {
     using S = Simd;
@@ -479,7 +526,8 @@ RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
     const uint32_t end = leaf.index + leaf.count;
     for (uint32_t entry = leaf.index; entry < end; ++entry) {
         const glm::vec3* v = leafVertices + 3 * size_t(entry);
-        const TriangleHits hits = intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
+        const TriangleHits hits = kFast ? intersectTriangleFastLanes(group, v[0], v[1], v[2], org, tmax)
+                                        : intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
         const F prim = S::set1Bits(primIndices[entry]);
         // isCloserHit(t, prim, bestT, bestPrim): t < bestT || (t == bestT && prim < bestPrim).
         const F closer = S::andF(S::andF(hits.mask, lanes),
@@ -500,7 +548,7 @@ RP_SIMD_INLINE void closestHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
 
 // The any-hit leaf step of one group: lanes that hit a triangle other than their own are occluded
 // and done. Returns the lanes that became done.
-template <bool kCount>
+template <bool kCount, bool kFast>
 RP_SIMD_INLINE uint32_t anyHitLeaf(RayGroup& group, uint32_t laneBits, const BvhNode& leaf,
                                    const glm::vec3* leafVertices, const uint32_t* primIndices, const glm::vec3& org) {
     using S = Simd;
@@ -515,7 +563,8 @@ RP_SIMD_INLINE uint32_t anyHitLeaf(RayGroup& group, uint32_t laneBits, const Bvh
         if (!testing) continue;
         if (kCount) countLanes(group.tests, testing, 1);
         const glm::vec3* v = leafVertices + 3 * size_t(entry);
-        const TriangleHits hits = intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
+        const TriangleHits hits = kFast ? intersectTriangleFastLanes(group, v[0], v[1], v[2], org, tmax)
+                                        : intersectTriangle(group, shear, v[0] - org, v[1] - org, v[2] - org, tmax);
         open &= ~(S::bits(hits.mask) & testing);
     }
     const uint32_t occluded = laneBits & ~open;
@@ -545,7 +594,7 @@ PacketScratch& threadScratch() {
 }
 
 // Traverses the packet's groups through the tree (renderer/cpu_packet_tracer.h).
-template <bool kShadow, bool kCount>
+template <bool kShadow, bool kCount, bool kFast>
 void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCount, const glm::vec3& org,
                     const PacketInterval& interval, const float dirSign[3], StackItem* stack) {
     const BvhNode* nodes = frame.nodes;
@@ -570,18 +619,18 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
         // The first group of the range is tested first (it hits most nodes of a coherent
         // packet); only when it misses does the interval test try to cull the node for the
         // whole packet before the other groups are tested.
-        firstMask = boxMask(groups[first], slabs, node);
+        firstMask = boxMask<kFast>(groups[first], slabs, node);
         if (firstMask || !interval.enabled || intervalMayHit(interval, slabs)) {
             // The first and the last group that hit (Overbeck 2008's active range): the groups
             // outside [first, last] miss this node and all below it (a child's box lies inside
             // its parent's, rounding is monotone, and a ray's tmax only shrinks).
             for (; !firstMask && first < last;) {
                 ++first;
-                firstMask = boxMask(groups[first], slabs, node);
+                firstMask = boxMask<kFast>(groups[first], slabs, node);
             }
             if (firstMask) {
                 for (; last > first; --last) {
-                    lastMask = boxMask(groups[last], slabs, node);
+                    lastMask = boxMask<kFast>(groups[last], slabs, node);
                     if (lastMask) break;
                 }
                 if (last == first) lastMask = firstMask;
@@ -607,13 +656,15 @@ void traversePacket(const PacketFrame& frame, RayGroup* groups, uint32_t groupCo
             }
             for (uint32_t g = first; g <= last; ++g) {
                 RayGroup& group = groups[g];
-                const uint32_t mask = g == first ? firstMask : g == last ? lastMask : boxMask(group, slabs, node);
+                const uint32_t mask = g == first  ? firstMask
+                                      : g == last ? lastMask
+                                                  : boxMask<kFast>(group, slabs, node);
                 if (!mask) continue;
                 if (kShadow) {
                     activeLanes -= uint32_t(__builtin_popcount(
-                        anyHitLeaf<kCount>(group, mask, node, frame.leafVertices, frame.primIndices, org)));
+                        anyHitLeaf<kCount, kFast>(group, mask, node, frame.leafVertices, frame.primIndices, org)));
                 } else {
-                    closestHitLeaf<kCount>(group, mask, node, frame.leafVertices, frame.primIndices, org);
+                    closestHitLeaf<kCount, kFast>(group, mask, node, frame.leafVertices, frame.primIndices, org);
                 }
             }
             if (kShadow && activeLanes == 0) return;  // every shadow ray is occluded
@@ -848,7 +899,7 @@ RP_SIMD_INLINE void refineInexactHits(const PacketFrame& frame, RayGroup& group)
     S::store(group.tmax, S::select(S::fromBits(lanes), t, tmax));
 }
 
-template <bool kCount>
+template <bool kCount, bool kFast>
 void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     const PacketLayout layout = packetLayout(frame, x0, y0);
     const uint32_t groupCount = layout.groupsX * layout.groupsY;
@@ -880,10 +931,10 @@ void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     PacketInterval interval;
     float dirSign[3];
     builder.finish(interval, dirSign);
-    traversePacket<false, kCount>(frame, groups, groupCount, frame.eye, interval, dirSign, scratch.stack.data());
+    traversePacket<false, kCount, kFast>(frame, groups, groupCount, frame.eye, interval, dirSign, scratch.stack.data());
     for (uint32_t g = 0; g < groupCount; ++g) {
         RayGroup& group = groups[g];
-        refineInexactHits(frame, group);
+        if (!kFast) refineInexactHits(frame, group);
         for (int lane = 0; lane < L; ++lane) {
             const uint32_t pixel = group.pixel[lane];
             if (pixel == kNoHit) continue;
@@ -902,7 +953,7 @@ void tracePrimaryPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     }
 }
 
-template <bool kCount>
+template <bool kCount, bool kFast>
 void traceShadowPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     const PacketLayout layout = packetLayout(frame, x0, y0);
     const uint32_t groupCount = layout.groupsX * layout.groupsY;
@@ -954,7 +1005,8 @@ void traceShadowPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     PacketInterval interval;
     float dirSign[3];
     builder.finish(interval, dirSign);
-    traversePacket<true, kCount>(frame, groups, groupCount, frame.light, interval, dirSign, scratch.stack.data());
+    traversePacket<true, kCount, kFast>(frame, groups, groupCount, frame.light, interval, dirSign,
+                                        scratch.stack.data());
     for (uint32_t g = 0; g < groupCount; ++g) {
         const RayGroup& group = groups[g];
         for (int lane = 0; lane < L; ++lane) {
@@ -969,18 +1021,21 @@ void traceShadowPacket(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
     }
 }
 
+// One instantiation per (counting, intersection mode): neither costs the other a branch.
 void tracePrimary(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
+    const bool fast = frame.intersect == IntersectMode::Fast;
     if (frame.counters)
-        tracePrimaryPacket<true>(frame, x0, y0);
+        fast ? tracePrimaryPacket<true, true>(frame, x0, y0) : tracePrimaryPacket<true, false>(frame, x0, y0);
     else
-        tracePrimaryPacket<false>(frame, x0, y0);
+        fast ? tracePrimaryPacket<false, true>(frame, x0, y0) : tracePrimaryPacket<false, false>(frame, x0, y0);
 }
 
 void traceShadow(const PacketFrame& frame, uint32_t x0, uint32_t y0) {
+    const bool fast = frame.intersect == IntersectMode::Fast;
     if (frame.counters)
-        traceShadowPacket<true>(frame, x0, y0);
+        fast ? traceShadowPacket<true, true>(frame, x0, y0) : traceShadowPacket<true, false>(frame, x0, y0);
     else
-        traceShadowPacket<false>(frame, x0, y0);
+        fast ? traceShadowPacket<false, true>(frame, x0, y0) : traceShadowPacket<false, false>(frame, x0, y0);
 }
 
 #undef RP_SIMD_INLINE

@@ -46,7 +46,7 @@ void tracePrimaryScalar(const CpuSceneView& view, const packet_detail::PacketFra
             const size_t pixel = size_t(y) * frame.width + x;
             const glm::vec3 dir = gpu::primaryRayDirection(frame.camera, x, y);
             TraversalCounts counts;
-            frame.hits[pixel] = traceClosestHit(view, frame.eye, dir, kRayTmaxInfinite, &counts);
+            frame.hits[pixel] = traceClosestHit(view, frame.eye, dir, kRayTmaxInfinite, &counts, frame.intersect);
             if (frame.counters) {
                 frame.counters[pixel].primaryNodes = counts.nodes;
                 frame.counters[pixel].primaryTests = counts.tests;
@@ -66,7 +66,7 @@ void traceShadowScalar(const CpuSceneView& view, const packet_detail::PacketFram
             const glm::vec3 dir = gpu::primaryRayDirection(frame.camera, x, y);
             const glm::vec3 point = gpu::hitPosition(frame.eye, dir, hit.t);
             TraversalCounts counts;
-            const bool occluded = traceShadowOccluded(view, frame.light, point, hit.prim, &counts);
+            const bool occluded = traceShadowOccluded(view, frame.light, point, hit.prim, &counts, frame.intersect);
             frame.shadowState[pixel] = occluded ? gpu::kShadowOccluded : gpu::kShadowLit;
             if (frame.counters) {
                 frame.counters[pixel].shadowNodes = counts.nodes;
@@ -154,6 +154,7 @@ Frame renderCpuPackets(const CpuSceneView& view, const RenderSettings& settings,
     packetFrame.hits = hits.data();
     packetFrame.shadowState = shadowState.data();
     packetFrame.counters = count ? counters.data() : nullptr;
+    packetFrame.intersect = settings.intersect;
 
     PacketFunction primary = nullptr;
     PacketFunction shadow = nullptr;

@@ -17,6 +17,7 @@
 #include <chrono>
 #include <limits>
 #include <memory>
+#include <type_traits>
 
 namespace raypack {
 namespace {
@@ -143,15 +144,33 @@ __attribute__((always_inline)) inline bool descend(const ChildBoxHits& hits, uin
     return true;
 }
 
+// The box test of the root and the triangle test of IntersectMode::Fast (kFast) or Robust
+// (shaders/intersect.h). A template parameter, so that neither traversal pays for the other's test.
+template <bool kFast>
+RP_HOT_FUNC bool rootBoxTest(const gpu::TraceRay& ray, const BvhNode& root, float tmax, float& tEntry) {
+    if constexpr (kFast) return gpu::intersectBoxFast(ray, root.lo, root.hi, tmax, tEntry);
+    return gpu::intersectBox(ray, root.lo, root.hi, tmax, tEntry);
+}
+
+template <bool kFast>
+RP_HOT_FUNC bool triangleTest(const gpu::TraceRay& ray, glm::vec3 v0, glm::vec3 v1, glm::vec3 v2, float tmax, float& t,
+                              glm::vec2& bary, bool& inexactT) {
+    if constexpr (kFast) {
+        inexactT = false;  // the fast path keeps Moller-Trumbore's t
+        return gpu::intersectTriangleFast(ray, v0, v1, v2, tmax, t, bary);
+    }
+    return gpu::intersectTriangle(ray, v0, v1, v2, tmax, t, bary, inexactT);
+}
+
 // Ordered closest-hit traversal. `stack` holds at least the tree's depth + 1 entries.
-template <class Triangles>
+template <bool kFast, class Triangles>
 ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray, float tmax,
                       StackEntry* stack, uint32_t stackEntries, TraversalCounts& counts) {
     ClosestHit best;
     float bestT = tmax;
     float tRoot;
-    if (!gpu::intersectBox(ray, nodes[0].lo, nodes[0].hi, bestT, tRoot)) return best;
-    ChildBoxRay boxRay = makeChildBoxRay(ray, bestT);
+    if (!rootBoxTest<kFast>(ray, nodes[0], bestT, tRoot)) return best;
+    ChildBoxRay boxRay = makeChildBoxRay(ray, bestT, kFast);
     // Counted in locals: through the reference, every stack write might alias them.
     uint32_t visitedNodes = 0;
     uint32_t triangleTests = 0;
@@ -171,7 +190,7 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
                 float t;
                 glm::vec2 bary;
                 bool inexactT;
-                if (!gpu::intersectTriangle(ray, v0, v1, v2, bestT, t, bary, inexactT)) continue;
+                if (!triangleTest<kFast>(ray, v0, v1, v2, bestT, t, bary, inexactT)) continue;
                 const uint32_t prim = triangles.prim(entry);
                 if (gpu::isCloserHit(t, prim, bestT, best.prim)) {
                     bestT = t;
@@ -203,7 +222,7 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
                 return best;
             }
             const StackEntry entry = stack[--top];
-            if (entry.tEntry <= bestT * gpu::kBoxTmaxWiden) {
+            if (entry.tEntry <= bestT * boxRay.tmaxWiden) {
                 nodeIndex = entry.node;
                 break;
             }
@@ -212,12 +231,12 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
 }
 
 // Any-hit traversal for shadow rays: stops at the first triangle other than skipPrim.
-template <class Triangles>
+template <bool kFast, class Triangles>
 bool anyHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRay& ray, float tmax, uint32_t skipPrim,
             StackEntry* stack, uint32_t stackEntries, TraversalCounts& counts) {
     float tRoot;
-    if (!gpu::intersectBox(ray, nodes[0].lo, nodes[0].hi, tmax, tRoot)) return false;
-    const ChildBoxRay boxRay = makeChildBoxRay(ray, tmax);
+    if (!rootBoxTest<kFast>(ray, nodes[0], tmax, tRoot)) return false;
+    const ChildBoxRay boxRay = makeChildBoxRay(ray, tmax, kFast);
     uint32_t visitedNodes = 0;
     uint32_t triangleTests = 0;
     bool occluded = false;
@@ -235,7 +254,8 @@ bool anyHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRa
                 ++triangleTests;
                 float t;
                 glm::vec2 bary;
-                if (gpu::intersectTriangle(ray, v0, v1, v2, tmax, t, bary)) {
+                bool inexactT;
+                if (triangleTest<kFast>(ray, v0, v1, v2, tmax, t, bary, inexactT)) {
                     occluded = true;
                     break;
                 }
@@ -251,6 +271,14 @@ bool anyHit(const BvhNode* nodes, const Triangles& triangles, const gpu::TraceRa
     counts.nodes += visitedNodes;
     counts.tests += triangleTests;
     return occluded;
+}
+
+// Calls body(std::true_type) for IntersectMode::Fast and body(std::false_type) for Robust, so that a
+// mode chosen at run time selects one instantiation of the traversal (decltype(fast)::value).
+template <class Body>
+decltype(auto) withIntersectMode(IntersectMode mode, Body&& body) {
+    if (mode == IntersectMode::Fast) return body(std::true_type{});
+    return body(std::false_type{});
 }
 
 // Stack storage for the single-ray entry points: on the call stack for trees up to 255 levels.
@@ -300,47 +328,53 @@ CpuSceneView makeCpuSceneView(const Scene& scene, const Bvh& bvh) {
 }
 
 ClosestHit traceClosestHit(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax,
-                           TraversalCounts* counts) {
+                           TraversalCounts* counts, IntersectMode mode) {
     checkRay(dir);
     SmallStack stack(view.stackEntries);
     TraversalCounts local;
     const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
-    const ClosestHit hit =
-        closestHit(view.nodes(), triangles, gpu::makeTraceRay(origin, dir), tmax, stack.data(), stack.size(), local);
+    const ClosestHit hit = withIntersectMode(mode, [&](auto fast) {
+        return closestHit<decltype(fast)::value>(view.nodes(), triangles, gpu::makeTraceRay(origin, dir), tmax,
+                                                 stack.data(), stack.size(), local);
+    });
     if (counts) *counts = local;
     return hit;
 }
 
 bool traceOccluded(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax, uint32_t skipPrim,
-                   TraversalCounts* counts) {
+                   TraversalCounts* counts, IntersectMode mode) {
     checkRay(dir);
     SmallStack stack(view.stackEntries);
     TraversalCounts local;
     const GatheredTriangles triangles{view.leafVertices.data(), view.bvh->primIndices.data()};
-    const bool occluded = anyHit(view.nodes(), triangles, gpu::makeTraceRay(origin, dir), tmax, skipPrim, stack.data(),
-                                 stack.size(), local);
+    const bool occluded = withIntersectMode(mode, [&](auto fast) {
+        return anyHit<decltype(fast)::value>(view.nodes(), triangles, gpu::makeTraceRay(origin, dir), tmax, skipPrim,
+                                             stack.data(), stack.size(), local);
+    });
     if (counts) *counts = local;
     return occluded;
 }
 
 bool traceShadowOccluded(const CpuSceneView& view, glm::vec3 light, glm::vec3 hitPoint, uint32_t hitPrim,
-                         TraversalCounts* counts) {
+                         TraversalCounts* counts, IntersectMode mode) {
     const gpu::ShadowRay shadow = gpu::makeShadowRay(light, hitPoint, hitPrim);
     if (gpu::isDegenerateShadowRay(shadow)) {
         if (counts) *counts = {};
         return false;
     }
-    return traceOccluded(view, shadow.org, shadow.dir, shadow.tmax, shadow.skipPrim, counts);
+    return traceOccluded(view, shadow.org, shadow.dir, shadow.tmax, shadow.skipPrim, counts, mode);
 }
 
 HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax,
-                       RayCounters* counters) {
+                       RayCounters* counters, IntersectMode mode) {
     checkRay(dir);
     SmallStack stack(depthFromStatsOrWalk(bvh) + 1);
     TraversalCounts counts;
     const SceneTriangles triangles{&scene, bvh.primIndices.data()};
-    const ClosestHit hit = closestHit(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir), tmax, stack.data(),
-                                      stack.size(), counts);
+    const ClosestHit hit = withIntersectMode(mode, [&](auto fast) {
+        return closestHit<decltype(fast)::value>(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir), tmax,
+                                                 stack.data(), stack.size(), counts);
+    });
     if (counters) {
         counters->primaryNodes += counts.nodes;
         counters->primaryTests += counts.tests;
@@ -349,13 +383,15 @@ HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm
 }
 
 bool traceOccluded(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax, uint32_t skipPrim,
-                   RayCounters* counters) {
+                   RayCounters* counters, IntersectMode mode) {
     checkRay(dir);
     SmallStack stack(depthFromStatsOrWalk(bvh) + 1);
     TraversalCounts counts;
     const SceneTriangles triangles{&scene, bvh.primIndices.data()};
-    const bool occluded = anyHit(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir), tmax, skipPrim,
-                                 stack.data(), stack.size(), counts);
+    const bool occluded = withIntersectMode(mode, [&](auto fast) {
+        return anyHit<decltype(fast)::value>(bvh.nodes.data(), triangles, gpu::makeTraceRay(origin, dir), tmax,
+                                             skipPrim, stack.data(), stack.size(), counts);
+    });
     if (counters) {
         counters->shadowNodes += counts.nodes;
         counters->shadowTests += counts.tests;
@@ -443,48 +479,54 @@ Frame renderCpu(const CpuSceneView& view, const RenderSettings& settings, const 
 
     // Pass 1: primary rays.
     Clock::time_point passStart = Clock::now();
-    tbb::parallel_for(
-        tiles,
-        [&](const tbb::blocked_range2d<uint32_t>& tile) {
-            std::vector<StackEntry> stack(stackEntries);
-            forEachPixelInZOrder(tile, [&](uint32_t x, uint32_t y) {
-                const size_t pixel = size_t(y) * width + x;
-                const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
-                TraversalCounts counts;
-                hits[pixel] = closestHit(nodes, triangles, gpu::makeTraceRay(eye, dir), kRayTmaxInfinite, stack.data(),
-                                         stackEntries, counts);
-                counters[pixel].primaryNodes = counts.nodes;
-                counters[pixel].primaryTests = counts.tests;
-            });
-        },
-        tbb::simple_partitioner());
-    frame.timings.primarySeconds = secondsSince(passStart);
-
-    // Pass 2: shadow rays from the light towards each hit point (report 2.3, 3.5).
-    if (settings.shadows) {
-        passStart = Clock::now();
+    withIntersectMode(settings.intersect, [&](auto fast) {
         tbb::parallel_for(
             tiles,
             [&](const tbb::blocked_range2d<uint32_t>& tile) {
                 std::vector<StackEntry> stack(stackEntries);
                 forEachPixelInZOrder(tile, [&](uint32_t x, uint32_t y) {
                     const size_t pixel = size_t(y) * width + x;
-                    const ClosestHit& hit = hits[pixel];
-                    if (!hit.hit()) return;
                     const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
-                    const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
-                    const gpu::ShadowRay shadow = gpu::makeShadowRay(light, point, hit.prim);
-                    bool occluded = false;
                     TraversalCounts counts;
-                    if (!gpu::isDegenerateShadowRay(shadow))
-                        occluded = anyHit(nodes, triangles, gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
-                                          shadow.skipPrim, stack.data(), stackEntries, counts);
-                    shadowState[pixel] = occluded ? gpu::kShadowOccluded : gpu::kShadowLit;
-                    counters[pixel].shadowNodes = counts.nodes;
-                    counters[pixel].shadowTests = counts.tests;
+                    hits[pixel] =
+                        closestHit<decltype(fast)::value>(nodes, triangles, gpu::makeTraceRay(eye, dir),
+                                                          kRayTmaxInfinite, stack.data(), stackEntries, counts);
+                    counters[pixel].primaryNodes = counts.nodes;
+                    counters[pixel].primaryTests = counts.tests;
                 });
             },
             tbb::simple_partitioner());
+    });
+    frame.timings.primarySeconds = secondsSince(passStart);
+
+    // Pass 2: shadow rays from the light towards each hit point (report 2.3, 3.5).
+    if (settings.shadows) {
+        passStart = Clock::now();
+        withIntersectMode(settings.intersect, [&](auto fast) {
+            tbb::parallel_for(
+                tiles,
+                [&](const tbb::blocked_range2d<uint32_t>& tile) {
+                    std::vector<StackEntry> stack(stackEntries);
+                    forEachPixelInZOrder(tile, [&](uint32_t x, uint32_t y) {
+                        const size_t pixel = size_t(y) * width + x;
+                        const ClosestHit& hit = hits[pixel];
+                        if (!hit.hit()) return;
+                        const glm::vec3 dir = gpu::primaryRayDirection(camera, x, y);
+                        const glm::vec3 point = gpu::hitPosition(eye, dir, hit.t);
+                        const gpu::ShadowRay shadow = gpu::makeShadowRay(light, point, hit.prim);
+                        bool occluded = false;
+                        TraversalCounts counts;
+                        if (!gpu::isDegenerateShadowRay(shadow))
+                            occluded = anyHit<decltype(fast)::value>(
+                                nodes, triangles, gpu::makeTraceRay(shadow.org, shadow.dir), shadow.tmax,
+                                shadow.skipPrim, stack.data(), stackEntries, counts);
+                        shadowState[pixel] = occluded ? gpu::kShadowOccluded : gpu::kShadowLit;
+                        counters[pixel].shadowNodes = counts.nodes;
+                        counters[pixel].shadowTests = counts.tests;
+                    });
+                },
+                tbb::simple_partitioner());
+        });
         frame.timings.shadowSeconds = secondsSince(passStart);
     }
 

@@ -70,23 +70,27 @@ struct TraversalCounts {
 // Closest hit along origin + t * dir for t in (0, tmax] (a hit at the origin,
 // t = 0, is none: shaders/intersect.h); dir must be non-zero, need not be unit.
 // Ties in t go to the lower triangle index (gpu::isCloserHit).
+// `mode`: the box and triangle tests (renderer/settings.h, IntersectMode), here and below.
 ClosestHit traceClosestHit(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax = kRayTmaxInfinite,
-                           TraversalCounts* counts = nullptr);
+                           TraversalCounts* counts = nullptr, IntersectMode mode = IntersectMode::Robust);
 // Whether any triangle other than `skipPrim` lies on origin + t * dir for t in (0, tmax]; stops at
 // the first one found.
 bool traceOccluded(const CpuSceneView& view, glm::vec3 origin, glm::vec3 dir, float tmax,
-                   uint32_t skipPrim = 0xFFFFFFFFu, TraversalCounts* counts = nullptr);
+                   uint32_t skipPrim = 0xFFFFFFFFu, TraversalCounts* counts = nullptr,
+                   IntersectMode mode = IntersectMode::Robust);
 // The shadow ray of a hit (gpu::makeShadowRay): true when the light does not reach the hit point.
 bool traceShadowOccluded(const CpuSceneView& view, glm::vec3 light, glm::vec3 hitPoint, uint32_t hitPrim,
-                         TraversalCounts* counts = nullptr);
+                         TraversalCounts* counts = nullptr, IntersectMode mode = IntersectMode::Robust);
 
 // Single rays straight on Scene + Bvh, for tests and tools (no gathering, no allocation unless
 // the tree is deeper than 255 levels). traceClosest fills record.shadow = kShadowNone and adds its
 // counts to counters->primary*, traceOccluded to counters->shadow*.
 HitRecord traceClosest(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir,
-                       float tmax = kRayTmaxInfinite, RayCounters* counters = nullptr);
+                       float tmax = kRayTmaxInfinite, RayCounters* counters = nullptr,
+                       IntersectMode mode = IntersectMode::Robust);
 bool traceOccluded(const Scene& scene, const Bvh& bvh, glm::vec3 origin, glm::vec3 dir, float tmax,
-                   uint32_t skipPrim = 0xFFFFFFFFu, RayCounters* counters = nullptr);
+                   uint32_t skipPrim = 0xFFFFFFFFu, RayCounters* counters = nullptr,
+                   IntersectMode mode = IntersectMode::Robust);
 
 // The last pass of a CPU frame, shared by every CPU tracer: from each pixel's closest hit, its
 // shadow state (gpu::kShadowNone/Lit/Occluded) and its counters, the shaded or heat-map image,

@@ -38,11 +38,12 @@ struct PipelineKey {
     bool statistics;
     uint32_t view;
     uint32_t stackEntries;
+    IntersectMode intersect;
     uint32_t hybridMinRays = 0;     // the hybrid kernel's split rules (0 for the other kernels)
     uint32_t hybridVisitRatio = 0;  // in 1/100
     auto tie() const {
-        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, hybridMinRays,
-                        hybridVisitRatio);
+        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect,
+                        hybridMinRays, hybridVisitRatio);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -359,6 +360,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     data.rayStackEntries = packet ? 1u : hybrid ? 2u * key.stackEntries : key.stackEntries;
     data.packetIsOneSubgroup =
         sharedStack && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
+    data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
     data.hybridMinRays = key.hybridMinRays;
     data.hybridVisitRatio = key.hybridVisitRatio;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
@@ -489,7 +491,8 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel, shape.width, shape.height, 0u, statistics, view, s.stackEntries};
+    PipelineKey key{settings.kernel, shape.width, shape.height,   0u,
+                    statistics,      view,        s.stackEntries, settings.intersect};
     if (settings.kernel == KernelKind::Hybrid) {
         key.hybridMinRays = settings.hybrid.minRays;
         key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));

@@ -41,9 +41,10 @@ const uint kSpecView = 5u;                 // kView*
 const uint kSpecPacketStackEntries = 6u;   // the packet's shared stack (1 for the single-ray kernel)
 const uint kSpecRayStackEntries = 7u;      // each ray's own stack (1 for the packet kernel)
 const uint kSpecPacketIsOneSubgroup = 8u;  // bool: the packet is exactly one subgroup
-const uint kSpecHybridMinRays = 9u;        // hybrid kernel: split when fewer rays want the node (K)
-const uint kSpecHybridVisitRatio = 10u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
-const uint kSpecCount = 11u;
+const uint kSpecFastIntersect = 9u;        // bool: IntersectMode::Fast (shaders/intersect.h)
+const uint kSpecHybridMinRays = 10u;       // hybrid kernel: split when fewer rays want the node (K)
+const uint kSpecHybridVisitRatio = 11u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
+const uint kSpecCount = 12u;
 
 // ---- shaders/rt/rt_peer.rgen (renderer/vk/rt_peer.cpp): set 0.
 const uint kRtBindTlas = 0u;  // the top-level acceleration structure
@@ -66,10 +67,11 @@ struct TraceSpecialization {
     uint packetStackEntries;
     uint rayStackEntries;
     uint packetIsOneSubgroup;  // VkBool32
+    uint fastIntersect;        // VkBool32
     uint hybridMinRays;
     uint hybridVisitRatio;
 };
-RP_CHECK_SIZE(TraceSpecialization, 44);
+RP_CHECK_SIZE(TraceSpecialization, 48);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -79,8 +81,9 @@ RP_CHECK_OFFSET(TraceSpecialization, view, 20);
 RP_CHECK_OFFSET(TraceSpecialization, packetStackEntries, 24);
 RP_CHECK_OFFSET(TraceSpecialization, rayStackEntries, 28);
 RP_CHECK_OFFSET(TraceSpecialization, packetIsOneSubgroup, 32);
-RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 36);
-RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 40);
+RP_CHECK_OFFSET(TraceSpecialization, fastIntersect, 36);
+RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 40);
+RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 44);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -101,6 +104,7 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecPacketStackEntries, packetStackEntries),
     RP_SPEC_ENTRY(kSpecRayStackEntries, rayStackEntries),
     RP_SPEC_ENTRY(kSpecPacketIsOneSubgroup, packetIsOneSubgroup),
+    RP_SPEC_ENTRY(kSpecFastIntersect, fastIntersect),
     RP_SPEC_ENTRY(kSpecHybridMinRays, hybridMinRays),
     RP_SPEC_ENTRY(kSpecHybridVisitRatio, hybridVisitRatio),
 };

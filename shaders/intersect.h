@@ -119,12 +119,12 @@ RP_HOT_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
     return r;
 }
 
-// Conservative slab test against [lo, hi] for t in [0, tmax] (tmax widened by kBoxTmaxWiden); closed
-// at 0 on purpose: a box is a bound, and a triangle touching the ray origin is decided by
-// intersectTriangle's t > 0.
-// Returns whether the ray may touch the box; tEntry is the entry distance (clamped to 0). Boxes are closed: a ray lying
-// in a face plane, or parallel to an axis and inside that slab, hits.
-RP_HOT_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
+// The slab test against [lo, hi] for t in [0, tmax], its far distance multiplied by farWiden and
+// tmax by tmaxWiden: intersectBox (conservative, Ize's factors) and intersectBoxFast (both 1, the
+// plain slab test) are this one body, the factors constants that fold away. Multiplying by 1 is
+// exact, so the fast test is exactly the unwidened one.
+RP_HOT_FUNC bool intersectBoxWidened(TraceRay r, vec3 lo, vec3 hi, float tmax, float farWiden, float tmaxWiden,
+                                     RP_OUT(float) tEntry) {
     const vec3 tLo = (lo - r.org) * r.invDir;
     const vec3 tHi = (hi - r.org) * r.invDir;
     const vec3 tNear3 = min(tLo, tHi);
@@ -140,9 +140,25 @@ RP_HOT_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(f
         }
     }
     const float tNear = max(max(tNear3.x, tNear3.y), max(tNear3.z, 0.0f));
-    const float tFar = min(min(tFar3.x, tFar3.y), tFar3.z) * kSlabFarWiden;
+    const float tFar = min(min(tFar3.x, tFar3.y), tFar3.z) * farWiden;
     tEntry = tNear;
-    return tNear <= min(tFar, tmax * kBoxTmaxWiden);
+    return tNear <= min(tFar, tmax * tmaxWiden);
+}
+
+// Conservative slab test against [lo, hi] for t in [0, tmax] (tmax widened by kBoxTmaxWiden); closed
+// at 0 on purpose: a box is a bound, and a triangle touching the ray origin is decided by
+// intersectTriangle's t > 0.
+// Returns whether the ray may touch the box; tEntry is the entry distance (clamped to 0). Boxes are
+// closed: a ray lying in a face plane, or parallel to an axis and inside that slab, hits.
+RP_HOT_FUNC bool intersectBox(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
+    return intersectBoxWidened(r, lo, hi, tmax, kSlabFarWiden, kBoxTmaxWiden, tEntry);
+}
+
+// The plain slab test (IntersectMode::Fast): the rounding of the slab distances may cull a box that
+// a ray grazes, so a triangle lying in a box's face can be lost to a ray that meets it at the face.
+// Parallel axes keep their explicit rule: GLSL does not promise IEEE infinities.
+RP_HOT_FUNC bool intersectBoxFast(TraceRay r, vec3 lo, vec3 hi, float tmax, RP_OUT(float) tEntry) {
+    return intersectBoxWidened(r, lo, hi, tmax, 1.0f, 1.0f, tEntry);
 }
 
 // The 2D edge function of the edge p -> q at the origin (the ray), cross(q, p) = q.x*p.y - q.y*p.x,
@@ -276,6 +292,39 @@ RP_HOT_FUNC bool intersectTriangle(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float 
                                    RP_OUT(vec2) bary) {
     bool inexactT;
     return intersectTriangle(r, v0, v1, v2, tmax, t, bary, inexactT);
+}
+
+// ---- The fast triangle test (issue 15, IntersectMode::Fast).
+// Moller and Trumbore 1997 ("Fast, Minimum Storage Ray/Triangle Intersection", JGT 2(1)): two cross
+// products and four dot products, no shear, no scaling, no accurate distance. What it gives up is
+// the watertight test's care: u and v are rounded quotients computed differently in the two
+// triangles of an edge, so a ray through a shared edge or vertex can pass both tests' bounds and
+// miss both triangles (tests/test_intersect.cpp, FastIntersect.*, shows it on a lattice of shared
+// vertices where the watertight test loses none), and its t is only as good as dot(e2, q) / det.
+// The classic absolute epsilon on det is left out (det == 0 only): an absolute bound would discard
+// every triangle of a scene drawn at 1e-4 units, which is not a speed trade but a broken image.
+// GLSL may fuse its products (no `precise`): the fast path promises no bit-equality between tracers.
+RP_HOT_FUNC bool intersectTriangleFast(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, RP_OUT(float) t,
+                                       RP_OUT(vec2) bary) {
+    t = 0.0f;
+    bary = vec2(0.0f);
+    const vec3 e1 = v1 - v0;
+    const vec3 e2 = v2 - v0;
+    const vec3 p = cross(r.dir, e2);
+    const float det = dot(e1, p);
+    if (det == 0.0f) return false;
+    const float invDet = 1.0f / det;
+    const vec3 s = r.org - v0;
+    const float u = dot(s, p) * invDet;
+    if (u < 0.0f || u > 1.0f) return false;
+    const vec3 q = cross(s, e1);
+    const float v = dot(r.dir, q) * invDet;
+    if (v < 0.0f || u + v > 1.0f) return false;
+    const float hitT = dot(e2, q) * invDet;
+    if (!(hitT > 0.0f && hitT <= tmax)) return false;
+    t = hitT;
+    bary = vec2(u, v);
+    return true;
 }
 
 // ---- The accurate distance of an accepted hit (issue 15).

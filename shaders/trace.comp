@@ -39,6 +39,10 @@ layout(constant_id = kSpecRayStackEntries) const uint kRayStackEntries = 1;
 // Whether one packet is exactly one subgroup (decided by the host, GpuTracer): then the vote needs
 // neither shared memory nor a barrier. Checked once per packet (kStatusSubgroupMismatch).
 layout(constant_id = kSpecPacketIsOneSubgroup) const bool kPacketIsOneSubgroup = false;
+// IntersectMode::Fast: Moller-Trumbore and the plain slab test instead of the watertight test, the
+// conservative slab test and the accurate hit distance (shaders/intersect.h). A constant, so that
+// each pipeline holds one path only and neither pays for the other.
+layout(constant_id = kSpecFastIntersect) const bool kFastIntersect = false;
 // The hybrid kernel's two split rules (traceHybrid, docs/gpu.md): the packet splits into single
 // rays when fewer than kHybridMinRays of its active rays want the node it visits (0: never by this
 // rule), or, when kHybridVisitRatio is not 0, when its inner-node visits summed over its active
@@ -109,6 +113,20 @@ RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, b
     return q;
 }
 
+// The box and triangle tests of the pipeline's IntersectMode.
+bool boxTest(TraceRay r, vec3 lo, vec3 hi, float tmax, out float tEntry) {
+    if (kFastIntersect) return intersectBoxFast(r, lo, hi, tmax, tEntry);
+    return intersectBox(r, lo, hi, tmax, tEntry);
+}
+
+bool triangleTest(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary, out bool inexactT) {
+    if (kFastIntersect) {
+        inexactT = false;  // the fast path keeps the triangle test's t
+        return intersectTriangleFast(r, v0, v1, v2, tmax, t, bary);
+    }
+    return intersectTriangle(r, v0, v1, v2, tmax, t, bary, inexactT);
+}
+
 uvec2 nodeEntry(GpuNode n) { return uvec2(floatBitsToUint(n.lo.w), floatBitsToUint(n.hi.w)); }
 
 // Tests the `count` triangles from `first` (leaf order). Shadow rays stop at the first occluder
@@ -122,7 +140,7 @@ void intersectLeaf(inout RayQuery q, uint first, uint count) {
         float t;
         vec2 bary;
         bool inexactT;
-        if (!intersectTriangle(q.ray, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, q.tmax, t, bary, inexactT)) continue;
+        if (!triangleTest(q.ray, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, q.tmax, t, bary, inexactT)) continue;
         if (q.anyHit) {
             q.leafTri = i;
             q.fileTri = file;
@@ -210,7 +228,7 @@ uvec2 popEntry(uint slot) {
 void tracePacket(inout RayQuery q) {
     const GpuNode root = nodes[0];
     float entry;
-    bool wantCurrent = q.isActive && intersectBox(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+    bool wantCurrent = q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
     q.isActive = wantCurrent;
     uvec2 current = nodeEntry(root);
     uint parity = 0u;
@@ -259,9 +277,9 @@ void tracePacket(inout RayQuery q) {
             if (kStatistics && q.isActive) q.nodes += 1u;
             float entryLeft, entryRight;
             const bool hitLeft =
-                intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
+                boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
             const bool hitRight =
-                intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
+                boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
             const PacketVote votes = packetVote(hitLeft, hitRight, rightFirst, q.isActive,
                                                 countActive, parity);
@@ -334,7 +352,7 @@ void traceSingle(inout RayQuery q) {
     uint stackSize = 0u;
     const GpuNode root = nodes[0];
     float entry;
-    bool done = !(q.isActive && intersectBox(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry));
+    bool done = !(q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry));
     uvec2 current = nodeEntry(root);
     uint steps = 0u;  // inner nodes visited plus triangles tested, bounded by kMaxTraversalSteps
     while (!done) {
@@ -348,8 +366,8 @@ void traceSingle(inout RayQuery q) {
             const GpuNode right = nodes[current.x + 1u];
             if (kStatistics) q.nodes += 1u;
             float entryLeft, entryRight;
-            const bool hitLeft = intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
-            const bool hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
+            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
+            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
             if (hitLeft && hitRight) {
                 const bool rightFirst = entryRight < entryLeft;
                 current = nodeEntry(rightFirst ? right : left);
@@ -447,7 +465,7 @@ void traceHybrid(inout RayQuery q) {
     uint raySize = 0u;
     const GpuNode root = nodes[0];
     float entry;
-    bool wantCurrent = q.isActive && intersectBox(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+    bool wantCurrent = q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
     q.isActive = wantCurrent;
     uvec2 current = nodeEntry(root);
     uint parity = 0u;
@@ -490,8 +508,8 @@ void traceHybrid(inout RayQuery q) {
             const GpuNode right = nodes[current.x + 1u];
             if (kStatistics && q.isActive) q.nodes += 1u;
             float entryLeft, entryRight;
-            const bool hitLeft = intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
-            const bool hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
+            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
+            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
             const HybridVote hv =
                 hybridVote(hitLeft, hitRight, rightFirst, q.isActive && wantCurrent, q.isActive, countActive, parity);
@@ -598,8 +616,8 @@ void traceHybrid(inout RayQuery q) {
             const GpuNode right = nodes[current.x + 1u];
             if (kStatistics) q.nodes += 1u;
             float entryLeft, entryRight;
-            const bool hitLeft = intersectBox(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
-            const bool hitRight = intersectBox(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
+            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
+            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
             if (hitLeft && hitRight) {
                 const bool rightFirst = entryRight < entryLeft;
                 current = nodeEntry(rightFirst ? right : left);

@@ -205,6 +205,47 @@ TEST(CpuPacket, SameHitsOnRandomScenesShapesAndOddSizes) {
     }
 }
 
+// IntersectMode::Fast: the packet kernel's Moller-Trumbore and plain slab test, lane by lane, are
+// the reference's fast path bit for bit, inside and outside a random soup and on Sibenik.
+TEST(CpuPacket, FastIntersectionSameAsTheReferencesFastPath) {
+    const Scene soup = randomSoup(3000, 17);
+    const Bvh bvh = build(soup);
+    const CpuSceneView view = makeCpuSceneView(soup, bvh);
+    const Scene sibenik = loadScene(std::filesystem::path(RAYPACK_SHARED_SCENES) / "sibenik/sibenik_geom_75284.ply");
+    const Bvh sibenikBvh = build(sibenik);
+    const CpuSceneView sibenikView = makeCpuSceneView(sibenik, sibenikBvh);
+    for (const CpuSimd simd : widths()) {
+        for (int run = 0; run < 3; ++run) {
+            RenderSettings settings;
+            settings.intersect = IntersectMode::Fast;
+            settings.width = 53;
+            settings.height = 41;
+            settings.packet = run == 1 ? PacketShape{16, 16} : PacketShape{8, 8};
+            settings.camera = frameScene(soup.bounds());
+            if (run == 1) {
+                settings.camera.eye = glm::vec3(0.5f, -1.0f, 2.0f);
+                settings.camera.fovYDegrees = 110.0f;
+            }
+            if (run == 2) {
+                settings.camera.eye = glm::vec3(-18.0f, -11.0f, 0.0f);
+                settings.camera.at = glm::vec3(0.0f, -8.0f, 0.0f);
+                settings.camera.fovYDegrees = 70.0f;
+            }
+            EXPECT_GT(expectSameFrame(run == 2 ? sibenikView : view, settings, simd), size_t(53 * 41 / 10));
+            if (HasFailure()) return;
+            // And it is another path than the robust one: its distances differ in the last bits.
+            RenderSettings robust = settings;
+            robust.intersect = IntersectMode::Robust;
+            const FrameRequest request{.hits = true};
+            const Frame a = renderCpu(run == 2 ? sibenikView : view, settings, request);
+            const Frame b = renderCpu(run == 2 ? sibenikView : view, robust, request);
+            size_t differ = 0;
+            for (size_t i = 0; i < a.hits.size(); ++i) differ += a.hits[i].t != b.hits[i].t ? 1 : 0;
+            EXPECT_GT(differ, 0u);
+        }
+    }
+}
+
 // Slivers 1e-3 wide in random orientations: most kept hits have their t recomputed from the plane
 // (gpu::accurateHitDistance), which the packet kernel does lane by lane; the same bits.
 TEST(CpuPacket, SameHitsOnSlivers) {

@@ -109,17 +109,19 @@ struct BruteHit {
     uint32_t prim = kNoHit;
 };
 
-BruteHit closestBrute(const Mesh& mesh, vec3 org, vec3 dir) {
+// `fast`: intersectTriangleFast (Moller-Trumbore) instead of the watertight test.
+BruteHit closestBrute(const Mesh& mesh, vec3 org, vec3 dir, bool fast = false) {
     const TraceRay ray = makeTraceRay(org, dir);
     BruteHit best;
     float bestT = kFloatHuge;
     for (uint32_t i = 0; i < mesh.triangles.size(); ++i) {
         const uvec3 tri = mesh.triangles[i];
+        const vec3 v0 = mesh.positions[tri.x], v1 = mesh.positions[tri.y], v2 = mesh.positions[tri.z];
         float t;
         vec2 bary;
-        if (intersectTriangle(ray, mesh.positions[tri.x], mesh.positions[tri.y], mesh.positions[tri.z], bestT, t,
-                              bary) &&
-            isCloserHit(t, i, bestT, best.prim)) {
+        const bool hit = fast ? intersectTriangleFast(ray, v0, v1, v2, bestT, t, bary)
+                              : intersectTriangle(ray, v0, v1, v2, bestT, t, bary);
+        if (hit && isCloserHit(t, i, bestT, best.prim)) {
             best = {true, t, i};
             bestT = t;
         }
@@ -178,6 +180,99 @@ TEST(Watertight, HugeAndTinyCoordinates) {
         expectWatertight(scaled(makeSphere(8, 10, 1.0f), scale), interiorOrigins(scale), scale);
         expectWatertight(scaled(makeCube(3), scale), interiorOrigins(scale), scale);
     }
+}
+
+// Rays from interior points through every vertex and edge point: how many miss the mesh (leak).
+size_t countLeaks(const Mesh& mesh, const std::vector<vec3>& origins, bool fast, size_t& rays) {
+    size_t leaks = 0;
+    rays = 0;
+    for (const vec3& origin : origins) {
+        for (const vec3& target : vertexAndEdgeTargets(mesh)) {
+            leaks += closestBrute(mesh, origin, target - origin, fast).hit ? 0 : 1;
+            ++rays;
+        }
+    }
+    return leaks;
+}
+
+// The trade of IntersectMode::Fast is real: Moller-Trumbore lets rays through shared vertices and
+// edges of closed meshes, where the watertight test lets none through, on the same rays.
+TEST(FastIntersect, LeaksThroughSharedVerticesAndEdgesWhereRobustDoesNot) {
+    size_t fastLeaks = 0, robustLeaks = 0, total = 0;
+    for (const Mesh& mesh : {makeSphere(12, 16, 1.0f), makeCube(4), scaled(makeSphere(9, 13, 1.0f), 1e4f)}) {
+        const float scale = mesh.positions[0].y;  // the sphere's pole, or the cube's corner (-1)
+        std::vector<vec3> origins = interiorOrigins(std::abs(scale));
+        size_t rays = 0;
+        robustLeaks += countLeaks(mesh, origins, false, rays);
+        fastLeaks += countLeaks(mesh, origins, true, rays);
+        total += rays;
+    }
+    EXPECT_EQ(robustLeaks, 0u);
+    EXPECT_GT(fastLeaks, 0u) << "over " << total << " rays";
+    std::printf("fast intersection: %zu of %zu rays through vertices and edges leaked (robust: %zu)\n", fastLeaks,
+                total, robustLeaks);
+}
+
+// Away from edges (barycentric weights in [0.05, 0.9]) the two tests agree: the same hits, t within
+// 1e-5 (relative) of each other, and the same misses for rays aimed outside the triangle.
+TEST(FastIntersect, AgreesWithRobustOnOrdinaryRays) {
+    std::mt19937 rng(21);
+    std::uniform_real_distribution<float> coord(-2.0f, 2.0f);
+    std::uniform_real_distribution<float> weight(0.05f, 0.45f);
+    size_t hits = 0;
+    for (int i = 0; i < 20000; ++i) {
+        const vec3 v0(coord(rng), coord(rng), coord(rng)), v1(coord(rng), coord(rng), coord(rng)),
+            v2(coord(rng), coord(rng), coord(rng));
+        const vec3 org = vec3(coord(rng), coord(rng), coord(rng)) * 4.0f;
+        const float b1 = weight(rng), b2 = weight(rng);
+        const bool inside = i % 2 == 0;
+        // Outside: beyond the edge v1-v2 by a fifth of the triangle.
+        const vec3 target = inside ? v0 + b1 * (v1 - v0) + b2 * (v2 - v0) : v0 + 0.6f * (v1 - v0) + 0.6f * (v2 - v0);
+        const TraceRay ray = makeTraceRay(org, target - org);
+        float tRobust, tFast;
+        vec2 baryRobust, baryFast;
+        const bool robust = intersectTriangle(ray, v0, v1, v2, kFloatHuge, tRobust, baryRobust);
+        const bool fast = intersectTriangleFast(ray, v0, v1, v2, kFloatHuge, tFast, baryFast);
+        // Ordinary: a well-shaped triangle (twice its area at least a tenth of its longest edge
+        // squared) seen at more than about 6 degrees from edge-on.
+        const vec3 n = cross(v1 - v0, v2 - v0);
+        const float longest = std::max({length(v1 - v0), length(v2 - v1), length(v0 - v2)});
+        if (length(n) < 0.1f * longest * longest) continue;
+        if (std::abs(dot(normalize(n), normalize(target - org))) < 0.1f) continue;
+        ASSERT_EQ(robust, inside) << i;
+        ASSERT_EQ(fast, robust) << i;
+        if (!robust) continue;
+        ++hits;
+        EXPECT_NEAR(tFast, tRobust, 1e-5f * tRobust) << i;
+        EXPECT_NEAR(baryFast.x, baryRobust.x, 1e-4f) << i;
+        EXPECT_NEAR(baryFast.y, baryRobust.y, 1e-4f) << i;
+    }
+    EXPECT_GT(hits, 3000u);
+}
+
+// The plain slab test is the conservative one without its widening: it accepts a subset.
+TEST(FastIntersect, PlainSlabTestAcceptsASubsetOfTheConservativeOne) {
+    std::mt19937 rng(4);
+    std::uniform_real_distribution<float> coord(-3.0f, 3.0f);
+    size_t accepted = 0, differing = 0;
+    for (int i = 0; i < 100000; ++i) {
+        const vec3 a(coord(rng), coord(rng), coord(rng)), b(coord(rng), coord(rng), coord(rng));
+        const vec3 lo = min(a, b), hi = max(a, b);
+        const vec3 org(coord(rng) * 3.0f, coord(rng) * 3.0f, coord(rng) * 3.0f);
+        // Aimed at a corner or a face point: on the box's boundary, where widening matters.
+        const vec3 target =
+            i % 2 ? vec3(lo.x, hi.y, coord(rng) > 0 ? lo.z : hi.z) : vec3(lo.x, hi.y, 0.5f * (lo.z + hi.z));
+        const TraceRay ray = makeTraceRay(org, target - org);
+        float tConservative, tPlain;
+        const bool conservative = intersectBox(ray, lo, hi, kFloatHuge, tConservative);
+        const bool plain = intersectBoxFast(ray, lo, hi, kFloatHuge, tPlain);
+        ASSERT_TRUE(conservative || !plain) << i;
+        if (plain) EXPECT_EQ(tPlain, tConservative);
+        accepted += plain ? 1 : 0;
+        differing += conservative != plain ? 1 : 0;
+    }
+    EXPECT_GT(accepted, 50000u);
+    std::printf("plain slab test: %zu of 100000 boundary rays culled that the conservative test keeps\n", differing);
 }
 
 // Axis-parallel rays (two zero direction components) through the cube's grid lines and vertices,

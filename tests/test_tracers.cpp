@@ -160,6 +160,49 @@ TEST_P(EveryTracer, AgreesWithTheCpuReference) {
     }
 }
 
+// IntersectMode::Fast on every tracer that honours it, against the reference's own fast path: the
+// CPU packets to the bit, the GPU kernels within the GPU bars (GLSL may fuse the fast test's
+// products, so rays through edges may decide differently). And it is another path than the robust
+// one: on the CPU the hit distances differ in their last bits.
+TEST_P(EveryTracer, FastIntersectionAgreesWithTheReferencesFastPath) {
+    const auto& [name, sceneIndex] = GetParam();
+    const SceneCase& c = kScenes[sceneIndex];
+    TracerEnvironment environment;
+    environment.vulkan = testContext();
+    for (const TracerInfo& info : listTracers(environment))
+        if (info.name == name && !info.unavailable.empty()) GTEST_SKIP() << info.unavailable;
+    const std::unique_ptr<Tracer> tracer = makeTracer(name, environment);
+    if (!tracer->capabilities().intersectModes) GTEST_SKIP() << name << " has its own intersection";
+
+    const Scene scene = openScene(c.spec);
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    RenderSettings settings;
+    settings.width = c.width;
+    settings.height = c.height;
+    settings.camera = frameScene(scene.bounds());
+    settings.intersect = IntersectMode::Fast;
+    tracer->prepare(scene, bvh);
+    const FrameRequest request{.image = tracer->capabilities().image, .hits = true};
+    const Frame frame = tracer->render(settings, request);
+    const Frame reference = renderCpu(scene, bvh, settings, request);
+    const Bars bars = barsFor(name);
+    const HitAgreement a = compareHits(frame.hits, reference.hits);
+    EXPECT_GE(a.rayShare(), bars.rays) << name << ": " << a.agreeingRays << " of " << a.comparedRays;
+    EXPECT_GE(a.shadowShare(), bars.shadows) << name << ": " << a.agreeingShadows << " of " << a.comparedShadows;
+    if (bars.bitExact) {
+        EXPECT_EQ(identicalHitShare(frame.hits, reference.hits), 1.0) << name;
+    }
+    RenderSettings robust = settings;
+    robust.intersect = IntersectMode::Robust;
+    const Frame robustReference = renderCpu(scene, bvh, robust, request);
+    EXPECT_LT(identicalHitShare(reference.hits, robustReference.hits), 1.0);
+    // Away from edges the two paths see the same triangles.
+    EXPECT_GE(compareHits(reference.hits, robustReference.hits).rayShare(), 0.999);
+    if (environment.vulkan) {
+        EXPECT_EQ(vk::validationMessageCount(*environment.vulkan), 0u);
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Registry, EveryTracer,
                          ::testing::Combine(::testing::ValuesIn(allTracerNames()), ::testing::Values(0u, 1u)),
                          [](const ::testing::TestParamInfo<EveryTracer::ParamType>& info) {

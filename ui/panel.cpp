@@ -212,6 +212,20 @@ void drawTracerSection(PanelState& state, const PanelInfo& info, PanelActions&) 
             s.hybrid.visitRatio = ratio < 1.0f ? 0.0f : std::min(ratio, kMaxHybridVisitRatio);
     }
 
+    // Every raypack tracer (CPU and Vulkan) honours it; docs/trade.md measures what it costs.
+    int intersect = int(s.intersect);
+    ImGui::AlignTextToFramePadding();
+    ImGui::Text("Intersection");
+    ImGui::SameLine();
+    ImGui::RadioButton("robust", &intersect, int(IntersectMode::Robust));
+    ImGui::SameLine();
+    ImGui::RadioButton("fast", &intersect, int(IntersectMode::Fast));
+    if (ImGui::IsItemHovered())
+        ImGui::SetTooltip(
+            "Moller-Trumbore and plain slab tests: faster, but rays through shared edges and "
+            "vertices may leak (specks of background on closed meshes)");
+    s.intersect = IntersectMode(intersect);
+
     ImGui::Text("Packet %ux%u (%u rays)", s.packet.width, s.packet.height, s.packet.rays());
     for (const PacketPreset& preset : kPacketPresets) {
         ImGui::SameLine();

@@ -23,6 +23,7 @@ constexpr ActionName kActionNames[] = {
     {ScriptAction::Builder, "builder"},
     {ScriptAction::Shadows, "shadows"},
     {ScriptAction::Kernel, "kernel"},
+    {ScriptAction::Intersect, "intersect"},
     {ScriptAction::Tracer, "tracer"},
     {ScriptAction::SideBySide, "side-by-side"},
     {ScriptAction::View, "view"},
@@ -68,6 +69,12 @@ void decodeValue(ScriptStep& step) {
         const std::optional<KernelKind> kernel = parseKernelKind(value);
         if (!kernel) throw Error(what + ": \"" + value + "\" is not " + kernelKindNames());
         step.kernel = *kernel;
+        break;
+    }
+    case ScriptAction::Intersect: {
+        const std::optional<IntersectMode> intersect = parseIntersectMode(value);
+        if (!intersect) throw Error(what + ": \"" + value + "\" is not " + intersectModeNames());
+        step.intersect = *intersect;
         break;
     }
     case ScriptAction::Tracer: step.tracer = requireTracerChoice(what, value); break;
@@ -155,6 +162,7 @@ void applyScriptStep(const ScriptStep& step, PanelState& panel, PanelActions& ac
         panel.settings.kernel = step.kernel;
         if (!isCpuTracer(panel.tracer)) effects.tracer = vulkanTracerFor(step.kernel);
         break;
+    case ScriptAction::Intersect: panel.settings.intersect = step.intersect; break;
     case ScriptAction::Tracer: effects.tracer = step.tracer; break;
     case ScriptAction::SideBySide:
         if (step.on)

@@ -19,6 +19,7 @@
 namespace raypack::ui {
 
 // resize WxH | packet WxH | leaf-size N | builder NAME | shadows on|off | kernel packet|single |
+// intersect robust|fast |
 // tracer NAME | side-by-side TRACER|off | view shaded|nodes|tests | open SCENE | wait (block until
 // the worker is idle) | screenshot FILE.png | window-screenshot FILE.png | move RIGHT,UP,FORWARD
 // (seconds of flight along the camera's axes, as held keys; one frame's step is bounded as for
@@ -32,6 +33,7 @@ enum class ScriptAction {
     Builder,
     Shadows,
     Kernel,
+    Intersect,
     Tracer,
     SideBySide,
     View,
@@ -60,6 +62,7 @@ struct ScriptStep {
     BvhBuilder builder = BvhBuilder::SahExact;
     bool on = false;  // shadows; side-by-side (false: off)
     KernelKind kernel = KernelKind::Packet;
+    IntersectMode intersect = IntersectMode::Robust;
     TracerChoice tracer = TracerChoice::VulkanPacket;  // tracer, side-by-side
     ViewMode view = ViewMode::Shaded;
     glm::vec3 move{0.0f};

@@ -38,6 +38,7 @@ struct RenderFlags {
     uint32_t hybridMinRays = HybridParams{}.minRays;
     float hybridVisitRatio = HybridParams{}.visitRatio;
     std::string view = "shaded";
+    std::string intersect = "robust";
     std::string out, hits, json, from;
     uint32_t repeat = 1;
     uint32_t spp = 1;
@@ -48,7 +49,8 @@ struct RenderFlags {
 
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
-        *splitAlpha, *splitBudget, *kernel, *packet, *view, *spp, *scale, *heatScale, *hybridMinRays, *hybridVisitRatio;
+        *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *spp, *scale, *heatScale, *hybridMinRays,
+        *hybridVisitRatio;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -90,6 +92,11 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
         const auto view = parseViewMode(f.view);
         if (!view) throw Error("--view: \"" + f.view + "\" is not " + viewModeNames());
         s.view = *view;
+    }
+    if (given(o.intersect)) {
+        const auto intersect = parseIntersectMode(f.intersect);
+        if (!intersect) throw Error("--intersect: \"" + f.intersect + "\" is not " + intersectModeNames());
+        s.intersect = *intersect;
     }
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
@@ -226,6 +233,14 @@ CommandRunner addRenderCommand(CLI::App& app) {
                               "of N_IT)")
                  ->check(CLI::IsMember({"shaded", "nodes", "tests"}))
                  ->capture_default_str();
+    o.intersect = command
+                      ->add_option("--intersect", f.intersect,
+                                   "Ray/triangle and ray/box tests: robust (watertight, Woop et al. 2013; "
+                                   "conservative slabs, Ize 2013; accurate hit distances) or fast "
+                                   "(Moller-Trumbore, plain slabs: faster, may leak through shared "
+                                   "edges; docs/trade.md)")
+                      ->check(CLI::IsMember({"robust", "fast"}))
+                      ->capture_default_str();
     command->add_option("--out", f.out,
                         "Write the image to this file: PNG for .png, JPEG (quality 95) for .jpg or "
                         ".jpeg; any other extension is refused before rendering");

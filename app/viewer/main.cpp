@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
         "it runs N frames and exits (scripted runs, tests). Needs a display (xvfb-run without one),\n"
         "except with --offscreen."};
     ui::ViewerOptions options;
-    std::string packet, kernel, view, builder, eye, at, up, present = "fifo", tracer;
+    std::string packet, kernel, view, intersect, builder, eye, at, up, present = "fifo", tracer;
     std::vector<std::string> script;
     float fov = 0.0f;
     bool noShadows = false, noCounters = false;
@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
     app.add_flag("--no-shadows", noShadows, "no shadow rays");
     app.add_option("--kernel", kernel, "packet, single or hybrid");
     app.add_option("--view", view, "shaded, nodes (N_TR heat map) or tests (N_IT heat map)");
+    app.add_option("--intersect", intersect,
+                   "robust (watertight triangles, conservative slabs, accurate hit distances) or fast "
+                   "(Moller-Trumbore, plain slabs; may leak through shared edges); docs/trade.md");
     app.add_option("--heat-scale", options.settings.heatFullScale,
                    "count shown as full red in the heat maps (default: the frame's 99th percentile)")
         ->check(CLI::PositiveNumber);
@@ -91,7 +94,8 @@ int main(int argc, char** argv) {
     app.add_flag("--hide-panel", options.hidePanel, "draw no panel");
     app.add_option("--script", script,
                    "scripted step FRAME:ACTION[:VALUE], repeatable; ACTION: resize WxH, packet WxH, leaf-size N, "
-                   "builder NAME, shadows on|off, kernel packet|single, tracer NAME, view shaded|nodes|tests, "
+                   "builder NAME, shadows on|off, kernel packet|single, intersect robust|fast, tracer NAME, view "
+                   "shaded|nodes|tests, "
                    "open SCENE, wait, screenshot FILE, window-screenshot FILE, move RIGHT,UP,FORWARD (seconds of "
                    "flight), look DX,DY (pixels), bookmark N, save-bookmark N, frame-all, scale S, samples N, "
                    "budget MS, side-by-side TRACER|off");
@@ -111,6 +115,11 @@ int main(int argc, char** argv) {
             const std::optional<KernelKind> k = parseKernelKind(kernel);
             if (!k) throw Error("--kernel: \"" + kernel + "\" is not " + kernelKindNames());
             options.settings.kernel = *k;
+        }
+        if (!intersect.empty()) {
+            const std::optional<IntersectMode> mode = parseIntersectMode(intersect);
+            if (!mode) throw Error("--intersect: \"" + intersect + "\" is not " + intersectModeNames());
+            options.settings.intersect = *mode;
         }
         if (!view.empty()) {
             const std::optional<ViewMode> v = parseViewMode(view);

@@ -20,6 +20,7 @@ public:
     std::string driver() const override { return ""; }
     TracerCapabilities capabilities() const override {
         TracerCapabilities c;
+        c.intersectModes = true;
         c.image = c.hits = c.counters = true;
         return c;
     }

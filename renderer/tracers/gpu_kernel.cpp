@@ -22,6 +22,7 @@ public:
     std::string driver() const override { return tracer_->device().driver; }
     TracerCapabilities capabilities() const override {
         TracerCapabilities c;
+        c.intersectModes = true;
         c.image = c.hits = c.counters = c.gpuTimestamps = true;
         c.packetShapes = kernel_ != KernelKind::Single;
         return c;

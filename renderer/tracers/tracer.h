@@ -38,6 +38,9 @@ struct TracerCapabilities {
     // Traces with the CPU reference's arithmetic, so its hits must be the reference's to the bit
     // (the bench records the share that is).
     bool bitExactWithReference = false;
+    // Honours RenderSettings::intersect: IntersectMode::Fast runs raypack's fast tests. The peers
+    // (Embree, the driver's ray tracing) have their own intersection and ignore it.
+    bool intersectModes = false;
 };
 
 // What prepare() cost.
