@@ -39,10 +39,11 @@ struct PipelineKey {
     uint32_t view;
     uint32_t stackEntries;
     IntersectMode intersect;
+    ShadowOrder shadowOrder;
     uint32_t hybridMinRays = 0;     // the hybrid kernel's split rules (0 for the other kernels)
     uint32_t hybridVisitRatio = 0;  // in 1/100
     auto tie() const {
-        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect,
+        return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
                         hybridMinRays, hybridVisitRatio);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
@@ -361,6 +362,9 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     data.packetIsOneSubgroup =
         sharedStack && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
     data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
+    data.shadowOrder = key.shadowOrder == ShadowOrder::Tree     ? gpu::kShadowOrderTree
+                       : key.shadowOrder == ShadowOrder::Larger ? gpu::kShadowOrderLarger
+                                                                : gpu::kShadowOrderNearest;
     data.hybridMinRays = key.hybridMinRays;
     data.hybridVisitRatio = key.hybridVisitRatio;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
@@ -491,8 +495,8 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel, shape.width, shape.height,   0u,
-                    statistics,      view,        s.stackEntries, settings.intersect};
+    PipelineKey key{settings.kernel, shape.width,        shape.height,        0u, statistics, view,
+                    s.stackEntries,  settings.intersect, settings.shadowOrder};
     if (settings.kernel == KernelKind::Hybrid) {
         key.hybridMinRays = settings.hybrid.minRays;
         key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));

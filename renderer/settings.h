@@ -27,6 +27,11 @@ enum class ViewMode { Shaded, HeatTraversal, HeatIntersections };
 // slab test of Ize 2013; no ray leaks through a closed mesh. Fast: Moller-Trumbore 1997 and the
 // plain slab test, which can let a ray through a shared edge or vertex.
 enum class IntersectMode { Robust, Fast };
+// Which child a shadow ray (any hit) of the single-ray Vulkan kernel enters first when it hits
+// both (issue 14, docs/gpu.md): the nearer (as primary rays), the left one in tree order (no
+// comparison), or the one of larger surface area (more likely to hold an occluder). The answer,
+// lit or occluded, is the same; only the work differs.
+enum class ShadowOrder { Nearest, Tree, Larger };
 
 struct PacketShape {
     uint32_t width = 8;
@@ -56,6 +61,7 @@ struct RenderSettings {
     bool shadows = true;
     PhongParams phong;
     IntersectMode intersect = IntersectMode::Robust;
+    ShadowOrder shadowOrder = ShadowOrder::Nearest;
     glm::vec3 background{0.08f, 0.09f, 0.11f};
     // Offset of every primary ray from its pixel's centre, in pixels (each component in
     // [-0.5, 0.5)): one sample of an anti-aliasing pattern (renderer/accumulate.h). Zero: centres.
@@ -74,5 +80,6 @@ struct RenderSettings {
 const char* toString(KernelKind kind);
 const char* toString(ViewMode mode);
 const char* toString(IntersectMode mode);
+const char* toString(ShadowOrder order);
 
 }  // namespace raypack

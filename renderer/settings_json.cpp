@@ -115,6 +115,7 @@ nlohmann::json toJson(const RenderSettings& s) {
                   {"shininess", s.phong.shininess}};
     j["background"] = toJson(s.background);
     j["intersect"] = toString(s.intersect);
+    j["shadow_order"] = toString(s.shadowOrder);
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["hybrid"] = {{"min_rays", s.hybrid.minRays}, {"visit_ratio", s.hybrid.visitRatio}};
@@ -175,6 +176,11 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         const auto parsed = parseIntersectMode(intersect);
         if (!parsed) badKey("intersect", "must be " + intersectModeNames() + ", got \"" + intersect + "\"");
         s.intersect = *parsed;
+    }
+    if (const std::string order = readString(j, "shadow_order", ""); !order.empty()) {
+        const auto parsed = parseShadowOrder(order);
+        if (!parsed) badKey("shadow_order", "must be " + shadowOrderNames() + ", got \"" + order + "\"");
+        s.shadowOrder = *parsed;
     }
     if (const std::string kernel = readString(j, "kernel", ""); !kernel.empty()) {
         const auto parsed = parseKernelKind(kernel);

@@ -24,6 +24,8 @@ constexpr Named<KernelKind> kKernelNames[] = {
 constexpr Named<ViewMode> kViewNames[] = {
     {ViewMode::Shaded, "shaded"}, {ViewMode::HeatTraversal, "nodes"}, {ViewMode::HeatIntersections, "tests"}};
 constexpr Named<IntersectMode> kIntersectNames[] = {{IntersectMode::Robust, "robust"}, {IntersectMode::Fast, "fast"}};
+constexpr Named<ShadowOrder> kShadowOrderNames[] = {
+    {ShadowOrder::Nearest, "nearest"}, {ShadowOrder::Tree, "tree"}, {ShadowOrder::Larger, "larger"}};
 
 template <class E>
 const char* nameOf(std::span<const Named<E>> table, E value) {
@@ -100,6 +102,11 @@ std::optional<IntersectMode> parseIntersectMode(std::string_view name) {
     return valueOf<IntersectMode>(kIntersectNames, name);
 }
 std::string intersectModeNames() { return namesOf<IntersectMode>(kIntersectNames); }
+const char* toString(ShadowOrder order) { return nameOf<ShadowOrder>(kShadowOrderNames, order); }
+std::optional<ShadowOrder> parseShadowOrder(std::string_view name) {
+    return valueOf<ShadowOrder>(kShadowOrderNames, name);
+}
+std::string shadowOrderNames() { return namesOf<ShadowOrder>(kShadowOrderNames); }
 
 PacketShape parsePacketShape(std::string_view what, std::string_view text) {
     const size_t x = text.find_first_of("xX");

@@ -27,10 +27,12 @@ inline constexpr uint32_t kMaxPacketSide = 1024;
 std::optional<KernelKind> parseKernelKind(std::string_view name);
 std::optional<ViewMode> parseViewMode(std::string_view name);
 std::optional<IntersectMode> parseIntersectMode(std::string_view name);  // "robust" / "fast"
+std::optional<ShadowOrder> parseShadowOrder(std::string_view name);      // "nearest" / "tree" / "larger"
 // "packet or single", "shaded, nodes or tests": the valid names, for messages and help texts.
 std::string kernelKindNames();
 std::string viewModeNames();
 std::string intersectModeNames();
+std::string shadowOrderNames();
 
 // "WxH" (or "WXH") with 1 <= W, H <= kMaxPacketSide, digits only (no sign, no spaces).
 PacketShape parsePacketShape(std::string_view what, std::string_view text);

@@ -9,13 +9,13 @@
 # each scene OUT/table.md is rewritten: per scene and ray kind, Mrays/s of the single-ray kernel,
 # packet / single (each shape) and hybrid / single (each shape, K and ratio), with N_TR.
 #
-# From the repository root on the device, with .device/ from scripts/device-bundle.sh (bin/raypack-cli
-# and lib/), the scene folder (default .device/scenes: sibenik/, dabrovic_sponza/, conference/,
-# stanford/ as in ../shared/scenes) and .gl/ (the Vulkan loader, scripts/device-env.sh):
+# From the repository root on the device, carrying .gl/ (the Vulkan loader, scripts/device-env.sh)
+# and .device/ (scripts/device-pack.sh BUILD_DIR: .device/round.tar.xz, unpacked here if needed,
+# holding bin/raypack-cli, lib/ and scenes/ laid out as ../shared/scenes):
 #   scripts/device-hybrid.sh [OUT_DIR]        (default: $OUT)
 # Environment: SCENES (scene folder), BUDGET_S (default 450: the runs together stop within that many
-# seconds; a run gets at most what is left, none starts with less than 30 s left), REPEAT (default 5), PACKETS (default 8x4,8x8), HYBRID_K (default 1/4,1/8,1/16),
-# HYBRID_RATIOS (default 0,2), BUILDER (default: bench's; sah-binned to save time on the scans);
+# seconds; a run gets at most what is left, none starts with less than 30 s left), REPEAT (default
+# 5), PACKETS (default 8x4,8x8), HYBRID_K (default 1/4,1/8,1/16), HYBRID_RATIOS (default 0,2), BUILDER (default: bench's; sah-binned to save time on the scans);
 # for a try on another machine: CLI, DEVICE_ENV (/dev/null: none), WIDTH, HEIGHT, ONLY (scene names,
 # comma-separated), LIMIT_S (each run's timeout instead of the table's).
 # Measured build and load times: docs/benchmarks.md (13M dragon: 4.6 s exact SAH on 16 threads).
@@ -27,6 +27,10 @@ if [ -z "$out" ]; then
 fi
 mkdir -p "$out"
 start=$(date +%s)
+# The bundle of scripts/device-pack.sh, unpacked here when that has not been done yet.
+if [ ! -x .device/bin/raypack-cli ] && [ -f .device/round.tar.xz ]; then
+  tar xJf .device/round.tar.xz || echo "could not unpack .device/round.tar.xz" >> "$out/errors.txt"
+fi
 # shellcheck source=/dev/null
 source "${DEVICE_ENV:-scripts/device-env.sh}" > "$out/env.log" 2>&1 || echo "device-env.sh failed (see env.log)" >> "$out/errors.txt"
 cli=${CLI:-.device/bin/raypack-cli}

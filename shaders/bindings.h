@@ -42,9 +42,15 @@ const uint kSpecPacketStackEntries = 6u;   // the packet's shared stack (1 for t
 const uint kSpecRayStackEntries = 7u;      // each ray's own stack (1 for the packet kernel)
 const uint kSpecPacketIsOneSubgroup = 8u;  // bool: the packet is exactly one subgroup
 const uint kSpecFastIntersect = 9u;        // bool: IntersectMode::Fast (shaders/intersect.h)
-const uint kSpecHybridMinRays = 10u;       // hybrid kernel: split when fewer rays want the node (K)
-const uint kSpecHybridVisitRatio = 11u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
-const uint kSpecCount = 12u;
+const uint kSpecShadowOrder = 10u;         // kShadowOrder*: a shadow ray's first child (single-ray kernel)
+const uint kSpecHybridMinRays = 11u;       // hybrid kernel: split when fewer rays want the node (K)
+const uint kSpecHybridVisitRatio = 12u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
+const uint kSpecCount = 13u;
+
+// Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).
+const uint kShadowOrderNearest = 0u;
+const uint kShadowOrderTree = 1u;
+const uint kShadowOrderLarger = 2u;
 
 // ---- shaders/rt/rt_peer.rgen (renderer/vk/rt_peer.cpp): set 0.
 const uint kRtBindTlas = 0u;  // the top-level acceleration structure
@@ -68,10 +74,11 @@ struct TraceSpecialization {
     uint rayStackEntries;
     uint packetIsOneSubgroup;  // VkBool32
     uint fastIntersect;        // VkBool32
+    uint shadowOrder;
     uint hybridMinRays;
     uint hybridVisitRatio;
 };
-RP_CHECK_SIZE(TraceSpecialization, 48);
+RP_CHECK_SIZE(TraceSpecialization, 52);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -82,8 +89,9 @@ RP_CHECK_OFFSET(TraceSpecialization, packetStackEntries, 24);
 RP_CHECK_OFFSET(TraceSpecialization, rayStackEntries, 28);
 RP_CHECK_OFFSET(TraceSpecialization, packetIsOneSubgroup, 32);
 RP_CHECK_OFFSET(TraceSpecialization, fastIntersect, 36);
-RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 40);
-RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 44);
+RP_CHECK_OFFSET(TraceSpecialization, shadowOrder, 40);
+RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 44);
+RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 48);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -105,6 +113,7 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecRayStackEntries, rayStackEntries),
     RP_SPEC_ENTRY(kSpecPacketIsOneSubgroup, packetIsOneSubgroup),
     RP_SPEC_ENTRY(kSpecFastIntersect, fastIntersect),
+    RP_SPEC_ENTRY(kSpecShadowOrder, shadowOrder),
     RP_SPEC_ENTRY(kSpecHybridMinRays, hybridMinRays),
     RP_SPEC_ENTRY(kSpecHybridVisitRatio, hybridVisitRatio),
 };

@@ -43,6 +43,8 @@ layout(constant_id = kSpecPacketIsOneSubgroup) const bool kPacketIsOneSubgroup =
 // conservative slab test and the accurate hit distance (shaders/intersect.h). A constant, so that
 // each pipeline holds one path only and neither pays for the other.
 layout(constant_id = kSpecFastIntersect) const bool kFastIntersect = false;
+// Which child a shadow ray of the single-ray kernel enters first (ShadowOrder, renderer/settings.h).
+layout(constant_id = kSpecShadowOrder) const uint kShadowOrder = kShadowOrderNearest;
 // The hybrid kernel's two split rules (traceHybrid, docs/gpu.md): the packet splits into single
 // rays when fewer than kHybridMinRays of its active rays want the node it visits (0: never by this
 // rule), or, when kHybridVisitRatio is not 0, when its inner-node visits summed over its active
@@ -345,6 +347,22 @@ void tracePacket(inout RayQuery q) {
     }
 }
 
+// Half the surface area of a node's box.
+float halfArea(GpuNode n) {
+    const vec3 d = n.hi.xyz - n.lo.xyz;
+    return d.x * d.y + d.y * d.z + d.z * d.x;
+}
+
+// Whether a ray that hits both children enters the right one first. A closest-hit ray takes the
+// nearer (then the farther one rarely needs a visit); an any-hit (shadow) ray needs any occluder,
+// so distance matters less than finding one soon: kShadowOrder picks the nearer, the left one
+// without comparing (tree order), or the larger box, the more likely to hold an occluder.
+bool secondChildFirst(RayQuery q, GpuNode left, GpuNode right, float entryLeft, float entryRight) {
+    if (q.anyHit && kShadowOrder == kShadowOrderTree) return false;
+    if (q.anyHit && kShadowOrder == kShadowOrderLarger) return halfArea(right) > halfArea(left);
+    return entryRight < entryLeft;
+}
+
 // The single-ray while-while traversal (Aila and Laine 2009): each ray its own stack, nearer child
 // first, the farther one pushed.
 void traceSingle(inout RayQuery q) {
@@ -369,7 +387,7 @@ void traceSingle(inout RayQuery q) {
             const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
             const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
             if (hitLeft && hitRight) {
-                const bool rightFirst = entryRight < entryLeft;
+                const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
                 current = nodeEntry(rightFirst ? right : left);
                 if (stackSize == kRayStackEntries) {
                     atomicOr(status, kStatusStackOverflow);

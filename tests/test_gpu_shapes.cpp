@@ -111,6 +111,28 @@ TEST_F(GpuShapes, CountersDoNotChangeTheImageAndCountWork) {
     expectNoValidationMessages();
 }
 
+// A shadow ray's child order (ShadowOrder) changes the work, never the answer: every order gives the
+// reference's image and shadows, and tree order or larger-first visit other nodes than nearest-first.
+TEST_F(GpuShapes, ShadowOrdersGiveTheSameShadowsWithOtherWork) {
+    RenderSettings settings = smallSettings(197, 151);
+    settings.kernel = KernelKind::Single;
+    const FrameRequest request{true, true, true};
+    const Frame cpu = renderCpu(scene_->scene, scene_->bvh, settings, request);
+    double nearestNodes = 0.0;
+    for (const ShadowOrder order : {ShadowOrder::Nearest, ShadowOrder::Tree, ShadowOrder::Larger}) {
+        settings.shadowOrder = order;
+        const Frame gpu = tracer_->render(settings, request);
+        expectMatchesReference(gpu, cpu, std::string("shadow order ") + toString(order));
+        const double nodes = summarizeCounters(gpu).shadowNodes;
+        EXPECT_GT(nodes, 0.0);
+        if (order == ShadowOrder::Nearest)
+            nearestNodes = nodes;
+        else
+            EXPECT_NE(nodes, nearestNodes) << toString(order);
+    }
+    expectNoValidationMessages();
+}
+
 // Host-timed passes (the viewer's choice on CPU devices) split the frame into several submissions:
 // the image and hits stay the same, and each pass gets a time that fits inside the frame's.
 TEST_F(GpuShapes, HostTimedPassesKeepTheFrameAndTimeEachPass) {

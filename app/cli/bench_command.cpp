@@ -33,6 +33,7 @@ struct BenchFlags {
     std::string only;  // names of the suite's scenes to run, comma-separated; empty: all
     std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
     std::string hybridVisitRatios = "0";
+    std::string shadowOrder = "nearest";
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
     bool noEmbree = false;
@@ -145,6 +146,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
+    const std::optional<ShadowOrder> parsedOrder = parseShadowOrder(f.shadowOrder);
+    if (!parsedOrder) throw Error("--shadow-order: \"" + f.shadowOrder + "\" is not " + shadowOrderNames());
+    const ShadowOrder shadowOrder = *parsedOrder;
     const bool packetKernel = f.kernel == "all" || f.kernel == "packet";
     const bool singleKernel = f.kernel == "all" || f.kernel == "single";
     const bool hybridKernel = f.kernel == "all" || f.kernel == "hybrid";
@@ -207,6 +211,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         settings.width = width;
         settings.height = height;
         settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
+        settings.shadowOrder = shadowOrder;
         const json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
 
         // The first frame tracer's hits (the CPU reference's, or without it the first GPU cell's)
@@ -254,6 +259,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
           {"kernels", f.kernel},
           {"hybrid_min_rays", f.hybridMinRays},
           {"hybrid_visit_ratios", f.hybridVisitRatios},
+          {"shadow_order", f.shadowOrder},
           {"packets",
            [&] {
                json list = json::array();
@@ -358,6 +364,12 @@ CommandRunner addBenchCommand(CLI::App& app) {
     command->add_flag("--no-driver-rt", f.noDriverRt,
                       "Do not run the driver's ray tracing peer (VK_KHR_ray_tracing_pipeline; "
                       "it runs where the GPU offers it, after raypack's GPU cells)");
+    command
+        ->add_option("--shadow-order", f.shadowOrder,
+                     "The child a shadow ray of the GPU single-ray kernel enters first: nearest, tree "
+                     "or larger (docs/gpu.md); the other tracers ignore it")
+        ->check(CLI::IsMember({"nearest", "tree", "larger"}))
+        ->capture_default_str();
     addBvhFlags(*command, f.bvh);
     return [flags, command] { return runBench(*flags, *command); };
 }

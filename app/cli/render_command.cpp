@@ -39,6 +39,7 @@ struct RenderFlags {
     float hybridVisitRatio = HybridParams{}.visitRatio;
     std::string view = "shaded";
     std::string intersect = "robust";
+    std::string shadowOrder = "nearest";
     std::string out, hits, json, from;
     uint32_t repeat = 1;
     uint32_t spp = 1;
@@ -49,8 +50,8 @@ struct RenderFlags {
 
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
-        *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *spp, *scale, *heatScale, *hybridMinRays,
-        *hybridVisitRatio;
+        *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
+        *hybridMinRays, *hybridVisitRatio;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -97,6 +98,11 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
         const auto intersect = parseIntersectMode(f.intersect);
         if (!intersect) throw Error("--intersect: \"" + f.intersect + "\" is not " + intersectModeNames());
         s.intersect = *intersect;
+    }
+    if (given(o.shadowOrder)) {
+        const auto order = parseShadowOrder(f.shadowOrder);
+        if (!order) throw Error("--shadow-order: \"" + f.shadowOrder + "\" is not " + shadowOrderNames());
+        s.shadowOrder = *order;
     }
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
@@ -241,6 +247,13 @@ CommandRunner addRenderCommand(CLI::App& app) {
                                    "edges; docs/trade.md)")
                       ->check(CLI::IsMember({"robust", "fast"}))
                       ->capture_default_str();
+    o.shadowOrder = command
+                        ->add_option("--shadow-order", f.shadowOrder,
+                                     "GPU --kernel single: the child a shadow ray enters first when it "
+                                     "hits both: nearest, tree (left, no comparison) or larger (surface "
+                                     "area); the shadows are the same, the work differs (docs/gpu.md)")
+                        ->check(CLI::IsMember({"nearest", "tree", "larger"}))
+                        ->capture_default_str();
     command->add_option("--out", f.out,
                         "Write the image to this file: PNG for .png, JPEG (quality 95) for .jpg or "
                         ".jpeg; any other extension is refused before rendering");
@@ -301,6 +314,8 @@ CommandRunner addRenderCommand(CLI::App& app) {
         if (settings.kernel != KernelKind::Hybrid &&
             (given(options->hybridMinRays) || given(options->hybridVisitRatio)))
             throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
+        if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
+            throw Error("--shadow-order applies to --device gpu --kernel single only");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
         // the render.
         if (!f.out.empty()) {
