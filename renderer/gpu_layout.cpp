@@ -40,90 +40,111 @@ gpu::GpuTexture gpuTexture(const Texture& texture, uint32_t offset) {
     return t;
 }
 
-GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
+GpuLayoutCounts gpuLayoutCounts(const Scene& scene, const Bvh& bvh) {
     RAYPACK_CHECK(!bvh.nodes.empty());
-    GpuLayout layout;
-    layout.nodes.resize(bvh.nodes.size());
-    const bool normals = scene.hasNormals();
-    const bool materials = scene.hasMaterials();
-    const bool uvs = scene.hasUvs();
-    const bool colors = scene.hasVertexColors();
-
-    // 1. The depth-first walk from the root (walkBvh, left child first) converts every node and gives
-    //    each leaf its first slot in leaf order: the order the walk meets the leaves.
-    struct LeafSlot {
-        uint32_t node;
-        uint32_t first;
-    };
-    std::vector<LeafSlot> leaves;
-    uint32_t placed = 0;
-    walkBvh(bvh, [&](uint32_t index, const BvhNode& node, uint32_t depth) {
-        layout.maxDepth = std::max(layout.maxDepth, depth);
-        if (node.isLeaf()) {
-            layout.nodes[index] = {withBits(node.lo, placed), withBits(node.hi, node.count)};
-            if (node.count == 0) {
-                // Only an empty scene has an empty leaf: give it a box no ray can hit.
-                layout.nodes[index] = {withBits(glm::vec3(FLT_MAX), placed), withBits(glm::vec3(-FLT_MAX), 0u)};
-            }
-            leaves.push_back({index, placed});
-            placed += node.count;
-        } else {
-            layout.nodes[index] = {withBits(node.lo, node.index), withBits(node.hi, 0u)};
-        }
-    });
-
-    // 2. The leaves' triangles, gathered in parallel into their slots (the gather reads vertices
-    //    scattered over the scene). Measured here (2 threads, 2M-triangle terrain, 2026-11-22):
-    //    T_CU 2.28-2.35 s with the sequential gather, 2.21-2.25 s with this one, of which this
-    //    function is 0.8 s, mostly first touches of the new arrays' pages.
-    layout.triangles.resize(placed);
-    layout.leafToFile.resize(placed);
-    if (normals) layout.normals.resize(placed);
-    if (uvs) layout.uvs.resize(placed);
-    if (colors) layout.colors.resize(placed);
-    tbb::parallel_for(tbb::blocked_range<size_t>(0, leaves.size(), 1024), [&](const tbb::blocked_range<size_t>& range) {
-        for (size_t l = range.begin(); l != range.end(); ++l) {
-            const BvhNode& node = bvh.nodes[leaves[l].node];
-            for (uint32_t k = 0; k < node.count; ++k) {
-                const uint32_t slot = leaves[l].first + k;
-                const uint32_t tri = bvh.primIndices[node.index + k];
-                RAYPACK_CHECK(tri < scene.triangles.size());
-                const glm::uvec3 v = scene.triangles[tri];
-                const uint32_t material = materials ? scene.triangleMaterial[tri] : 0u;
-                layout.triangles[slot] = {withBits(scene.positions[v.x], tri), withBits(scene.positions[v.y], material),
-                                          glm::vec4(scene.positions[v.z], 0.0f)};
-                layout.leafToFile[slot] = tri;
-                if (normals)
-                    layout.normals[slot] = {glm::vec4(scene.normals[v.x], 0.0f), glm::vec4(scene.normals[v.y], 0.0f),
-                                            glm::vec4(scene.normals[v.z], 0.0f)};
-                if (uvs)
-                    layout.uvs[slot] = {glm::vec4(scene.uvs[v.x], scene.uvs[v.y]),
-                                        glm::vec4(scene.uvs[v.z], 0.0f, 0.0f)};
-                if (colors)
-                    layout.colors[slot] = {
-                        glm::uvec4(scene.vertexColors[v.x], scene.vertexColors[v.y], scene.vertexColors[v.z], 0u)};
-            }
-        }
-    });
-    if (materials) {
-        layout.materials.reserve(scene.materials.size());
-        for (const Material& m : scene.materials) {
-            RAYPACK_CHECK(m.texture == kNoTexture || (m.texture < scene.textures.size() && uvs));
-            layout.materials.push_back({withBits(m.diffuse, m.texture)});
-        }
-    }
+    GpuLayoutCounts counts;
+    counts.nodes = bvh.nodes.size();
+    counts.triangles = bvh.primIndices.size();
+    counts.normals = scene.hasNormals();
+    counts.uvs = scene.hasUvs();
+    counts.colors = scene.hasVertexColors();
+    counts.materials = scene.hasMaterials() ? scene.materials.size() : 0;
+    counts.textures = scene.textures.size();
     uint64_t texels = 0;
     for (const Texture& t : scene.textures) texels += t.texels.size();
     if (texels > 0xFFFFFFFFull)
         throw Error(scene.source + ": the textures hold " + std::to_string(texels) +
                     " texels, more than the GPU kernels' 32-bit texel indices reach");
-    layout.texels.reserve(size_t(texels));
-    for (const Texture& t : scene.textures) {
+    counts.texels = size_t(texels);
+    return counts;
+}
+
+void writeGpuLayout(const Scene& scene, const Bvh& bvh, const GpuLayoutCounts& counts, const GpuLayoutTargets& out) {
+    RAYPACK_CHECK(counts.nodes == bvh.nodes.size() && counts.triangles == bvh.primIndices.size());
+    const bool materials = counts.materials > 0;
+    // 1. Nodes: a leaf's first slot is its index into primIndices (leaf order = reference order).
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, counts.nodes, 16384), [&](const tbb::blocked_range<size_t>& range) {
+        for (size_t i = range.begin(); i != range.end(); ++i) {
+            const BvhNode& node = bvh.nodes[i];
+            if (!node.isLeaf()) {
+                out.nodes[i] = {withBits(node.lo, node.index), withBits(node.hi, 0u)};
+            } else if (node.count == 0) {
+                // Only an empty scene has an empty leaf: give it a box no ray can hit.
+                out.nodes[i] = {withBits(glm::vec3(FLT_MAX), node.index), withBits(glm::vec3(-FLT_MAX), 0u)};
+            } else {
+                RAYPACK_CHECK(uint64_t(node.index) + node.count <= counts.triangles);
+                out.nodes[i] = {withBits(node.lo, node.index), withBits(node.hi, node.count)};
+            }
+        }
+    });
+    // 2. The references' triangles, gathered in parallel (the gather reads vertices scattered over
+    //    the scene; the writes are sequential per range, and first touches of fresh staging pages
+    //    are spread over the threads too).
+    tbb::parallel_for(
+        tbb::blocked_range<size_t>(0, counts.triangles, 16384), [&](const tbb::blocked_range<size_t>& range) {
+            for (size_t slot = range.begin(); slot != range.end(); ++slot) {
+                const uint32_t tri = bvh.primIndices[slot];
+                RAYPACK_CHECK(tri < scene.triangles.size());
+                const glm::uvec3 v = scene.triangles[tri];
+                const uint32_t material = materials ? scene.triangleMaterial[tri] : 0u;
+                out.triangles[slot] = {withBits(scene.positions[v.x], tri), withBits(scene.positions[v.y], material),
+                                       glm::vec4(scene.positions[v.z], 0.0f)};
+                if (out.leafToFile) out.leafToFile[slot] = tri;
+                if (counts.normals)
+                    out.normals[slot] = {glm::vec4(scene.normals[v.x], 0.0f), glm::vec4(scene.normals[v.y], 0.0f),
+                                         glm::vec4(scene.normals[v.z], 0.0f)};
+                if (counts.uvs)
+                    out.uvs[slot] = {glm::vec4(scene.uvs[v.x], scene.uvs[v.y]), glm::vec4(scene.uvs[v.z], 0.0f, 0.0f)};
+                if (counts.colors)
+                    out.colors[slot] = {
+                        glm::uvec4(scene.vertexColors[v.x], scene.vertexColors[v.y], scene.vertexColors[v.z], 0u)};
+            }
+        });
+    for (size_t m = 0; m < counts.materials; ++m) {
+        const Material& material = scene.materials[m];
+        RAYPACK_CHECK(material.texture == kNoTexture || (material.texture < scene.textures.size() && counts.uvs));
+        out.materials[m] = {withBits(material.diffuse, material.texture)};
+    }
+    size_t texel = 0;
+    for (size_t i = 0; i < counts.textures; ++i) {
+        const Texture& t = scene.textures[i];
         RAYPACK_CHECK(t.levels >= 1 && t.levels <= 255 &&
                       t.texels.size() == Texture::texelCount(t.width, t.height, t.levels));
-        layout.textures.push_back(gpuTexture(t, uint32_t(layout.texels.size())));
-        layout.texels.insert(layout.texels.end(), t.texels.begin(), t.texels.end());
+        out.textures[i] = gpuTexture(t, uint32_t(texel));
+        std::copy(t.texels.begin(), t.texels.end(), out.texels + texel);
+        texel += t.texels.size();
     }
+}
+
+uint32_t gpuTreeDepth(const Bvh& bvh) {
+    if (bvh.stats.nodeCount == bvh.nodes.size() && bvh.stats.nodeCount > 0) return bvh.stats.maxLeafDepth;
+    return bvhMaxDepth(bvh);
+}
+
+GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh) {
+    const GpuLayoutCounts counts = gpuLayoutCounts(scene, bvh);
+    GpuLayout layout;
+    layout.nodes.resize(counts.nodes);
+    layout.triangles.resize(counts.triangles);
+    layout.leafToFile.resize(counts.triangles);
+    if (counts.normals) layout.normals.resize(counts.triangles);
+    if (counts.uvs) layout.uvs.resize(counts.triangles);
+    if (counts.colors) layout.colors.resize(counts.triangles);
+    layout.materials.resize(counts.materials);
+    layout.textures.resize(counts.textures);
+    layout.texels.resize(counts.texels);
+    GpuLayoutTargets targets;
+    targets.nodes = layout.nodes.data();
+    targets.triangles = layout.triangles.data();
+    targets.normals = counts.normals ? layout.normals.data() : nullptr;
+    targets.materials = layout.materials.data();
+    targets.uvs = counts.uvs ? layout.uvs.data() : nullptr;
+    targets.colors = counts.colors ? layout.colors.data() : nullptr;
+    targets.textures = layout.textures.data();
+    targets.texels = layout.texels.data();
+    targets.leafToFile = layout.leafToFile.data();
+    writeGpuLayout(scene, bvh, counts, targets);
+    layout.maxDepth = gpuTreeDepth(bvh);
     return layout;
 }
 

@@ -30,10 +30,49 @@ struct GpuLayout {
 // A texture's descriptor for shaders/texture.h, its texels starting at `offset`.
 gpu::GpuTexture gpuTexture(const Texture& texture, uint32_t offset);
 
-// Gathers each leaf's triangles into one contiguous range (the kernels then need no index
-// indirection), keeps the file-order index in GpuTriangle::v0.w, and measures the tree's depth,
-// which sizes the traversal stacks. UVs and vertex colours are gathered the same way, and only
-// when the scene has them. Throws raypack::Error when the textures hold 2^32 texels or more.
+// How many entries each array of the layout has, from the scene and the tree alone (no conversion):
+// what the upload allocates before writing the layout straight into its staging memory.
+struct GpuLayoutCounts {
+    size_t nodes = 0;
+    size_t triangles = 0;  // also normals, uvs and colours where present (leaf order)
+    bool normals = false;
+    bool uvs = false;
+    bool colors = false;
+    size_t materials = 0;
+    size_t textures = 0;
+    size_t texels = 0;
+};
+// Throws raypack::Error when the textures hold 2^32 texels or more (the kernels' indices are 32-bit).
+GpuLayoutCounts gpuLayoutCounts(const Scene& scene, const Bvh& bvh);
+
+// Where writeGpuLayout puts each array: at least the counts' entries each; null where the count is
+// zero or the array is absent (leafToFile may always be null).
+struct GpuLayoutTargets {
+    gpu::GpuNode* nodes = nullptr;
+    gpu::GpuTriangle* triangles = nullptr;
+    gpu::GpuTriangleNormals* normals = nullptr;
+    gpu::GpuMaterial* materials = nullptr;
+    gpu::GpuTriangleUvs* uvs = nullptr;
+    gpu::GpuTriangleColors* colors = nullptr;
+    gpu::GpuTexture* textures = nullptr;
+    uint32_t* texels = nullptr;
+    uint32_t* leafToFile = nullptr;
+};
+
+// Converts every node and gathers each leaf's triangles into one contiguous range (the kernels then
+// need no index indirection), keeping the file-order index in GpuTriangle::v0.w. Leaf order is the
+// tree's own reference order: slot k holds the triangle of Bvh::primIndices[k], so a leaf's range
+// is its [index, index + count) and nodes and triangles convert independently, in parallel, with
+// no walk of the tree (the builders lay references out depth first, so this is the walk's order
+// too). Every entry is written exactly once, so the targets may be uninitialised memory (the
+// upload writes into mapped staging buffers, which no one zero-fills first).
+void writeGpuLayout(const Scene& scene, const Bvh& bvh, const GpuLayoutCounts& counts, const GpuLayoutTargets& targets);
+
+// The deepest node below the root (root = 0), which sizes the traversal stacks: the builder's
+// statistics where they describe this tree, else a walk.
+uint32_t gpuTreeDepth(const Bvh& bvh);
+
+// The layout in host vectors (tests, tools): gpuLayoutCounts, writeGpuLayout and gpuTreeDepth.
 GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh);
 
 }  // namespace raypack

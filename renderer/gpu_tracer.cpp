@@ -49,6 +49,13 @@ struct PipelineKey {
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
 
+// The hybrid kernel's split rules into its pipeline key (the other kernels keep 0, one pipeline).
+void setHybridRules(PipelineKey& key, const RenderSettings& settings) {
+    if (settings.kernel != KernelKind::Hybrid) return;
+    key.hybridMinRays = settings.hybrid.minRays;
+    key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
+}
+
 // Whether a packet of `width` x `height` rays runs as exactly one subgroup on `device`, so that
 // its vote needs no shared memory and no barrier. A workgroup no larger than the subgroup is one
 // subgroup on NVIDIA, AMD and Intel; lavapipe (llvmpipe) runs each row of a workgroup as its own
@@ -71,6 +78,7 @@ uint32_t viewConstant(ViewMode view) {
 }  // namespace
 
 struct GpuTracer::State {
+    UploadTimings lastUpload;
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
     VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
@@ -207,14 +215,15 @@ void writeDescriptors(GpuTracer::State& s);
 double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     State& s = *state_;
     const auto start = Clock::now();
-    const GpuLayout layout = makeGpuLayout(scene, bvh);
+    const GpuLayoutCounts counts = gpuLayoutCounts(scene, bvh);
+    const uint32_t maxDepth = gpuTreeDepth(bvh);
 
     // Deepest leaf at depth D needs at most D pending siblings; one more for safety margin in the
     // entry count's arithmetic (a root leaf still gets a stack of one).
-    const uint32_t entries = layout.maxDepth + 1;
+    const uint32_t entries = maxDepth + 1;
     const uint64_t packetStackBytes = uint64_t(entries) * 8u;
     if (packetStackBytes + kVoteBytes > s.ctx.info.maxSharedMemoryBytes)
-        throw Error("GPU: the BVH is " + std::to_string(layout.maxDepth) + " levels deep; its packet stack needs " +
+        throw Error("GPU: the BVH is " + std::to_string(maxDepth) + " levels deep; its packet stack needs " +
                     std::to_string(packetStackBytes) + " bytes of shared memory but " + s.ctx.info.name + " has " +
                     std::to_string(s.ctx.info.maxSharedMemoryBytes) +
                     " (build with a larger leaf size or use the CPU tracer)");
@@ -224,42 +233,94 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
         vk::destroyBuffer(s.ctx, *b);
     s.hasScene = false;
 
+    // Each array gets its device-local buffer and a mapped staging buffer of the same size; the
+    // layout is written straight into the staging memory by parallel workers (writeGpuLayout: no
+    // host-side copy of the layout, no zero-filled temporaries), then one submission copies every
+    // array. Staging buffers are freed on every path out.
+    struct Staged {
+        vk::Buffer* device;
+        vk::Buffer staging;
+    };
+    std::vector<Staged> staged;
+    struct StagingGuard {
+        const vk::VulkanContext& ctx;
+        std::vector<Staged>& staged;
+        ~StagingGuard() {
+            for (Staged& b : staged) vk::destroyBuffer(ctx, b.staging);
+        }
+    } guard{s.ctx, staged};
     const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    auto make = [&](vk::Buffer& buffer, const void* data, size_t bytes, const char* what) {
+    const auto make = [&](vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) -> void* {
+        const size_t bytes = count * entryBytes;
         // A storage buffer binds at most maxStorageBufferRange bytes (the texels of large
         // textures are the likeliest to exceed it).
         if (s.ctx.info.maxStorageBufferBytes > 0 && bytes > s.ctx.info.maxStorageBufferBytes)
             throw Error("GPU: the " + std::string(what) + " need " + std::to_string(bytes) + " bytes, more than " +
                         s.ctx.info.name + " binds in one storage buffer (" +
                         std::to_string(s.ctx.info.maxStorageBufferBytes) + ")");
+        // Every bound array gets a buffer, an empty one too (an empty scene's triangles).
         buffer = vk::createBuffer(s.ctx, bytes, usage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
-        vk::uploadToBuffer(s.ctx, s.pool, buffer, data, bytes);
+        if (bytes == 0) return nullptr;
+        staged.push_back(
+            {&buffer, vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                       "a staging buffer")});
+        return staged.back().staging.mapped;
     };
-    make(s.nodes, layout.nodes.data(), layout.nodes.size() * sizeof(gpu::GpuNode), "BVH nodes");
-    make(s.triangles, layout.triangles.data(), layout.triangles.size() * sizeof(gpu::GpuTriangle), "triangles");
-    s.hasNormals = !layout.normals.empty();
-    s.hasMaterials = !layout.materials.empty();
-    if (s.hasNormals)
-        make(s.normals, layout.normals.data(), layout.normals.size() * sizeof(gpu::GpuTriangleNormals),
-             "vertex normals");
-    if (s.hasMaterials)
-        make(s.materials, layout.materials.data(), layout.materials.size() * sizeof(gpu::GpuMaterial), "materials");
     // UVs come with textures (Scene::uvs): the UVs, the texture table and the texels together.
-    s.hasUvs = !layout.uvs.empty() && !layout.texels.empty();
-    s.hasColors = !layout.colors.empty();
+    s.hasNormals = counts.normals;
+    s.hasMaterials = counts.materials > 0;
+    s.hasUvs = counts.uvs && counts.texels > 0;
+    s.hasColors = counts.colors;
+    GpuLayoutCounts written = counts;
+    if (!s.hasUvs) {
+        // Without texels the kernels never read UVs: neither is converted nor uploaded.
+        written.uvs = false;
+        written.textures = 0;
+        written.texels = 0;
+    }
+    GpuLayoutTargets targets;
+    targets.nodes = static_cast<gpu::GpuNode*>(make(s.nodes, counts.nodes, sizeof(gpu::GpuNode), "BVH nodes"));
+    targets.triangles =
+        static_cast<gpu::GpuTriangle*>(make(s.triangles, counts.triangles, sizeof(gpu::GpuTriangle), "triangles"));
+    if (s.hasNormals)
+        targets.normals = static_cast<gpu::GpuTriangleNormals*>(
+            make(s.normals, counts.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals"));
+    if (s.hasMaterials)
+        targets.materials =
+            static_cast<gpu::GpuMaterial*>(make(s.materials, counts.materials, sizeof(gpu::GpuMaterial), "materials"));
     if (s.hasUvs) {
-        make(s.uvs, layout.uvs.data(), layout.uvs.size() * sizeof(gpu::GpuTriangleUvs), "UVs");
-        make(s.textures, layout.textures.data(), layout.textures.size() * sizeof(gpu::GpuTexture), "the texture table");
-        make(s.texels, layout.texels.data(), layout.texels.size() * sizeof(uint32_t), "texels");
+        targets.uvs =
+            static_cast<gpu::GpuTriangleUvs*>(make(s.uvs, counts.triangles, sizeof(gpu::GpuTriangleUvs), "UVs"));
+        targets.textures = static_cast<gpu::GpuTexture*>(
+            make(s.textures, counts.textures, sizeof(gpu::GpuTexture), "the texture table"));
+        targets.texels = static_cast<uint32_t*>(make(s.texels, counts.texels, sizeof(uint32_t), "texels"));
     }
     if (s.hasColors)
-        make(s.colors, layout.colors.data(), layout.colors.size() * sizeof(gpu::GpuTriangleColors), "vertex colours");
+        targets.colors = static_cast<gpu::GpuTriangleColors*>(
+            make(s.colors, counts.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours"));
+    const auto converted = Clock::now();
+    writeGpuLayout(scene, bvh, written, targets);
+    const auto transferStart = Clock::now();
+    s.lastUpload.allocationSeconds = std::chrono::duration<double>(converted - start).count();
+    s.lastUpload.conversionSeconds = std::chrono::duration<double>(transferStart - converted).count();
+    if (!staged.empty()) {
+        vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
+            for (const Staged& b : staged) {
+                const VkBufferCopy region{0, 0, b.staging.size};
+                vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
+            }
+        });
+    }
+    s.lastUpload.transferSeconds = secondsSince(transferStart);
     s.stackEntries = entries;
     s.sceneBounds = scene.bounds();
     s.hasScene = true;
     if (s.width > 0) writeDescriptors(s);
     return secondsSince(start);
 }
+
+GpuTracer::UploadTimings GpuTracer::lastUploadTimings() const { return state_->lastUpload; }
 
 bool GpuTracer::hasScene() const { return state_->hasScene; }
 uint32_t GpuTracer::stackEntries() const { return state_->stackEntries; }
@@ -381,6 +442,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     info.stage.pName = "main";
     info.stage.pSpecializationInfo = &specialization;
     info.layout = s.pipelineLayout;
+    if (s.ctx.pipelineStatistics) info.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
     VkPipeline pipeline = VK_NULL_HANDLE;
     const VkResult result = vkCreateComputePipelines(s.ctx.device, s.pipelineCache, 1, &info, nullptr, &pipeline);
     if (result < 0)
@@ -497,10 +559,7 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
     PipelineKey key{settings.kernel, shape.width,        shape.height,        0u, statistics, view,
                     s.stackEntries,  settings.intersect, settings.shadowOrder};
-    if (settings.kernel == KernelKind::Hybrid) {
-        key.hybridMinRays = settings.hybrid.minRays;
-        key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
-    }
+    setHybridRules(key, settings);
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
@@ -663,6 +722,60 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
     }
     frame.timings.totalSeconds = secondsSince(start);
     return frame;
+}
+
+std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const RenderSettings& settings,
+                                                                        bool shadowPass) {
+    State& s = *state_;
+    std::vector<PipelineStatistic> out;
+    if (!s.ctx.pipelineStatistics) return out;
+    const auto getProperties = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(
+        vkGetDeviceProcAddr(s.ctx.device, "vkGetPipelineExecutablePropertiesKHR"));
+    const auto getStatistics = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
+        vkGetDeviceProcAddr(s.ctx.device, "vkGetPipelineExecutableStatisticsKHR"));
+    if (!getProperties || !getStatistics) return out;
+    const uint32_t view = viewConstant(settings.view);
+    const bool statistics = settings.collectCounters || settings.view != ViewMode::Shaded;
+    const uint32_t pass = shadowPass         ? gpu::kPassShadowShade
+                          : settings.shadows ? gpu::kPassPrimary
+                                             : gpu::kPassPrimaryShade;
+    PipelineKey key{settings.kernel, settings.packet.width, settings.packet.height, pass, statistics, view,
+                    s.stackEntries,  settings.intersect,    settings.shadowOrder};
+    setHybridRules(key, settings);
+    VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
+    pipelineInfo.pipeline = pipelineFor(s, key);
+    uint32_t executables = 0;
+    vk::check(getProperties(s.ctx.device, &pipelineInfo, &executables, nullptr),
+              "vkGetPipelineExecutablePropertiesKHR");
+    std::vector<VkPipelineExecutablePropertiesKHR> properties(executables,
+                                                              {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_PROPERTIES_KHR});
+    vk::check(getProperties(s.ctx.device, &pipelineInfo, &executables, properties.data()),
+              "vkGetPipelineExecutablePropertiesKHR");
+    for (uint32_t e = 0; e < executables; ++e) {
+        VkPipelineExecutableInfoKHR executable{VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_INFO_KHR};
+        executable.pipeline = pipelineInfo.pipeline;
+        executable.executableIndex = e;
+        uint32_t count = 0;
+        vk::check(getStatistics(s.ctx.device, &executable, &count, nullptr), "vkGetPipelineExecutableStatisticsKHR");
+        std::vector<VkPipelineExecutableStatisticKHR> stats(count,
+                                                            {VK_STRUCTURE_TYPE_PIPELINE_EXECUTABLE_STATISTIC_KHR});
+        vk::check(getStatistics(s.ctx.device, &executable, &count, stats.data()),
+                  "vkGetPipelineExecutableStatisticsKHR");
+        const std::string prefix = executables > 1 ? std::string(properties[e].name) + ": " : std::string();
+        for (const VkPipelineExecutableStatisticKHR& stat : stats) {
+            PipelineStatistic p;
+            p.name = prefix + stat.name;
+            switch (stat.format) {
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_BOOL32_KHR: p.value = stat.value.b32 ? 1.0 : 0.0; break;
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_INT64_KHR: p.value = double(stat.value.i64); break;
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_UINT64_KHR: p.value = double(stat.value.u64); break;
+            case VK_PIPELINE_EXECUTABLE_STATISTIC_FORMAT_FLOAT64_KHR: p.value = stat.value.f64; break;
+            default: continue;
+            }
+            out.push_back(p);
+        }
+    }
+    return out;
 }
 
 }  // namespace raypack

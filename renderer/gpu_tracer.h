@@ -19,6 +19,8 @@
 
 #include <memory>
 #include <optional>
+#include <string>
+#include <vector>
 
 namespace raypack {
 
@@ -42,6 +44,25 @@ public:
     // stack the device's shared memory can hold.
     double upload(const Scene& scene, const Bvh& bvh);
     bool hasScene() const;
+    // Where the last upload's T_CU went (issue 13): creating the device and staging buffers, writing
+    // the layout into the staging memory (writeGpuLayout, page faults of fresh memory included),
+    // and the copies to the device.
+    struct UploadTimings {
+        double allocationSeconds = 0.0;
+        double conversionSeconds = 0.0;
+        double transferSeconds = 0.0;
+    };
+    UploadTimings lastUploadTimings() const;
+
+    // The compiler's statistics of the pipeline that traces `settings`' primary (or shadow) pass
+    // (VK_KHR_pipeline_executable_properties: register count, spills, ... as the driver names
+    // them), building the pipeline if needed. Empty where the context was made without
+    // VulkanContextOptions::enablePipelineStatistics or the device does not offer them.
+    struct PipelineStatistic {
+        std::string name;
+        double value = 0.0;
+    };
+    std::vector<PipelineStatistic> pipelineStatistics(const RenderSettings& settings, bool shadowPass);
 
     // Everything synchronously: records both passes, submits, waits and reads back what `request`
     // asks for. Frame::timings.primarySeconds / shadowSeconds are kernel times (T_K) from

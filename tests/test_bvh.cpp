@@ -528,6 +528,154 @@ TEST(BvhBinned, SahCostCloseToExact) {
     EXPECT_LE(binned.stats.sahCost, exact.stats.sahCost * 1.15);
 }
 
+// ---- sah-binned (renderer/bvh_sah_binned.cpp): one in-place reference array, SSE binning,
+// refined boundaries on large nodes, parallel binning and partition of large nodes.
+
+// A dense cluster of small triangles and a few large ones far away: the centroids' box is mostly
+// empty, the case the refinement of large nodes is for (Conference's top levels look like this).
+std::vector<Aabb> clusterAndOutliers(uint32_t clustered, uint32_t outliers, uint32_t seed) {
+    std::vector<Aabb> boxes = randomSoup(clustered, seed, 1.0f);
+    std::mt19937 rng(seed + 1);
+    std::uniform_real_distribution<float> far(500.0f, 1000.0f), size(1.0f, 50.0f);
+    for (uint32_t i = 0; i < outliers; ++i) {
+        const glm::vec3 a(far(rng), far(rng), far(rng));
+        boxes.push_back(triangleBox(a, a + glm::vec3(size(rng), 0, 0), a + glm::vec3(0, size(rng), size(rng))));
+    }
+    // Interleave the outliers with the cluster, so file order is not spatial order.
+    std::shuffle(boxes.begin(), boxes.end(), rng);
+    return boxes;
+}
+
+// What the tree promises beyond expectValidTree: leaves list their primitives in file order
+// (ascending index, as the CPU and GPU layouts expect), an inner node holds more than leafSize
+// primitives (the threshold is respected: nodes that small are always leaves), no leaf exceeds
+// kMaxLeafPrimitives.
+void expectLeavesInFileOrderAndThreshold(const Bvh& bvh, uint32_t leafSize) {
+    std::vector<uint32_t> primitives(bvh.nodes.size(), 0);  // per node: primitives below it
+    for (size_t i = bvh.nodes.size(); i-- > 0;) {
+        const BvhNode& node = bvh.nodes[i];
+        if (node.isLeaf()) {
+            primitives[i] = node.count;
+            EXPECT_LE(node.count, kMaxLeafPrimitives);
+            for (uint32_t k = node.index + 1; k < node.index + node.count; ++k)
+                ASSERT_LT(bvh.primIndices[k - 1], bvh.primIndices[k]) << "leaf " << i << " not in file order";
+        }
+    }
+    // Children come after their parents (depth-first placement), so one backward pass sums them.
+    for (size_t i = bvh.nodes.size(); i-- > 0;) {
+        const BvhNode& node = bvh.nodes[i];
+        if (node.isLeaf()) continue;
+        ASSERT_GT(node.index, i);
+        primitives[i] = primitives[node.index] + primitives[node.index + 1];
+        EXPECT_GT(primitives[i], leafSize) << "inner node " << i << " holds no more than leafSize";
+    }
+}
+
+TEST(BvhBinned, InvariantsFileOrderAndLeafThreshold) {
+    const std::vector<Aabb> soup = randomSoup(40000, 7);
+    const std::vector<Aabb> skewed = clusterAndOutliers(60000, 40, 8);
+    const std::vector<Aabb> grid = gridSoup(20000, 9);
+    for (const std::vector<Aabb>* bounds : {&soup, &skewed, &grid})
+        for (uint32_t leafSize : {1u, 2u, 4u, 16u}) {
+            SCOPED_TRACE("leafSize " + std::to_string(leafSize) + ", " + std::to_string(bounds->size()) + " boxes");
+            const Bvh bvh = buildBvh(*bounds, optionsFor(BvhBuilder::SahBinned, leafSize));
+            expectValidTree(bvh, *bounds);
+            expectStatsMatchWalk(bvh);
+            expectLeavesInFileOrderAndThreshold(bvh, leafSize);
+        }
+}
+
+// Nodes above 65,536 primitives bin (and refine) by a parallel reduction and partition by chunks
+// in parallel; the tree must still not depend on the thread count. Arenas of 1, 2 and 4 threads
+// (more threads than cores is fine: TBB still splits the work differently).
+TEST(BvhBinned, SameTreeOnOneTwoAndFourThreads) {
+    for (const std::vector<Aabb>& bounds : {randomSoup(300000, 31), clusterAndOutliers(250000, 100, 32)}) {
+        const BvhBuildOptions options = optionsFor(BvhBuilder::SahBinned);
+        const Bvh one = buildOnThreads(1, bounds, options);
+        const Bvh two = buildOnThreads(2, bounds, options);
+        const Bvh four = buildOnThreads(4, bounds, options);
+        EXPECT_TRUE(identical(one, two));
+        EXPECT_TRUE(identical(one, four));
+        expectValidTree(four, bounds);
+        expectLeavesInFileOrderAndThreshold(four, options.leafSize);
+    }
+}
+
+// Two primitives are priced directly (no bins): apart, the SAH splits them when that is cheaper
+// than one leaf; with the same centroid there is nothing to bin and they stay one leaf.
+TEST(BvhBinned, TwoPrimitives) {
+    const Aabb a{glm::vec3(0), glm::vec3(1)}, b{glm::vec3(10, 0, 0), glm::vec3(11, 1, 1)};
+    const std::vector<Aabb> apart{b, a};
+    const Bvh split = buildBvh(apart, optionsFor(BvhBuilder::SahBinned));
+    expectValidTree(split, apart);
+    ASSERT_EQ(split.nodes.size(), 3u);
+    // The lower centroid goes left: primitive 1 (box a) in the left leaf.
+    EXPECT_EQ(split.primIndices[split.nodes[split.nodes[0].index].index], 1u);
+    // The same pair built by the exact builder: the same split.
+    const Bvh exact = buildBvh(apart, optionsFor(BvhBuilder::SahExact));
+    EXPECT_EQ(exact.primIndices, split.primIndices);
+    EXPECT_EQ(exact.stats.sahCost, split.stats.sahCost);
+
+    const Aabb inner{glm::vec3(0.4f), glm::vec3(0.6f)};  // centroid equal to a's
+    const std::vector<Aabb> together{a, inner};
+    const Bvh leaf = buildBvh(together, optionsFor(BvhBuilder::SahBinned));
+    expectValidTree(leaf, together);
+    ASSERT_EQ(leaf.nodes.size(), 1u);
+    EXPECT_EQ(leaf.primIndices, (std::vector<uint32_t>{0, 1}));
+}
+
+// Coordinates near the float range's ends in one scene: a cluster near 1e37 and one near 1e-37
+// beside boxes of extent 1. The sweep's single-precision areas must not overflow (the node's
+// extents are scaled by a power of two, or priced in double where even the scale would overflow).
+TEST(BvhBinned, ExtremeCoordinates) {
+    std::vector<Aabb> bounds = randomSoup(3000, 41, 1.0f);
+    for (const Aabb& box : randomSoup(3000, 42, 1.0f)) bounds.push_back({box.lo * 1e37f, box.hi * 1e37f});
+    for (const Aabb& box : randomSoup(3000, 43, 1.0f)) bounds.push_back({box.lo * 1e-37f, box.hi * 1e-37f});
+    bounds.push_back({glm::vec3(-3e38f), glm::vec3(-2.9e38f)});
+    bounds.push_back({glm::vec3(2.9e38f), glm::vec3(3e38f)});
+    const Bvh bvh = buildBvh(bounds, optionsFor(BvhBuilder::SahBinned));
+    expectValidTree(bvh, bounds);
+    expectLeavesInFileOrderAndThreshold(bvh, 1);
+    EXPECT_TRUE(std::isfinite(bvh.stats.sahCost));
+    EXPECT_GT(bvh.stats.leafCount, 3000u);
+}
+
+// A skewed input (a dense cluster, a few large triangles far away, file order shuffled): the
+// binned tree stays within 2% of the exact builder's SAH cost (issue 13's bar for sah-binned).
+TEST(BvhBinned, SahCloseToExactWithOutliers) {
+    const std::vector<Aabb> bounds = clusterAndOutliers(60000, 40, 51);
+    const Bvh exact = buildBvh(bounds, optionsFor(BvhBuilder::SahExact));
+    const Bvh binned = buildBvh(bounds, optionsFor(BvhBuilder::SahBinned));
+    EXPECT_LE(binned.stats.sahCost, exact.stats.sahCost * 1.02);
+}
+
+// Shared scenes: the binned tree's SAH cost against the exact one's. Issue 13's bar is 1.02; Sibenik
+// meets it (measured 1.008), Conference does not (measured 1.036 with the refinement of large
+// nodes, 1.055 without it, so the bound 1.04 here fails if the refinement is lost; docs/bvh.md).
+// Also: invariants, file order, and the same tree on two threads.
+TEST(BvhBinned, SahAgainstExactOnSharedScenes) {
+    const std::filesystem::path root = RAYPACK_SHARED_SCENES;
+    int tested = 0;
+    for (const auto& [file, bound] :
+         {std::pair{"sibenik/sibenik_geom_75284.ply", 1.02}, std::pair{"conference/conference_geom.ply", 1.04}}) {
+        const std::filesystem::path path = root / file;
+        if (!std::filesystem::exists(path)) continue;
+        SCOPED_TRACE(file);
+        const Scene scene = loadScene(path);
+        const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
+        const Bvh exact = buildBvh(bounds, optionsFor(BvhBuilder::SahExact));
+        const Bvh binned = buildBvh(bounds, optionsFor(BvhBuilder::SahBinned));
+        expectValidTree(binned, bounds);
+        expectStatsMatchWalk(binned);
+        expectLeavesInFileOrderAndThreshold(binned, 1);
+        EXPECT_LE(binned.stats.sahCost, exact.stats.sahCost * bound);
+        const Bvh two = buildOnThreads(2, bounds, optionsFor(BvhBuilder::SahBinned));
+        EXPECT_TRUE(identical(binned, two));
+        ++tested;
+    }
+    if (tested == 0) GTEST_SKIP() << "no shared scenes under " << root;
+}
+
 // Real scenes from ../shared/scenes, when present: invariants and statistics for both builders,
 // and O_AVG in the report's band [1, 2] with the default options.
 TEST(BvhSharedScenes, InvariantsOnRealScenes) {

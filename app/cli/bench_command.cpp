@@ -38,6 +38,7 @@ struct BenchFlags {
     BvhFlags bvh;
     bool noEmbree = false;
     bool noDriverRt = false;
+    bool pipelineStatistics = false;
 };
 
 // What one cell traces: a tracer, with a packet shape where it traces packets, and the split rules
@@ -95,6 +96,12 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["frame_min_s"] = s.frameSeconds.min;
         r["frame_max_s"] = s.frameSeconds.max;
         r.update(toJson(std::string(kind) == "primary" ? s.primary : s.shadow));
+        if (s.gpu) {
+            // T_CU split (issue 13): buffers created, layout written into staging memory, copied.
+            r["t_cu_allocation_s"] = s.uploadAllocationSeconds;
+            r["t_cu_conversion_s"] = s.uploadConversionSeconds;
+            r["t_cu_transfer_s"] = s.uploadTransferSeconds;
+        }
         records.push_back(r);
     }
 }
@@ -160,7 +167,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                     {"gpu", nullptr},           {"gpu_driver", nullptr},       {"gpu_type", nullptr},
                     {"embree_version", nullptr}};
     if (gpu) {
-        session.emplace(f.gpu, false, !f.noDriverRt);
+        session.emplace(f.gpu, false, !f.noDriverRt, f.pipelineStatistics);
         const vk::DeviceInfo& info = session->context.info;
         machine["gpu"] = info.name;
         machine["gpu_driver"] = info.driver;
@@ -234,6 +241,11 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             } else {
                 MeasuredFrames measured = measureFrames(tracer, prepared[&tracer], cellSettings, repeats, false);
                 addFrameRecords(records, scene, tracer, cell, measured);
+                if (f.pipelineStatistics)
+                    if (const json stats = tracer.pipelineStatistics(cellSettings); !stats.is_null())
+                        for (size_t k = records.size() - 2; k < records.size(); ++k)
+                            records[k]["pipeline_statistics"] =
+                                stats.value(records[k]["ray_kind"].get<std::string>(), json());
                 if (tracer.capabilities().bitExactWithReference && !referenceHits.empty() &&
                     referenceHits.size() == measured.frame.hits.size())
                     for (size_t k = records.size() - 2; k < records.size(); ++k)
@@ -364,6 +376,10 @@ CommandRunner addBenchCommand(CLI::App& app) {
     command->add_flag("--no-driver-rt", f.noDriverRt,
                       "Do not run the driver's ray tracing peer (VK_KHR_ray_tracing_pipeline; "
                       "it runs where the GPU offers it, after raypack's GPU cells)");
+    command->add_flag("--pipeline-statistics", f.pipelineStatistics,
+                      "GPU cells also record the compiler's statistics of their kernels (registers, "
+                      "spills, ... as the driver names them; VK_KHR_pipeline_executable_properties, where "
+                      "the device offers it) as \"pipeline_statistics\"");
     command
         ->add_option("--shadow-order", f.shadowOrder,
                      "The child a shadow ray of the GPU single-ray kernel enters first: nearest, tree "

@@ -13,7 +13,8 @@ struct VulkanSession {
     // Throws raypack::Error when there is no usable Vulkan device.
     // `rayTracing` also enables the driver's ray tracing where the device offers it (for the
     // bench's driver ray tracing peer); the device is chosen the same way either way.
-    VulkanSession(const std::string& device, bool validation, bool rayTracing = false);
+    // `pipelineStatistics`: VulkanContextOptions::enablePipelineStatistics.
+    VulkanSession(const std::string& device, bool validation, bool rayTracing = false, bool pipelineStatistics = false);
     ~VulkanSession();
     VulkanSession(const VulkanSession&) = delete;
     VulkanSession& operator=(const VulkanSession&) = delete;

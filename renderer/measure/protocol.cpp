@@ -53,6 +53,9 @@ MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, con
 
     measured.stats = summarizeRuns(counters, timings, preparation.isUpload ? preparation.seconds : 0.0);
     measured.stats.countersMeasured = true;
+    measured.stats.uploadAllocationSeconds = preparation.allocationSeconds;
+    measured.stats.uploadConversionSeconds = preparation.conversionSeconds;
+    measured.stats.uploadTransferSeconds = preparation.transferSeconds;
     measured.stats.gpu = gpu;
     measured.stats.device = tracer.describe(settings);
     measured.stats.width = settings.width;

@@ -78,6 +78,10 @@ struct FrameStats {
     RayKindStats shadow;            // rays == 0 when shadows are off
     Spread frameSeconds;            // the whole frame as the caller saw it (trace, shade, read back)
     bool countersMeasured = false;  // N_TR / N_IT come from a counting run
+    // T_CU split (Preparation): buffer creation, layout conversion into staging memory, transfer.
+    double uploadAllocationSeconds = 0.0;
+    double uploadConversionSeconds = 0.0;
+    double uploadTransferSeconds = 0.0;
 };
 
 // Fills N_Q / N_TR / N_IT from a counting run's summary and the timings from the timed runs.

@@ -32,6 +32,10 @@ public:
         p.seconds = tracer_->upload(scene, bvh);
         p.bytes = tracer_->sceneBytes();
         p.isUpload = true;
+        const GpuTracer::UploadTimings split = tracer_->lastUploadTimings();
+        p.allocationSeconds = split.allocationSeconds;
+        p.conversionSeconds = split.conversionSeconds;
+        p.transferSeconds = split.transferSeconds;
         return p;
     }
     Frame render(const RenderSettings& settings, const FrameRequest& request) override {
@@ -39,6 +43,18 @@ public:
     }
     void warmUp(const RenderSettings& settings, uint32_t frames) override {
         tracer_->traceBackToBack(withKernel(settings), frames);
+    }
+    nlohmann::json pipelineStatistics(const RenderSettings& settings) override {
+        nlohmann::json j = nullptr;
+        for (const bool shadow : {false, true}) {
+            if (shadow && !settings.shadows) continue;
+            const auto stats = tracer_->pipelineStatistics(withKernel(settings), shadow);
+            if (stats.empty()) return nullptr;
+            nlohmann::json pass = nlohmann::json::object();
+            for (const GpuTracer::PipelineStatistic& s : stats) pass[s.name] = s.value;
+            j[shadow ? "shadow" : "primary"] = pass;
+        }
+        return j;
     }
 
 private:

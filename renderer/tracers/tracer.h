@@ -50,6 +50,11 @@ struct Preparation {
     // `seconds` is the report's T_CU, creating and uploading device data (a GPU tracer). The CPU
     // tracers read the tree in host memory, and the report's CPU rows have T_CU = 0.
     bool isUpload = false;
+    // A GPU tracer's T_CU split (issue 13): buffer creation, writing the layout into staging
+    // memory, and the copies to the device; all 0 where not measured.
+    double allocationSeconds = 0.0;
+    double conversionSeconds = 0.0;
+    double transferSeconds = 0.0;
 };
 
 class Tracer {
@@ -80,6 +85,13 @@ public:
     virtual void warmUp(const RenderSettings& settings, uint32_t frames) {
         (void)settings;
         (void)frames;
+    }
+
+    // The compiler's statistics of the kernels that trace `settings` (a GPU tracer on a context made
+    // with pipeline statistics: {"primary": {name: value, ...}, "shadow": {...}}); null elsewhere.
+    virtual nlohmann::json pipelineStatistics(const RenderSettings& settings) {
+        (void)settings;
+        return nullptr;
     }
 
     // Tracers whose measurement is not a frame write their own bench records: Embree's five ray

@@ -202,6 +202,19 @@ std::string rejectReason(VkInstance instance, VkPhysicalDevice physical, const V
 
 }  // namespace
 
+namespace {
+
+bool offersExtension(VkPhysicalDevice physical, const char* name) {
+    uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> offered(count);
+    vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, offered.data());
+    return std::any_of(offered.begin(), offered.end(),
+                       [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, name) == 0; });
+}
+
+}  // namespace
+
 std::string rayTracingMissing(VkPhysicalDevice physical) {
     VkPhysicalDeviceProperties props;
     vkGetPhysicalDeviceProperties(physical, &props);
@@ -384,6 +397,17 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
             accelerationStructure.pNext = &rayTracingPipeline;
             deviceFeatures = &vulkan12;
             ctx.rayTracing = true;
+        }
+        // The compiler's statistics of a pipeline (registers, spills): chained in front of the rest.
+        VkPhysicalDevicePipelineExecutablePropertiesFeaturesKHR executableInfo{
+            VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PIPELINE_EXECUTABLE_PROPERTIES_FEATURES_KHR};
+        if (options.enablePipelineStatistics &&
+            offersExtension(ctx.physicalDevice, VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME)) {
+            extensions.push_back(VK_KHR_PIPELINE_EXECUTABLE_PROPERTIES_EXTENSION_NAME);
+            executableInfo.pipelineExecutableInfo = VK_TRUE;
+            executableInfo.pNext = const_cast<void*>(deviceFeatures);
+            deviceFeatures = &executableInfo;
+            ctx.pipelineStatistics = true;
         }
         VkDeviceCreateInfo deviceInfo{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
         deviceInfo.pNext = deviceFeatures;

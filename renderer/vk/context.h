@@ -35,6 +35,10 @@ struct VulkanContextOptions {
     // with the features accelerationStructure, rayTracingPipeline and bufferDeviceAddress. A device
     // without them is still chosen and used; VulkanContext::rayTracing then stays false.
     bool enableRayTracing = false;
+    // Enable VK_KHR_pipeline_executable_properties (feature pipelineExecutableInfo) where offered,
+    // so that compute pipelines can report the compiler's statistics (registers, spills, ...).
+    // Without it VulkanContext::pipelineStatistics stays false.
+    bool enablePipelineStatistics = false;
 };
 
 // What the tracer and the panel need to know about the chosen device.
@@ -80,6 +84,8 @@ struct VulkanContext {
     // on a device that offers them); buffers with VK_BUFFER_USAGE_SHADER_DEVICE_ADDRESS_BIT then
     // get memory allocated with VK_MEMORY_ALLOCATE_DEVICE_ADDRESS_BIT.
     bool rayTracing = false;
+    // VK_KHR_pipeline_executable_properties is enabled (VulkanContextOptions::enablePipelineStatistics).
+    bool pipelineStatistics = false;
 };
 
 // Throws raypack::Error when there is no Vulkan loader or driver, no usable device, or the

@@ -1,0 +1,63 @@
+#!/bin/bash
+# Issue 13: build rate of sah-binned against Embree's medium build on the H200 machine's CPU (all
+# its threads), in one run: the bench's T_B (raypack, buildBvh) and Embree's rtcCommitScene time
+# (RTC_BUILD_QUALITY_MEDIUM), both per scene, repeated and interleaved; medians and ratios.
+# With dev/bin/raypack-cli-old (a build of main before the change) also the old sah-binned.
+#
+# Prepare the carried bundle here (scenes are not on the device):
+#   scripts/device-bundle.sh dev build/raypack-cli            # + cp OLD_BUILD/raypack-cli dev/bin/raypack-cli-old
+#   mkdir -p dev/scenes && (cd ../shared/scenes && cp --parents sibenik/sibenik_geom_75284.ply \
+#     dabrovic_sponza/sponza.obj conference/conference_geom.ply stanford/armadillo_decimated_99976.obj \
+#     stanford/dragon_vrip_res2.ply "$OLDPWD/dev/scenes/")
+# Run on the device from the repository root (carry dev): scripts/device-build-rate.sh
+# Output: $OUT/build-rate-*.json (bench results) and $OUT/build-rate.txt (the table).
+# Budget: about 4 minutes with REPEATS=5 (the 13M dragon is subdivided on load, each run).
+set -u
+OUT=${OUT:-/tmp/build-rate}
+REPEATS=${REPEATS:-5}
+S=${SCENES:-dev/scenes}
+export LD_LIBRARY_PATH=$PWD/dev/lib:${LD_LIBRARY_PATH:-}
+mkdir -p "$OUT"
+scenes="$S/sibenik/sibenik_geom_75284.ply,$S/dabrovic_sponza/sponza.obj,$S/conference/conference_geom.ply"
+scenes+=",$S/stanford/armadillo_decimated_99976.obj,$S/stanford/dragon_vrip_res2.ply"
+scenes+=",gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"
+scenes=${SCENE_LIST:-$scenes}  # override for a short trial run
+common=(bench --scenes "$scenes" --device cpu --width 16 --height 16 --repeat 1 --builder sah-binned)
+nproc >"$OUT/build-rate.txt"
+for i in $(seq 1 "$REPEATS"); do
+  # New binary with Embree (medium and high are built; only medium is compared).
+  dev/bin/raypack-cli "${common[@]}" --out "$OUT/build-rate-new-$i.json" >/dev/null 2>>"$OUT/stderr.txt" ||
+    echo "FAILED new run $i" | tee -a "$OUT/build-rate.txt"
+  if [ -x dev/bin/raypack-cli-old ]; then
+    dev/bin/raypack-cli-old "${common[@]}" --no-embree --out "$OUT/build-rate-old-$i.json" >/dev/null \
+      2>>"$OUT/stderr.txt" || echo "FAILED old run $i" | tee -a "$OUT/build-rate.txt"
+  fi
+done
+python3 - "$OUT" >>"$OUT/build-rate.txt" <<'EOF'
+import glob, json, statistics, sys
+out = sys.argv[1]
+def times(kind):
+    # scene -> {"raypack": [T_B...], "embree": [T_B...]}, one value per bench run
+    result = {}
+    for path in sorted(glob.glob(f"{out}/build-rate-{kind}-*.json")):
+        seen = set()
+        for r in json.load(open(path))["records"]:
+            scene = r.get("scene_spec", r.get("scene"))
+            tracer = r.get("tracer")
+            key = (scene, "embree" if tracer == "embree" else "raypack")
+            if key in seen or (tracer == "embree" and r.get("embree_quality") != "medium"):
+                continue
+            seen.add(key)
+            result.setdefault(scene, {}).setdefault(key[1], []).append((r["t_b_s"], r.get("triangles")))
+    return result
+new, old = times("new"), times("old")
+print(f"{'scene':60s} {'tris':>10s} {'new Mtri/s':>10s} {'embree':>10s} {'old':>10s} {'new/embree':>10s} {'new/old':>8s} (medians)")
+for scene, by in new.items():
+    tris = by["raypack"][0][1]
+    med = lambda xs: statistics.median(t for t, _ in xs)
+    n, e = med(by["raypack"]), med(by.get("embree", [(float("nan"), 0)]))
+    o = med(old[scene]["raypack"]) if scene in old else float("nan")
+    rate = lambda s: tris / s / 1e6
+    print(f"{scene[-60:]:60s} {tris:10d} {rate(n):10.2f} {rate(e):10.2f} {rate(o):10.2f} {e / n:10.2f} {o / n:8.2f}")
+EOF
+cat "$OUT/build-rate.txt"
