@@ -11,6 +11,7 @@
 
 #include <array>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <functional>
 #include <map>
@@ -39,13 +40,22 @@ struct PipelineKey {
     uint32_t stackEntries;
     IntersectMode intersect;
     ShadowOrder shadowOrder;
-    bool speculative;
+    uint32_t hybridMinRays = 0;     // the hybrid kernel's split rules (0 for the other kernels)
+    uint32_t hybridVisitRatio = 0;  // in 1/100
+    bool speculative = false;
     auto tie() const {
         return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
-                        speculative);
+                        hybridMinRays, hybridVisitRatio, speculative);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
+
+// The hybrid kernel's split rules into its pipeline key (the other kernels keep 0, one pipeline).
+void setHybridRules(PipelineKey& key, const RenderSettings& settings) {
+    if (settings.kernel != KernelKind::Hybrid) return;
+    key.hybridMinRays = settings.hybrid.minRays;
+    key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
+}
 
 // Whether a packet of `width` x `height` rays runs as exactly one subgroup on `device`, so that
 // its vote needs no shared memory and no barrier. A workgroup no larger than the subgroup is one
@@ -395,23 +405,31 @@ void ensureReadback(GpuTracer::State& s, VkDeviceSize bytes) {
 
 VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     if (auto found = s.pipelines.find(key); found != s.pipelines.end()) return found->second;
+    // The packet and hybrid kernels trace packets with the shared stack; the single-ray and hybrid
+    // kernels give each ray its own stack. After the hybrid kernel's split a ray's stack holds the
+    // packet's pending entries it wanted (at most the packet stack's entries) and its own pushes
+    // below the split node (at most the single kernel's entries), so it gets both.
     const bool packet = key.kernel == KernelKind::Packet;
+    const bool hybrid = key.kernel == KernelKind::Hybrid;
+    const bool sharedStack = packet || hybrid;
     gpu::TraceSpecialization data{};
     data.packetWidth = key.packetWidth;
     data.packetHeight = key.packetHeight;
-    data.kernel = packet ? gpu::kKernelPacket : gpu::kKernelSingle;
+    data.kernel = packet ? gpu::kKernelPacket : hybrid ? gpu::kKernelHybrid : gpu::kKernelSingle;
     data.pass = key.pass;
     data.statistics = key.statistics ? VK_TRUE : VK_FALSE;
     data.view = key.view;
-    data.packetStackEntries = packet ? key.stackEntries : 1u;
-    data.rayStackEntries = packet ? 1u : key.stackEntries;
+    data.packetStackEntries = sharedStack ? key.stackEntries : 1u;
+    data.rayStackEntries = packet ? 1u : hybrid ? 2u * key.stackEntries : key.stackEntries;
     data.packetIsOneSubgroup =
-        packet && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
+        sharedStack && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
     data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
     data.shadowOrder = key.shadowOrder == ShadowOrder::Tree     ? gpu::kShadowOrderTree
                        : key.shadowOrder == ShadowOrder::Larger ? gpu::kShadowOrderLarger
                                                                 : gpu::kShadowOrderNearest;
-    data.speculative = !packet && key.speculative ? VK_TRUE : VK_FALSE;
+    data.hybridMinRays = key.hybridMinRays;
+    data.hybridVisitRatio = key.hybridVisitRatio;
+    data.speculative = key.kernel == KernelKind::Single && key.speculative ? VK_TRUE : VK_FALSE;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
     std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
     for (size_t i = 0; i < entries.size(); ++i) {
@@ -452,10 +470,13 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
                     std::to_string(d.maxWorkgroupInvocations) + " invocations, " +
                     std::to_string(d.maxWorkgroupSize[0]) + "x" + std::to_string(d.maxWorkgroupSize[1]) + ")");
     const uint64_t shared = uint64_t(s.stackEntries) * 8u + kVoteBytes;
-    if (settings.kernel == KernelKind::Packet && shared > d.maxSharedMemoryBytes)
+    if (settings.kernel != KernelKind::Single && shared > d.maxSharedMemoryBytes)
         throw Error("GPU: packet " + name + " with a stack of " + std::to_string(s.stackEntries) + " entries needs " +
                     std::to_string(shared) + " bytes of shared memory; " + d.name + " has " +
                     std::to_string(d.maxSharedMemoryBytes));
+    if (!(settings.hybrid.visitRatio >= 0.0f && settings.hybrid.visitRatio <= kMaxHybridVisitRatio))
+        throw Error("GPU: the hybrid kernel's visit ratio " + std::to_string(settings.hybrid.visitRatio) +
+                    " is not 0 (off) or a ratio up to " + std::to_string(int(kMaxHybridVisitRatio)));
     const uint64_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint64_t groupsY = (settings.height + shape.height - 1) / shape.height;
     if (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1])
@@ -538,11 +559,10 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel,      shape.width,
-                    shape.height,         0u,
-                    statistics,           view,
-                    s.stackEntries,       settings.intersect,
-                    settings.shadowOrder, settings.speculativeTraversal};
+    PipelineKey key{settings.kernel, shape.width,        shape.height,        0u, statistics, view,
+                    s.stackEntries,  settings.intersect, settings.shadowOrder};
+    setHybridRules(key, settings);
+    key.speculative = settings.speculativeTraversal;
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
@@ -722,9 +742,10 @@ std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const Re
     const uint32_t pass = shadowPass         ? gpu::kPassShadowShade
                           : settings.shadows ? gpu::kPassPrimary
                                              : gpu::kPassPrimaryShade;
-    const PipelineKey key{
-        settings.kernel,    settings.packet.width, settings.packet.height,       pass, statistics, view, s.stackEntries,
-        settings.intersect, settings.shadowOrder,  settings.speculativeTraversal};
+    PipelineKey key{settings.kernel, settings.packet.width, settings.packet.height, pass, statistics, view,
+                    s.stackEntries,  settings.intersect,    settings.shadowOrder};
+    setHybridRules(key, settings);
+    key.speculative = settings.speculativeTraversal;
     VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
     pipelineInfo.pipeline = pipelineFor(s, key);
     uint32_t executables = 0;

@@ -17,7 +17,10 @@ struct PhongParams {
     float shininess = 32.0f;
 };
 
-enum class KernelKind { Packet, Single };
+// Packet: the report's shared-stack packet traversal; Single: one ray per invocation (Aila and
+// Laine 2009); Hybrid: the packet while it is coherent, then each ray alone (Benthin et al. 2012,
+// docs/gpu.md), split by HybridParams.
+enum class KernelKind { Packet, Single, Hybrid };
 enum class ViewMode { Shaded, HeatTraversal, HeatIntersections };
 // Which ray/triangle and ray/box tests every tracer runs (issue 15, docs/trade.md). Robust: the
 // watertight triangle test of Woop et al. 2013 with accurate hit distances and the conservative
@@ -36,6 +39,19 @@ struct PacketShape {
     uint32_t rays() const { return width * height; }
     bool operator==(const PacketShape&) const = default;
 };
+
+// When the hybrid kernel's packet splits into single rays (shaders/trace.comp, traceHybrid): at the
+// first inner node that fewer than `minRays` of its active rays want (0: never by this rule), or
+// once its inner-node visits summed over its active rays pass `visitRatio` times the visits those
+// rays wanted (0: the rule is off; at most kMaxHybridVisitRatio). Both are specialization constants.
+// Defaults until the H200 sweep (scripts/device-hybrid.sh) chooses them: a quarter of the default
+// 8x4 packet, visit rule off.
+struct HybridParams {
+    uint32_t minRays = 8;
+    float visitRatio = 0.0f;
+    bool operator==(const HybridParams&) const = default;
+};
+inline constexpr float kMaxHybridVisitRatio = 1000.0f;
 
 struct RenderSettings {
     uint32_t width = 800;
@@ -56,7 +72,8 @@ struct RenderSettings {
     glm::vec2 pixelJitter{0.0f};
     // GPU path only.
     KernelKind kernel = KernelKind::Packet;
-    PacketShape packet;
+    PacketShape packet;  // the packet and hybrid kernels' packet (one workgroup)
+    HybridParams hybrid;
     bool collectCounters = false;  // per-ray N_TR / N_IT (statistics variant of the kernel)
     ViewMode view = ViewMode::Shaded;
     // The count shown as full red in the heat maps; 0: the view's default (256 nodes, 128 tests;

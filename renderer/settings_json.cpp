@@ -119,6 +119,7 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["speculative_traversal"] = s.speculativeTraversal;
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
+    j["hybrid"] = {{"min_rays", s.hybrid.minRays}, {"visit_ratio", s.hybrid.visitRatio}};
     j["collect_counters"] = s.collectCounters;
     j["view"] = toString(s.view);
     j["heat_full_scale"] = s.heatFullScale;
@@ -191,6 +192,12 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         readUint(*packet, "width", "packet.", s.packet.width);
         readUint(*packet, "height", "packet.", s.packet.height);
         if (s.packet.width == 0 || s.packet.height == 0) badKey("packet", "width and height must both be at least 1");
+    }
+    if (const json* hybrid = readObject(j, "hybrid", "")) {
+        readUint(*hybrid, "min_rays", "hybrid.", s.hybrid.minRays);
+        readFloat(*hybrid, "visit_ratio", "hybrid.", s.hybrid.visitRatio);
+        if (!(s.hybrid.visitRatio >= 0.0f && s.hybrid.visitRatio <= kMaxHybridVisitRatio))
+            badKey("hybrid", "visit_ratio must be 0 (off) or a ratio up to 1000");
     }
     readBool(j, "collect_counters", "", s.collectCounters);
     readBool(j, "speculative_traversal", "", s.speculativeTraversal);

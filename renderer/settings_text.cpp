@@ -2,6 +2,7 @@
 
 #include "renderer/error.h"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -18,7 +19,8 @@ struct Named {
 };
 
 // One table per enum: its names in both directions, and the list for messages.
-constexpr Named<KernelKind> kKernelNames[] = {{KernelKind::Packet, "packet"}, {KernelKind::Single, "single"}};
+constexpr Named<KernelKind> kKernelNames[] = {
+    {KernelKind::Packet, "packet"}, {KernelKind::Single, "single"}, {KernelKind::Hybrid, "hybrid"}};
 constexpr Named<ViewMode> kViewNames[] = {
     {ViewMode::Shaded, "shaded"}, {ViewMode::HeatTraversal, "nodes"}, {ViewMode::HeatIntersections, "tests"}};
 constexpr Named<IntersectMode> kIntersectNames[] = {{IntersectMode::Robust, "robust"}, {IntersectMode::Fast, "fast"}};
@@ -126,6 +128,37 @@ std::vector<PacketShape> parsePacketShapes(std::string_view what, std::string_vi
 
 std::string toString(const PacketShape& shape) {
     return std::to_string(shape.width) + "x" + std::to_string(shape.height);
+}
+
+uint32_t HybridMinRaysSpec::resolve(const PacketShape& packet) const {
+    return divisor == 0 ? count : std::max(1u, packet.rays() / divisor);
+}
+
+std::vector<HybridMinRaysSpec> parseHybridMinRaysList(std::string_view what, std::string_view text) {
+    std::vector<HybridMinRaysSpec> list;
+    for (const std::string& part : splitList(text)) {
+        HybridMinRaysSpec spec;
+        spec.text = part;
+        const std::string_view view(part);
+        const bool ok = view.starts_with("1/") ? parseUint(view.substr(2), spec.divisor) && spec.divisor > 0
+                                               : parseUint(view, spec.count);
+        if (!ok) badValue(what, part, "a ray count K such as 8 or a share of the packet such as 1/4");
+        list.push_back(spec);
+    }
+    if (list.empty()) badValue(what, text, "a list of ray counts or packet shares such as 1/4,1/8,4");
+    return list;
+}
+
+std::vector<float> parseHybridVisitRatios(std::string_view what, std::string_view text) {
+    std::vector<float> list;
+    for (const std::string& part : splitList(text)) {
+        float ratio = 0.0f;
+        if (!parseFloat(part, ratio) || !(ratio == 0.0f || (ratio >= 1.0f && ratio <= kMaxHybridVisitRatio)))
+            badValue(what, part, "a visit ratio: 0 (off) or a number from 1 to 1000");
+        list.push_back(ratio);
+    }
+    if (list.empty()) badValue(what, text, "a list of visit ratios such as 0,2");
+    return list;
 }
 
 glm::vec3 parseVec3(std::string_view what, std::string_view text) {

@@ -22,7 +22,7 @@ namespace raypack {
 // tracer's tile are both bounded well below it; this bounds what a user can type).
 inline constexpr uint32_t kMaxPacketSide = 1024;
 
-// Names: "packet" / "single"; "shaded" / "nodes" / "tests". toString (renderer/settings.h) gives
+// Names: "packet" / "single" / "hybrid"; "shaded" / "nodes" / "tests". toString (renderer/settings.h) gives
 // the name the parsers accept, so what one program prints another can read back.
 std::optional<KernelKind> parseKernelKind(std::string_view name);
 std::optional<ViewMode> parseViewMode(std::string_view name);
@@ -39,6 +39,19 @@ PacketShape parsePacketShape(std::string_view what, std::string_view text);
 // A comma-separated list of "WxH" (e.g. "8x4,4x8,5x6"), at least one.
 std::vector<PacketShape> parsePacketShapes(std::string_view what, std::string_view text);
 std::string toString(const PacketShape& shape);  // "8x4"
+
+// The hybrid kernel's K as the bench sweeps it: a count ("8") or a share of the packet's rays
+// ("1/4": K = rays / 4, rounded down, at least 1), so one list serves several packet shapes.
+struct HybridMinRaysSpec {
+    uint32_t count = 0;    // the count, when divisor is 0
+    uint32_t divisor = 0;  // N of "1/N"
+    std::string text;      // as given
+    uint32_t resolve(const PacketShape& packet) const;
+};
+// A comma-separated list of them (e.g. "1/4,1/8,0"), at least one.
+std::vector<HybridMinRaysSpec> parseHybridMinRaysList(std::string_view what, std::string_view text);
+// A comma-separated list of visit ratios, each 0 (off) or in [1, kMaxHybridVisitRatio], at least one.
+std::vector<float> parseHybridVisitRatios(std::string_view what, std::string_view text);
 
 // "x,y,z" / "x,y": that many finite numbers separated by commas, no empty component.
 glm::vec3 parseVec3(std::string_view what, std::string_view text);

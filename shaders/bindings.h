@@ -34,7 +34,7 @@ const uint kBindingCount = 13u;
 // Specialization constants of shaders/trace.comp (constant_id, local_size_*_id).
 const uint kSpecPacketWidth = 0u;          // local_size_x: packet width PW
 const uint kSpecPacketHeight = 1u;         // local_size_y: packet height PH
-const uint kSpecKernel = 2u;               // kKernelPacket or kKernelSingle
+const uint kSpecKernel = 2u;               // kKernelPacket, kKernelSingle or kKernelHybrid
 const uint kSpecPass = 3u;                 // kPass*
 const uint kSpecStatistics = 4u;           // bool: count N_TR / N_IT per ray
 const uint kSpecView = 5u;                 // kView*
@@ -43,8 +43,10 @@ const uint kSpecRayStackEntries = 7u;      // each ray's own stack (1 for the pa
 const uint kSpecPacketIsOneSubgroup = 8u;  // bool: the packet is exactly one subgroup
 const uint kSpecFastIntersect = 9u;        // bool: IntersectMode::Fast (shaders/intersect.h)
 const uint kSpecShadowOrder = 10u;         // kShadowOrder*: a shadow ray's first child (single-ray kernel)
-const uint kSpecSpeculative = 11u;         // bool: speculative single-ray traversal (Aila and Laine 2009)
-const uint kSpecCount = 12u;
+const uint kSpecHybridMinRays = 11u;       // hybrid kernel: split when fewer rays want the node (K)
+const uint kSpecHybridVisitRatio = 12u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
+const uint kSpecSpeculative = 13u;         // bool: speculative single-ray traversal (Aila and Laine 2009)
+const uint kSpecCount = 14u;
 
 // Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).
 const uint kShadowOrderNearest = 0u;
@@ -74,9 +76,11 @@ struct TraceSpecialization {
     uint packetIsOneSubgroup;  // VkBool32
     uint fastIntersect;        // VkBool32
     uint shadowOrder;
+    uint hybridMinRays;
+    uint hybridVisitRatio;
     uint speculative;  // VkBool32
 };
-RP_CHECK_SIZE(TraceSpecialization, 48);
+RP_CHECK_SIZE(TraceSpecialization, 56);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -88,7 +92,9 @@ RP_CHECK_OFFSET(TraceSpecialization, rayStackEntries, 28);
 RP_CHECK_OFFSET(TraceSpecialization, packetIsOneSubgroup, 32);
 RP_CHECK_OFFSET(TraceSpecialization, fastIntersect, 36);
 RP_CHECK_OFFSET(TraceSpecialization, shadowOrder, 40);
-RP_CHECK_OFFSET(TraceSpecialization, speculative, 44);
+RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 44);
+RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 48);
+RP_CHECK_OFFSET(TraceSpecialization, speculative, 52);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -111,6 +117,8 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecPacketIsOneSubgroup, packetIsOneSubgroup),
     RP_SPEC_ENTRY(kSpecFastIntersect, fastIntersect),
     RP_SPEC_ENTRY(kSpecShadowOrder, shadowOrder),
+    RP_SPEC_ENTRY(kSpecHybridMinRays, hybridMinRays),
+    RP_SPEC_ENTRY(kSpecHybridVisitRatio, hybridVisitRatio),
     RP_SPEC_ENTRY(kSpecSpeculative, speculative),
 };
 #undef RP_SPEC_ENTRY

@@ -96,6 +96,7 @@ RP_CHECK_SIZE(GpuPrimaryHit, 16);
 // Values of the kernel specialization constants (constant_id in shaders/trace.comp).
 const uint kKernelPacket = 0u;
 const uint kKernelSingle = 1u;
+const uint kKernelHybrid = 2u;      // packet while coherent, then each ray alone (docs/gpu.md)
 const uint kPassPrimary = 0u;       // trace primary rays, keep the hits for the shadow pass
 const uint kPassPrimaryShade = 1u;  // trace primary rays and shade (shadows off)
 const uint kPassShadowShade = 2u;   // trace shadow rays for the kept hits and shade

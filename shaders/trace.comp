@@ -2,7 +2,8 @@
 // raypack's tracing kernels: the packet traversal with a shared stack of Gunther, Popov and Seidel
 // 2007 as the report describes it (../shared/reference/gpu-packet-traversal-report.txt 2.2, 2.3,
 // 3.3-3.5), and the single-ray while-while traversal of Aila and Laine 2009 ("Understanding the
-// Efficiency of Ray Traversal on GPUs") on the same nodes. Which kernel, which pass, the packet
+// Efficiency of Ray Traversal on GPUs") on the same nodes, and the hybrid of the two (traceHybrid,
+// Benthin et al. 2012). Which kernel, which pass, the packet
 // shape (the workgroup size), the statistics variant, the view and the stack sizes are
 // specialization constants: the host builds one pipeline per combination from this one module.
 //
@@ -46,6 +47,12 @@ layout(constant_id = kSpecFastIntersect) const bool kFastIntersect = false;
 layout(constant_id = kSpecShadowOrder) const uint kShadowOrder = kShadowOrderNearest;
 // The single-ray kernel's speculative traversal (traceSingleSpeculative).
 layout(constant_id = kSpecSpeculative) const bool kSpeculative = false;
+// The hybrid kernel's two split rules (traceHybrid, docs/gpu.md): the packet splits into single
+// rays when fewer than kHybridMinRays of its active rays want the node it visits (0: never by this
+// rule), or, when kHybridVisitRatio is not 0, when its inner-node visits summed over its active
+// rays pass kHybridVisitRatio / 100 times the visits those rays wanted.
+layout(constant_id = kSpecHybridMinRays) const uint kHybridMinRays = 8;
+layout(constant_id = kSpecHybridVisitRatio) const uint kHybridVisitRatio = 0;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
@@ -413,6 +420,256 @@ void traceSingle(inout RayQuery q) {
     }
 }
 
+// The hybrid kernel's vote: packetVote's counts plus `wanting`, the active rays that want the node
+// being visited (its box was hit when it was entered or pushed), which both split rules read. The
+// same four rotating slots as packetVote, the fourth component of each slot (packetVote leaves it
+// 0) carrying `wanting` across subgroups, so the two votes can follow each other in one traversal.
+struct HybridVote {
+    PacketVote packet;
+    uint wanting;
+};
+
+HybridVote hybridVote(bool leftHit, bool rightHit, bool rightFirst, bool wants, bool isActive, bool countActive,
+                      inout uint parity) {
+    HybridVote h;
+    const uvec4 left = subgroupBallot(leftHit);
+    const uvec4 right = subgroupBallot(rightHit);
+    PacketVote v;
+    v.rightFirst = subgroupBallotBitCount(subgroupBallot(rightFirst));
+    v.hitting = subgroupBallotBitCount(left | right);
+    v.hitLeft = subgroupBallotBitCount(left);
+    v.hitRight = subgroupBallotBitCount(right);
+    v.stillActive = countActive ? subgroupBallotBitCount(subgroupBallot(isActive)) : 0u;
+    h.wanting = subgroupBallotBitCount(subgroupBallot(wants));
+    uvec2 packed = uvec2(v.rightFirst | (v.hitting << 16u), v.hitLeft | (v.hitRight << 16u));
+    if (kPacketIsOneSubgroup) {
+        subgroupBarrier();
+    } else {
+        const uint slot = parity & 3u;
+        if (subgroupElect()) {
+            atomicAdd(sVote[slot].x, packed.x);
+            atomicAdd(sVote[slot].y, packed.y);
+            if (countActive) atomicAdd(sVote[slot].z, v.stillActive);
+            atomicAdd(sVote[slot].w, h.wanting);
+        }
+        barrier();
+        const uvec4 total = sVote[slot];
+        if (gl_LocalInvocationIndex == 0u) sVote[(slot + 2u) & 3u] = uvec4(0u);
+        parity += 1u;
+        packed = total.xy;
+        v.stillActive = total.z;
+        h.wanting = total.w;
+    }
+    v.rightFirst = packed.x & 0xFFFFu;
+    v.hitting = packed.x >> 16u;
+    v.hitLeft = packed.y & 0xFFFFu;
+    v.hitRight = packed.y >> 16u;
+    h.packet = v;
+    return h;
+}
+
+// Hybrid packet / single-ray traversal after Benthin, Wald, Woop, Ernst and Mark 2012 ("Combining
+// Single and Packet-Ray Tracing for Arbitrary Ray Distributions on the Intel MIC Architecture"):
+// the packet traverses as tracePacket does (shared stack, one vote per inner node) while it is
+// coherent, and once a vote shows it is not, every ray continues alone with traceSingle's
+// while-while loop and its own stack, seeded with the packet's pending shared-stack entries that
+// the ray wanted and with its own step at the node of that vote. The split is for the rest of the
+// traversal (Benthin et al. return to packet mode after the subtree; a GPU packet whose rays have
+// diverged in a subgroup has no cheap way back). The decision is packet-uniform (it reads only the
+// vote's totals), so every invocation leaves the voting loop at the same iteration and no barrier
+// follows the split.
+void traceHybrid(inout RayQuery q) {
+    // Each ray's own stack after the split: the packet's pending entries plus its own pushes (the
+    // host sizes it as the two stacks together).
+    uvec2 stack[kRayStackEntries];
+    uint raySize = 0u;
+    const GpuNode root = nodes[0];
+    float entry;
+    bool wantCurrent = q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+    q.isActive = wantCurrent;
+    uvec2 current = nodeEntry(root);
+    uint parity = 0u;
+    uint stackSize = 0u;
+    const bool shadowPacket = kPass == kPassShadowShade;
+    const bool visitRule = kHybridVisitRatio != 0u;
+    // The visit rule weighs each visit by the rays still active: shadow packets count them at
+    // every vote; primary rays stay active, so the root's count holds throughout.
+    const bool countActive = shadowPacket && (!kPacketIsOneSubgroup || visitRule);
+    if (kPacketIsOneSubgroup) {
+        if (subgroupAdd(1u) != gl_WorkGroupSize.x * gl_WorkGroupSize.y) {
+            if (subgroupElect()) atomicOr(status, kStatusSubgroupMismatch);
+            return;
+        }
+    } else {
+        if (gl_LocalInvocationIndex == 0u) sVote[0] = sVote[1] = uvec4(0u);
+        barrier();
+    }
+    uint wantedBits = 0u;  // bit s: this ray wanted stack entry s (s < 32; deeper entries: assumed)
+    const uint rootActive = packetVote(false, false, false, q.isActive, true, parity).stillActive;
+    if (rootActive == 0u) return;
+
+    // The visit rule's sums over the packet's inner-node visits: the active rays (the packet's N_TR
+    // summed over its rays) and the rays that wanted the node (what the rays alone would visit).
+    float packetVisits = 0.0f;
+    float wantedVisits = 0.0f;
+    bool split = false;
+    bool done = false;  // after the split: this ray has nothing left to visit
+    uint steps = 0u;
+    while (true) {
+        if (++steps > kMaxTraversalSteps) {
+            if (gl_LocalInvocationIndex == 0u) atomicOr(status, kStatusTraversalTruncated);
+            break;
+        }
+        bool haveNext = false;
+        uvec2 next = uvec2(0u);
+        bool wantNext = false;
+        if (current.y == 0u) {
+            const GpuNode left = nodes[current.x];
+            const GpuNode right = nodes[current.x + 1u];
+            if (kStatistics && q.isActive) q.nodes += 1u;
+            float entryLeft, entryRight;
+            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
+            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
+            const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
+            const HybridVote hv =
+                hybridVote(hitLeft, hitRight, rightFirst, q.isActive && wantCurrent, q.isActive, countActive, parity);
+            const PacketVote votes = hv.packet;
+            if (countActive && votes.stillActive == 0u) break;  // all shadow rays occluded
+            const uint activeRays = countActive ? votes.stillActive : rootActive;
+            packetVisits += float(activeRays);
+            wantedVisits += float(hv.wanting);
+            if (hv.wanting < kHybridMinRays ||
+                (visitRule && packetVisits * 100.0f > float(kHybridVisitRatio) * wantedVisits)) {
+                // Split. The pending entries were written before this vote's barrier; the ray
+                // keeps those it wanted, bottom first, so that it pops them in the packet's order.
+                split = true;
+                done = !q.isActive;
+                if (!done) {
+                    for (uint s = 0u; s < stackSize; ++s)
+                        if (s >= 32u || (wantedBits & (1u << s)) != 0u) stack[raySize++] = popEntry(s);
+                    // This ray's own step at the voted node, as traceSingle's: the nearer child
+                    // hit first, the farther pushed. A ray that did not want the node skips it.
+                    const bool l = hitLeft && wantCurrent;
+                    const bool r = hitRight && wantCurrent;
+                    if (l && r) {
+                        const bool nearRight = entryRight < entryLeft;
+                        current = nodeEntry(nearRight ? right : left);
+                        if (raySize == kRayStackEntries) {
+                            atomicOr(status, kStatusStackOverflow);
+                            done = true;
+                        } else {
+                            stack[raySize++] = nodeEntry(nearRight ? left : right);
+                        }
+                    } else if (l || r) {
+                        current = nodeEntry(l ? left : right);
+                    } else if (raySize == 0u) {
+                        done = true;
+                    } else {
+                        current = stack[--raySize];
+                    }
+                }
+                break;
+            }
+            if (votes.hitting != 0u) {
+                // tracePacket's choice of child and what it pushes.
+                const int sum = 2 * int(votes.rightFirst) - int(votes.hitting);
+                const bool goRight = sum >= 1;
+                const bool otherWanted = (goRight ? votes.hitLeft : votes.hitRight) != 0u;
+                const GpuNode chosen = goRight ? right : left;
+                const GpuNode other = goRight ? left : right;
+                const bool wantChosen = goRight ? hitRight : hitLeft;
+                const bool wantOther = goRight ? hitLeft : hitRight;
+                current = nodeEntry(chosen);
+                wantCurrent = wantChosen;
+                if (otherWanted) {
+                    if (current.y != 0u) {
+                        haveNext = true;
+                        next = nodeEntry(other);
+                        wantNext = wantOther;
+                    } else {
+                        if (stackSize == kPacketStackEntries) {
+                            if (gl_LocalInvocationIndex == 0u) atomicOr(status, kStatusStackOverflow);
+                            break;
+                        }
+                        pushEntry(stackSize, nodeEntry(other));
+                        if (stackSize < 32u) {
+                            const uint bit = 1u << stackSize;
+                            wantedBits = wantOther ? (wantedBits | bit) : (wantedBits & ~bit);
+                        }
+                        ++stackSize;
+                    }
+                }
+                if (current.y == 0u) continue;
+            } else {
+                current = uvec2(0u);
+            }
+        }
+        if (current.y != 0u) {
+            steps += current.y;
+            if (q.isActive && wantCurrent) {
+                if (kStatistics) q.nodes += 1u;
+                intersectLeaf(q, current.x, current.y);
+            }
+            if (shadowPacket && kPacketIsOneSubgroup && !subgroupAny(q.isActive)) break;
+            if (haveNext) {
+                current = next;
+                wantCurrent = wantNext;
+                continue;
+            }
+        }
+        if (stackSize == 0u) break;
+        --stackSize;
+        current = popEntry(stackSize);
+        wantCurrent = stackSize < 32u ? (wantedBits & (1u << stackSize)) != 0u : true;
+    }
+    if (!split) return;
+
+    // Each ray alone: traceSingle's while-while loop from the seeded state.
+    while (!done) {
+        while (!done && current.y == 0u) {
+            if (++steps > kMaxTraversalSteps) {
+                atomicOr(status, kStatusTraversalTruncated);
+                done = true;
+                break;
+            }
+            const GpuNode left = nodes[current.x];
+            const GpuNode right = nodes[current.x + 1u];
+            if (kStatistics) q.nodes += 1u;
+            float entryLeft, entryRight;
+            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
+            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
+            if (hitLeft && hitRight) {
+                const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
+                current = nodeEntry(rightFirst ? right : left);
+                if (raySize == kRayStackEntries) {
+                    atomicOr(status, kStatusStackOverflow);
+                    done = true;
+                    break;
+                }
+                stack[raySize++] = nodeEntry(rightFirst ? left : right);
+            } else if (hitLeft || hitRight) {
+                current = nodeEntry(hitLeft ? left : right);
+            } else if (raySize == 0u) {
+                done = true;
+            } else {
+                current = stack[--raySize];
+            }
+        }
+        while (!done && current.y != 0u) {
+            steps += 1u + current.y;
+            if (steps > kMaxTraversalSteps) {
+                atomicOr(status, kStatusTraversalTruncated);
+                done = true;
+                break;
+            }
+            if (kStatistics) q.nodes += 1u;
+            intersectLeaf(q, current.x, current.y);
+            if (!q.isActive || raySize == 0u) done = true;
+            else current = stack[--raySize];
+        }
+    }
+}
+
 // The while-while traversal with speculation (Aila and Laine 2009, section 4): the rays of a
 // subgroup run the inner-node loop and the leaf loop in lockstep only when they agree, so a ray
 // that reaches a leaf while others still traverse inner nodes idles. Here it postpones that leaf
@@ -487,6 +744,7 @@ void traceSingleSpeculative(inout RayQuery q) {
 
 void trace(inout RayQuery q) {
     if (kKernel == kKernelPacket) tracePacket(q);
+    else if (kKernel == kKernelHybrid) traceHybrid(q);
     else if (kSpeculative) traceSingleSpeculative(q);
     else traceSingle(q);
 }

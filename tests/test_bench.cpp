@@ -138,7 +138,8 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         cells.emplace(r.at("scene"), tracer, r.at("packet").is_string() ? r.at("packet") : "", kind);
     }
     // Every cell of the matrix is there, primary and shadow: CPU reference, each packet shape,
-    // the single-ray kernel, on each scene.
+    // the single-ray kernel, the hybrid kernel per packet shape (one K, one visit ratio by
+    // default), on each scene.
     EXPECT_EQ(scenes.size(), 2u);
     for (const std::string& scene : scenes)
         for (const char* kind : {"primary", "shadow"}) {
@@ -146,10 +147,12 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
             EXPECT_TRUE(cells.count({scene, "gpu-single", "", kind})) << scene << " " << kind;
             for (const std::string& packet : packets)
                 EXPECT_TRUE(cells.count({scene, "gpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
+            for (const std::string& packet : packets)
+                EXPECT_TRUE(cells.count({scene, "gpu-hybrid", packet, kind})) << scene << " " << packet << " " << kind;
             for (const std::string& packet : cpuPackets)
                 EXPECT_TRUE(cells.count({scene, "cpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
         }
-    EXPECT_EQ(cells.size(), scenes.size() * 2 * (2 + packets.size() + cpuPackets.size()));
+    EXPECT_EQ(cells.size(), scenes.size() * 2 * (2 + 2 * packets.size() + cpuPackets.size()));
 }
 
 TEST(Bench, EmbreeAgreesWithTheReferenceOnHitDistances) {

@@ -182,6 +182,20 @@ TEST(Cli, DiffCountsDifferencesAndHasDocumentedExitCodes) {
     expectCleanError(runCli("diff " + quoted(a)), "B");
 }
 
+// The hybrid kernel's flags (docs/gpu.md): GPU only, with --kernel hybrid only, ratios in range.
+TEST(Cli, HybridFlagsApplyToTheHybridKernelOnly) {
+    expectCleanError(runCli("render gen:terrain:1k --kernel hybrid --width 8 --height 8"), "--device gpu");
+    expectCleanError(runCli("render gen:terrain:1k --device gpu --kernel packet --hybrid-min-rays 4"),
+                     "--hybrid-min-rays");
+    expectCleanError(runCli("render gen:terrain:1k --device gpu --kernel hybrid --hybrid-visit-ratio 5000"),
+                     "--hybrid-visit-ratio");
+    expectCleanError(runCli("bench --suite quick --device gpu --kernel hybrid --hybrid-min-rays 1/0"),
+                     "--hybrid-min-rays");
+    expectCleanError(runCli("bench --suite quick --device gpu --kernel hybrid --hybrid-visit-ratios 0.5"),
+                     "--hybrid-visit-ratios");
+    expectCleanError(runCli("bench --suite quick --only Sibenik"), "Sibenik");
+}
+
 TEST(Cli, BadInputGivesOneClearLineAndExitCodeTwo) {
     const fs::path garbage = scratch() / "garbage.ply";
     std::ofstream(garbage) << "ply\nformat binary_little_endian 1.0\nelement vertex 1000000\n"

@@ -62,7 +62,7 @@ TEST(SettingsText, CountsArePositiveDigits) {
 }
 
 TEST(SettingsText, EveryNameReadsBackAndTheJsonUsesTheSameNames) {
-    for (KernelKind kind : {KernelKind::Packet, KernelKind::Single}) {
+    for (KernelKind kind : {KernelKind::Packet, KernelKind::Single, KernelKind::Hybrid}) {
         EXPECT_EQ(parseKernelKind(toString(kind)), kind);
         RenderSettings settings;
         settings.kernel = kind;
@@ -91,8 +91,35 @@ TEST(SettingsText, EveryNameReadsBackAndTheJsonUsesTheSameNames) {
     EXPECT_FALSE(parseKernelKind("Packet"));
     EXPECT_FALSE(parseViewMode(""));
     EXPECT_FALSE(findBvhBuilder("sah"));
-    EXPECT_EQ(kernelKindNames(), "packet or single");
+    EXPECT_EQ(kernelKindNames(), "packet, single or hybrid");
     EXPECT_EQ(viewModeNames(), "shaded, nodes or tests");
+}
+
+// The bench's sweep of the hybrid kernel's split rules (docs/gpu.md): K as a count or a share of the
+// packet, visit ratios 0 (off) or 1..1000; and the JSON carries both.
+TEST(SettingsText, HybridRuleListsAndTheirJson) {
+    const std::vector<HybridMinRaysSpec> ks = parseHybridMinRaysList("--hybrid-min-rays", "1/4,8,0,1/64");
+    ASSERT_EQ(ks.size(), 4u);
+    EXPECT_EQ(ks[0].resolve({8, 4}), 8u);
+    EXPECT_EQ(ks[0].resolve({8, 8}), 16u);
+    EXPECT_EQ(ks[0].text, "1/4");
+    EXPECT_EQ(ks[1].resolve({16, 16}), 8u);
+    EXPECT_EQ(ks[2].resolve({8, 4}), 0u);
+    EXPECT_EQ(ks[3].resolve({8, 4}), 1u) << "a share rounds down but stays at least one ray";
+    for (const char* bad : {"1/0", "1/", "2/4", "-1", "x", ""})
+        EXPECT_NE(errorOf([&] { parseHybridMinRaysList("--hybrid-min-rays", bad); }), "") << "accepted " << bad;
+    EXPECT_EQ(parseHybridVisitRatios("--hybrid-visit-ratios", "0,1,2.5"), (std::vector<float>{0.0f, 1.0f, 2.5f}));
+    for (const char* bad : {"0.5", "-1", "1001", "nan", "", "two"})
+        EXPECT_NE(errorOf([&] { parseHybridVisitRatios("--hybrid-visit-ratios", bad); }), "") << "accepted " << bad;
+
+    RenderSettings settings;
+    settings.kernel = KernelKind::Hybrid;
+    settings.hybrid = HybridParams{5u, 1.75f};
+    const RenderSettings back = renderSettingsFromJson(nlohmann::json::parse(toJson(settings).dump()));
+    EXPECT_EQ(back.kernel, KernelKind::Hybrid);
+    EXPECT_EQ(back.hybrid, settings.hybrid);
+    EXPECT_NE(errorOf([] { renderSettingsFromJson(nlohmann::json::parse(R"({"hybrid": {"visit_ratio": -2}})")); }), "");
+    EXPECT_NE(errorOf([] { renderSettingsFromJson(nlohmann::json::parse(R"({"hybrid": {"min_rays": -2}})")); }), "");
 }
 
 TEST(SettingsText, ListsDropEmptyEntries) {

@@ -12,6 +12,7 @@ const char* toString(TracerChoice tracer) {
     switch (tracer) {
     case TracerChoice::VulkanPacket: return "Vulkan packet kernel";
     case TracerChoice::VulkanSingle: return "Vulkan single-ray kernel";
+    case TracerChoice::VulkanHybrid: return "Vulkan hybrid kernel";
     case TracerChoice::CpuReference: return "CPU reference tracer";
     case TracerChoice::CpuPacket: return "CPU packet tracer";
     }
@@ -22,6 +23,7 @@ const char* cliName(TracerChoice tracer) {
     switch (tracer) {
     case TracerChoice::VulkanPacket: return "vulkan-packet";
     case TracerChoice::VulkanSingle: return "vulkan-single";
+    case TracerChoice::VulkanHybrid: return "vulkan-hybrid";
     case TracerChoice::CpuReference: return "cpu-reference";
     case TracerChoice::CpuPacket: return "cpu-packet";
     }
@@ -42,6 +44,27 @@ TracerChoice requireTracerChoice(const std::string& what, const std::string& tex
         names += cliName(kAllTracerChoices[i]);
     }
     throw Error(what + ": \"" + text + "\" is not " + names);
+}
+
+TracerChoice vulkanTracerFor(KernelKind kernel) {
+    switch (kernel) {
+    case KernelKind::Single: return TracerChoice::VulkanSingle;
+    case KernelKind::Hybrid: return TracerChoice::VulkanHybrid;
+    default: return TracerChoice::VulkanPacket;
+    }
+}
+
+KernelKind kernelOf(TracerChoice tracer) {
+    switch (tracer) {
+    case TracerChoice::VulkanSingle: return KernelKind::Single;
+    case TracerChoice::VulkanHybrid: return KernelKind::Hybrid;
+    default: return KernelKind::Packet;
+    }
+}
+
+bool tracesPackets(TracerChoice tracer) {
+    return tracer == TracerChoice::VulkanPacket || tracer == TracerChoice::VulkanHybrid ||
+           tracer == TracerChoice::CpuPacket;
 }
 
 bool isCpuTracer(TracerChoice tracer) {

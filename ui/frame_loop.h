@@ -8,6 +8,7 @@
 //             into the accumulation, until the wanted samples are in;
 //   Idle    - nothing to trace: the viewer presents nothing new and waits for events.
 // Pure logic, testable headless; the viewer owns the images.
+#include "renderer/settings.h"
 #include "ui/frame_budget.h"
 
 #include <glm/glm.hpp>
@@ -23,17 +24,24 @@ namespace raypack::ui {
 enum class TracerChoice {
     VulkanPacket,  // the report's packet kernel (renderer/gpu_tracer.h)
     VulkanSingle,  // the single-ray kernel on the same layout
+    VulkanHybrid,  // the hybrid kernel: packets splitting into single rays (docs/gpu.md)
     CpuReference,  // the CPU reference tracer (renderer/cpu_tracer.h) on the host's cores
     CpuPacket,     // the CPU packet tracer (renderer/cpu_packet_tracer.h), SIMD over rays
 };
 constexpr TracerChoice kAllTracerChoices[] = {TracerChoice::VulkanPacket, TracerChoice::VulkanSingle,
-                                              TracerChoice::CpuReference, TracerChoice::CpuPacket};
+                                              TracerChoice::VulkanHybrid, TracerChoice::CpuReference,
+                                              TracerChoice::CpuPacket};
 const char* toString(TracerChoice tracer);  // "Vulkan packet kernel"
 const char* cliName(TracerChoice tracer);   // "vulkan-packet", "vulkan-single", "cpu-reference", "cpu-packet"
 std::optional<TracerChoice> parseTracerChoice(const std::string& name);
 // The cliName, or raypack::Error `WHAT: "TEXT" is not vulkan-packet, ... or cpu-packet`.
 TracerChoice requireTracerChoice(const std::string& what, const std::string& text);
 bool isCpuTracer(TracerChoice tracer);
+// The Vulkan tracer of a kernel, and a Vulkan tracer's kernel (the packet kernel for CPU tracers).
+TracerChoice vulkanTracerFor(KernelKind kernel);
+KernelKind kernelOf(TracerChoice tracer);
+// Whether the tracer traces RenderSettings::packet-shaped packets.
+bool tracesPackets(TracerChoice tracer);
 
 struct FrameLoopSettings {
     float frameBudgetMs = float(kDefaultFrameBudgetSeconds * 1e3);

@@ -195,11 +195,22 @@ void drawSceneSection(PanelState& state, const PanelInfo& info, PanelActions& ac
 void drawTracerSection(PanelState& state, const PanelInfo& info, PanelActions&) {
     if (!ImGui::CollapsingHeader("Tracer", ImGuiTreeNodeFlags_DefaultOpen)) return;
     RenderSettings& s = state.settings;
-    int kernel = s.kernel == KernelKind::Packet ? 0 : 1;
+    int kernel = s.kernel == KernelKind::Packet ? 0 : s.kernel == KernelKind::Single ? 1 : 2;
     ImGui::RadioButton("packet", &kernel, 0);
     ImGui::SameLine();
     ImGui::RadioButton("single ray", &kernel, 1);
-    s.kernel = kernel == 0 ? KernelKind::Packet : KernelKind::Single;
+    ImGui::SameLine();
+    ImGui::RadioButton("hybrid", &kernel, 2);
+    s.kernel = kernel == 0 ? KernelKind::Packet : kernel == 1 ? KernelKind::Single : KernelKind::Hybrid;
+    if (s.kernel == KernelKind::Hybrid) {
+        // The split rules (docs/gpu.md): each value is a pipeline of its own, built on first use.
+        int minRays = int(s.hybrid.minRays);
+        if (ImGui::InputInt("split below K rays (0: never)", &minRays))
+            s.hybrid.minRays = uint32_t(std::clamp(minRays, 0, 1 << 20));
+        float ratio = s.hybrid.visitRatio;
+        if (ImGui::InputFloat("split at visit ratio (0: off)", &ratio, 0.25f, 1.0f, "%.2f"))
+            s.hybrid.visitRatio = ratio < 1.0f ? 0.0f : std::min(ratio, kMaxHybridVisitRatio);
+    }
 
     // Every raypack tracer (CPU and Vulkan) honours it; docs/trade.md measures what it costs.
     int intersect = int(s.intersect);

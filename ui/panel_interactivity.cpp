@@ -32,7 +32,7 @@ void drawInteractivitySection(PanelState& state, const PanelInfo& info, PanelAct
                 }
             ImGui::EndCombo();
         }
-        if (state.sideBySideTracer == TracerChoice::VulkanPacket || state.sideBySideTracer == TracerChoice::CpuPacket) {
+        if (tracesPackets(state.sideBySideTracer)) {
             int shape[2] = {int(state.sideBySidePacket.width), int(state.sideBySidePacket.height)};
             if (ImGui::InputInt2("right packet WxH", shape)) {
                 shape[0] = std::clamp(shape[0], 1, 1024);

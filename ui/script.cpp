@@ -160,9 +160,7 @@ void applyScriptStep(const ScriptStep& step, PanelState& panel, PanelActions& ac
         // As the panel's kernel buttons: they pick among the Vulkan kernels; a CPU tracer keeps
         // drawing and the kernel is the one a later switch to Vulkan starts with.
         panel.settings.kernel = step.kernel;
-        if (!isCpuTracer(panel.tracer))
-            effects.tracer =
-                step.kernel == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle;
+        if (!isCpuTracer(panel.tracer)) effects.tracer = vulkanTracerFor(step.kernel);
         break;
     case ScriptAction::Intersect: panel.settings.intersect = step.intersect; break;
     case ScriptAction::Tracer: effects.tracer = step.tracer; break;

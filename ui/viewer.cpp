@@ -319,10 +319,6 @@ void requestLoad(Session& s, const std::string& spec) {
     if (s.options.frames) std::printf("raypack: frame %u: open %s\n", s.frameIndex, spec.c_str());
 }
 
-KernelKind kernelOf(TracerChoice tracer) {
-    return tracer == TracerChoice::VulkanSingle ? KernelKind::Single : KernelKind::Packet;
-}
-
 // The right half traced by `tracer` (its own default packet shape).
 void setSideBySide(Session& s, TracerChoice tracer) {
     s.panel.sideBySide = true;
@@ -751,9 +747,7 @@ void handleActions(Session& s, const PanelActions& a, const RenderSettings& befo
     if (a.tracerChanged) setTracer(s, s.panel.tracer, "chosen in the panel");
     // The kernel radio buttons of the Tracer section pick among the Vulkan kernels.
     if (!isCpuTracer(s.panel.tracer) && s.panel.settings.kernel != kernelOf(s.panel.tracer))
-        setTracer(
-            s, s.panel.settings.kernel == KernelKind::Packet ? TracerChoice::VulkanPacket : TracerChoice::VulkanSingle,
-            "chosen in the panel");
+        setTracer(s, vulkanTracerFor(s.panel.settings.kernel), "chosen in the panel");
     if (a.compare) {
         try {
             compareWithReference(s);
@@ -937,7 +931,7 @@ void drawSideBySideLabels(const Session& s) {
     const auto label = [&](TracerChoice tracer, PacketShape packet, double seconds) {
         char text[160];
         std::snprintf(text, sizeof text, "%s%s  T_K %.2f ms at %ux%u", toString(tracer),
-                      tracer == TracerChoice::VulkanPacket || tracer == TracerChoice::CpuPacket
+                      tracesPackets(tracer)
                           ? (" " + std::to_string(packet.width) + "x" + std::to_string(packet.height)).c_str()
                           : "",
                       seconds * 1e3, t.width, t.height);
@@ -1269,10 +1263,7 @@ void chooseStartTracer(Session& s) {
                   std::string("Default on a CPU device: the CPU packet tracer (") + toString(cpuSimdSelected()) +
                       "), the fastest tracer measured on CPU devices (docs/viewer.md).");
     } else {
-        setTracer(
-            s,
-            s.options.settings.kernel == KernelKind::Single ? TracerChoice::VulkanSingle : TracerChoice::VulkanPacket,
-            "Default on a GPU: the Vulkan packet kernel.");
+        setTracer(s, vulkanTracerFor(s.options.settings.kernel), "Default on a GPU: the Vulkan packet kernel.");
     }
 }
 

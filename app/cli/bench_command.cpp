@@ -33,6 +33,9 @@ using Clock = std::chrono::steady_clock;
 struct BenchFlags {
     std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
     std::string intersect;  // "robust", "fast" or a list of them (the trade suites); "": the suite's
+    std::string only;       // names of the suite's scenes to run, comma-separated; empty: all
+    std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
+    std::string hybridVisitRatios = "0";
     std::string shadowOrder = "nearest";
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
@@ -42,11 +45,23 @@ struct BenchFlags {
     bool speculative = false;
 };
 
-// What one cell traces: a tracer, with a packet shape where it traces packets.
+// What one cell traces: a tracer, with a packet shape where it traces packets, and the split rules
+// for the hybrid kernel.
 struct Cell {
     Tracer* tracer;
     std::optional<PacketShape> packet;
-    std::string label() const { return tracer->name() + (packet ? " " + toString(*packet) : std::string()); }
+    std::optional<HybridParams> hybrid;
+    std::string hybridMinRaysText;  // the --hybrid-min-rays entry ("1/4" or "8")
+    std::string label() const {
+        std::string text = tracer->name() + (packet ? " " + toString(*packet) : std::string());
+        if (hybrid) {
+            char rules[96];
+            std::snprintf(rules, sizeof rules, " K=%u (%s) visit ratio %g", hybrid->minRays, hybridMinRaysText.c_str(),
+                          double(hybrid->visitRatio));
+            text += rules;
+        }
+        return text;
+    }
 };
 
 json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& bvh, const BvhBuildOptions& options,
@@ -63,8 +78,9 @@ json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& 
 }
 
 // Two records (primary, shadow) of a frame tracer's cell.
-void addFrameRecords(json& records, const json& scene, const Tracer& tracer, const std::optional<PacketShape>& packet,
+void addFrameRecords(json& records, const json& scene, const Tracer& tracer, const Cell& cell,
                      const MeasuredFrames& measured) {
+    const std::optional<PacketShape>& packet = cell.packet;
     const FrameStats& s = measured.stats;
     for (const char* kind : {"primary", "shadow"}) {
         json r = scene;
@@ -73,6 +89,9 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["driver"] = tracer.driver();
         r["kernel"] = tracer.kernel();
         r["packet"] = packet ? json(toString(*packet)) : json(nullptr);
+        r["hybrid_min_rays"] = cell.hybrid ? json(cell.hybrid->minRays) : json(nullptr);
+        r["hybrid_min_rays_spec"] = cell.hybrid ? json(cell.hybridMinRaysText) : json(nullptr);
+        r["hybrid_visit_ratio"] = cell.hybrid ? json(cell.hybrid->visitRatio) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;
         r["height_px"] = s.height;
@@ -206,7 +225,7 @@ json runTrade(const BenchSuite& suite, const TradeMatrix& matrix, const std::vec
                     gpuWarm = gpuWarm || gpu;
                     if (b == 0 && mode == IntersectMode::Robust)
                         references[tracer->name()] = {measured.frame.rgba, measured.frame.hits};
-                    addFrameRecords(records, scene, *tracer, packet, measured);
+                    addFrameRecords(records, scene, *tracer, Cell{tracer, packet, std::nullopt, ""}, measured);
                     for (size_t k = records.size() - 2; k < records.size(); ++k)
                         records[k]["intersect"] = toString(mode);
                     const auto reference = references.find(tracer->name());
@@ -235,6 +254,21 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         parsePacketShapes("--cpu-packets", given("--cpu-packets") ? f.cpuPackets : suite.cpuPackets);
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
     if (suite.scenesFor && (given("--width") || given("--height"))) suite.scenes = suite.scenesFor(width, height);
+    // After scenesFor: the chosen scenes keep the cameras of this image size.
+    if (given("--only")) {
+        std::vector<BenchScene> chosen;
+        for (const std::string& name : splitList(f.only)) {
+            const auto it = std::find_if(suite.scenes.begin(), suite.scenes.end(),
+                                         [&](const BenchScene& s) { return s.name == name; });
+            if (it == suite.scenes.end()) {
+                std::string names;
+                for (const BenchScene& s : suite.scenes) names += (names.empty() ? "" : ", ") + s.name;
+                throw Error("--only: \"" + name + "\" is not a scene of suite " + suite.name + " (" + names + ")");
+            }
+            chosen.push_back(*it);
+        }
+        suite.scenes = chosen;
+    }
     const std::vector<IntersectMode> modes =
         f.intersect.empty() ? (suite.trade ? suite.trade->modes : std::vector<IntersectMode>{IntersectMode::Robust})
                             : parseIntersectModes(f.intersect);
@@ -249,8 +283,11 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const std::optional<ShadowOrder> parsedOrder = parseShadowOrder(f.shadowOrder);
     if (!parsedOrder) throw Error("--shadow-order: \"" + f.shadowOrder + "\" is not " + shadowOrderNames());
     const ShadowOrder shadowOrder = *parsedOrder;
-    const bool packetKernel = f.kernel != "single";
-    const bool singleKernel = f.kernel != "packet";
+    const bool packetKernel = f.kernel == "all" || f.kernel == "packet";
+    const bool singleKernel = f.kernel == "all" || f.kernel == "single";
+    const bool hybridKernel = f.kernel == "all" || f.kernel == "hybrid";
+    const std::vector<HybridMinRaysSpec> hybridMinRays = parseHybridMinRaysList("--hybrid-min-rays", f.hybridMinRays);
+    const std::vector<float> hybridVisitRatios = parseHybridVisitRatios("--hybrid-visit-ratios", f.hybridVisitRatios);
 
     std::optional<VulkanSession> session;
     json machine = {{"cpu_model", cpuModel()},  {"cpu_threads", cpuThreads()}, {"os", operatingSystem()},
@@ -273,7 +310,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     std::vector<Cell> cells;
     for (const TracerInfo& info : listTracers(environment)) {
         if (!(info.device == TracerDevice::Cpu ? cpu : gpu)) continue;
-        if ((info.kernel == "packet" && !packetKernel) || (info.kernel == "single" && !singleKernel)) continue;
+        if ((info.kernel == "packet" && !packetKernel) || (info.kernel == "single" && !singleKernel) ||
+            (info.kernel == "hybrid" && !hybridKernel))
+            continue;
         if ((info.name == "embree" && f.noEmbree) || (info.name == "driver-rt" && f.noDriverRt)) continue;
         if (!info.unavailable.empty()) {
             skipped.push_back(info.unavailable);
@@ -281,11 +320,17 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         }
         Tracer* tracer = tracers.emplace_back(makeTracer(info.name, environment)).get();
         if (info.name == "embree") machine["embree_version"] = embreeVersion();
-        if (tracer->capabilities().packetShapes)
+        if (info.kernel == "hybrid") {
+            for (const PacketShape& p : packets)
+                for (const HybridMinRaysSpec& k : hybridMinRays)
+                    for (const float ratio : hybridVisitRatios)
+                        cells.push_back({tracer, p, HybridParams{k.resolve(p), ratio}, k.text});
+        } else if (tracer->capabilities().packetShapes) {
             for (const PacketShape& p : info.device == TracerDevice::Cpu ? cpuPackets : packets)
-                cells.push_back({tracer, p});
-        else
-            cells.push_back({tracer, std::nullopt});
+                cells.push_back({tracer, p, std::nullopt, ""});
+        } else {
+            cells.push_back({tracer, std::nullopt, std::nullopt, ""});
+        }
     }
 
     // The results file; the trade suites also write it after every scene ("complete": false), so
@@ -307,6 +352,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
               {"repeats", repeats},
               {"devices", f.device},
               {"kernels", f.kernel},
+              {"hybrid_min_rays", f.hybridMinRays},
+              {"hybrid_visit_ratios", f.hybridVisitRatios},
               {"shadow_order", f.shadowOrder},
               {"speculative_traversal", f.speculative},
               {"packets",
@@ -394,6 +441,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             if (!prepared.count(&tracer)) prepared[&tracer] = tracer.prepare(loaded.scene, bvh);
             RenderSettings cellSettings = settings;
             if (cell.packet) cellSettings.packet = *cell.packet;
+            if (cell.hybrid) cellSettings.hybrid = *cell.hybrid;
             if (std::optional<json> peer = tracer.peerRecords(cellSettings, repeats, referenceHits)) {
                 for (json record : *peer) {
                     for (const char* key : {"scene", "scene_spec", "camera", "triangles", "degenerate_triangles"})
@@ -402,7 +450,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 }
             } else {
                 MeasuredFrames measured = measureFrames(tracer, prepared[&tracer], cellSettings, repeats, false);
-                addFrameRecords(records, scene, tracer, cell.packet, measured);
+                addFrameRecords(records, scene, tracer, cell, measured);
                 if (f.pipelineStatistics)
                     if (const json stats = tracer.pipelineStatistics(cellSettings); !stats.is_null())
                         for (size_t k = records.size() - 2; k < records.size(); ++k)
@@ -435,7 +483,8 @@ CommandRunner addBenchCommand(CLI::App& app) {
     CLI::App* command = app.add_subcommand(
         "bench",
         "Run a benchmark matrix and write one JSON record per cell and ray kind (primary, shadow): "
-        "scene, triangles, tracer (cpu-reference, cpu-packet, gpu-packet, gpu-single, embree, driver-rt), device and "
+        "scene, triangles, tracer (cpu-reference, cpu-packet, gpu-packet, gpu-single, gpu-hybrid, embree, driver-rt), "
+        "device and "
         "driver, kernel, packet shape, Table 1 (n_l_leaves, d_avg_leaf_depth, d_max_leaf_depth, "
         "o_avg_prims_per_leaf, t_b_s, sah_cost, bvh_bytes_per_triangle, ...) and Table 2 "
         "(t_r_us_per_ray, n_it_tests_per_ray, n_tr_nodes_per_ray, n_q_rays, t_f_s, t_cu_s, "
@@ -478,10 +527,26 @@ CommandRunner addBenchCommand(CLI::App& app) {
         ->capture_default_str();
     command
         ->add_option("--kernel", f.kernel,
-                     "Kernels: packet (GPU packets, CPU packets), single (GPU single rays) or "
-                     "all; the CPU reference and Embree always run with --device cpu/all")
-        ->check(CLI::IsMember({"packet", "single", "all"}))
+                     "Kernels: packet (GPU packets, CPU packets), single (GPU single rays), hybrid "
+                     "(GPU packets splitting into single rays, docs/gpu.md) or all; the CPU "
+                     "reference and Embree always run with --device cpu/all")
+        ->check(CLI::IsMember({"packet", "single", "hybrid", "all"}))
         ->capture_default_str();
+    command
+        ->add_option("--hybrid-min-rays", f.hybridMinRays,
+                     "Hybrid kernel: the values of K to run, comma-separated, each a ray count or a share "
+                     "of the packet (1/4: a quarter of its rays); the packet splits into single rays at "
+                     "the first node fewer than K of its active rays want (0: never by this rule)")
+        ->capture_default_str();
+    command
+        ->add_option("--hybrid-visit-ratios", f.hybridVisitRatios,
+                     "Hybrid kernel: the visit ratios to run, comma-separated (0: the rule off); the "
+                     "packet also splits once its inner-node visits over its active rays pass this "
+                     "multiple of the visits they wanted. One cell per packet shape, K and ratio")
+        ->capture_default_str();
+    command->add_option("--only", f.only,
+                        "Run only these scenes of the suite, comma-separated names as the suite "
+                        "names them (e.g. \"Sibenik,terrain 10M,Dragon subdiv 3\")");
     command->add_option("--packets", f.packets,
                         "Packet shapes of the packet kernel, e.g. 8x4,4x8,5x6,8x8,16x16 (default: "
                         "the suite's; quick: 8x4,5x6)");

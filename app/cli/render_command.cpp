@@ -35,6 +35,8 @@ struct RenderFlags {
     std::string gpu;
     std::string kernel;  // --kernel; the default depends on the device
     std::string packet;
+    uint32_t hybridMinRays = HybridParams{}.minRays;
+    float hybridVisitRatio = HybridParams{}.visitRatio;
     std::string view = "shaded";
     std::string intersect = "robust";
     std::string shadowOrder = "nearest";
@@ -50,7 +52,7 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *speculative, *spp, *scale,
-        *heatScale;
+        *heatScale, *hybridMinRays, *hybridVisitRatio;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -86,6 +88,8 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
         s.kernel = *kernel;
     }
     if (given(o.packet)) s.packet = parsePacketShape("--packet", f.packet);
+    if (given(o.hybridMinRays)) s.hybrid.minRays = f.hybridMinRays;
+    if (given(o.hybridVisitRatio)) s.hybrid.visitRatio = f.hybridVisitRatio;
     if (given(o.view)) {
         const auto view = parseViewMode(f.view);
         if (!view) throw Error("--view: \"" + f.view + "\" is not " + viewModeNames());
@@ -212,12 +216,25 @@ CommandRunner addRenderCommand(CLI::App& app) {
                    ->add_option("--kernel", f.kernel,
                                 "Kernel: packet (GPU: shared-stack packets, Gunther et al. 2007; "
                                 "CPU: SIMD packets, Wald et al. 2007, docs/cpu-packet.md) or single "
-                                "(GPU: one ray per invocation; CPU: the reference). Default: packet "
-                                "on the GPU, single on the CPU")
-                   ->check(CLI::IsMember({"packet", "single"}));
+                                "(GPU: one ray per invocation; CPU: the reference) or hybrid (GPU only: "
+                                "packets while coherent, then single rays, Benthin et al. 2012, "
+                                "docs/gpu.md). Default: packet on the GPU, single on the CPU")
+                   ->check(CLI::IsMember({"packet", "single", "hybrid"}));
     o.packet = command->add_option("--packet", f.packet,
-                                   "Packet shape WxH in pixels (rays) of --kernel packet (default "
-                                   "8x4 on the GPU, 16x16 on the CPU)");
+                                   "Packet shape WxH in pixels (rays) of --kernel packet or hybrid "
+                                   "(default 8x4 on the GPU, 16x16 on the CPU)");
+    o.hybridMinRays = command
+                          ->add_option("--hybrid-min-rays", f.hybridMinRays,
+                                       "--kernel hybrid: the packet splits into single rays at the first "
+                                       "node fewer than K of its active rays want (0: never by this rule)")
+                          ->capture_default_str();
+    o.hybridVisitRatio = command
+                             ->add_option("--hybrid-visit-ratio", f.hybridVisitRatio,
+                                          "--kernel hybrid: the packet also splits once its inner-node visits "
+                                          "over its active rays pass this multiple of the visits they wanted "
+                                          "(0: off)")
+                             ->check(CLI::Range(0.0f, kMaxHybridVisitRatio))
+                             ->capture_default_str();
     o.view = command
                  ->add_option("--view", f.view,
                               "Image: shaded (Phong), nodes (heat map of N_TR) or tests (heat map "
@@ -298,7 +315,11 @@ CommandRunner addRenderCommand(CLI::App& app) {
                 settings.packet = kDefaultCpuPacket;
         }
         if (settings.kernel == KernelKind::Single && given(options->packet))
-            throw Error("--packet applies to --kernel packet only");
+            throw Error("--packet applies to --kernel packet or hybrid only");
+        if (cpu && settings.kernel == KernelKind::Hybrid) throw Error("--kernel hybrid applies to --device gpu only");
+        if (settings.kernel != KernelKind::Hybrid &&
+            (given(options->hybridMinRays) || given(options->hybridVisitRatio)))
+            throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
         if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--shadow-order applies to --device gpu --kernel single only");
         if (given(options->speculative) && (cpu || settings.kernel != KernelKind::Single))
@@ -335,14 +356,17 @@ CommandRunner addRenderCommand(CLI::App& app) {
         // The tracer: the device and kernel the flags chose (renderer/tracers/registry.h).
         const bool gpu = f.device == "gpu";
         const bool packets = settings.kernel == KernelKind::Packet;
+        const char* gpuTracer = packets                                 ? "gpu-packet"
+                                : settings.kernel == KernelKind::Hybrid ? "gpu-hybrid"
+                                                                        : "gpu-single";
         std::optional<VulkanSession> session;
         TracerEnvironment environment;
         if (gpu) {
             session.emplace(f.gpu, f.validation);
             environment.vulkan = &session->context;
         }
-        const std::unique_ptr<Tracer> tracer = makeTracer(
-            gpu ? (packets ? "gpu-packet" : "gpu-single") : (packets ? "cpu-packet" : "cpu-reference"), environment);
+        const std::unique_ptr<Tracer> tracer =
+            makeTracer(gpu ? gpuTracer : (packets ? "cpu-packet" : "cpu-reference"), environment);
         const Preparation preparation = tracer->prepare(loaded.scene, bvh);
         // Progressive display (renderer/progressive.h): a reduced resolution, scaled up after.
         const uint32_t outWidth = settings.width, outHeight = settings.height;
@@ -378,6 +402,9 @@ CommandRunner addRenderCommand(CLI::App& app) {
 
         if (gpu || packets)
             std::printf("kernel     %s, packet %s\n", toString(settings.kernel), toString(settings.packet).c_str());
+        if (settings.kernel == KernelKind::Hybrid)
+            std::printf("hybrid     split below %u rays, visit ratio %g (0: off)\n", settings.hybrid.minRays,
+                        double(settings.hybrid.visitRatio));
         printCamera(settings.camera, !cameraGiven);
         printTable1(stdout, loaded.info, bvh.stats, setup.bvh);
         printTable2(stdout, measured.stats);

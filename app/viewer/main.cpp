@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
     app.add_option("--leaf-size", options.bvh.leafSize, "BVH leaf size")->capture_default_str();
     app.add_option("--builder", builder, "BVH builder (sah-exact, sah-binned)");
     app.add_flag("--no-shadows", noShadows, "no shadow rays");
-    app.add_option("--kernel", kernel, "packet or single");
+    app.add_option("--kernel", kernel, "packet, single or hybrid");
     app.add_option("--view", view, "shaded, nodes (N_TR heat map) or tests (N_IT heat map)");
     app.add_option("--intersect", intersect,
                    "robust (watertight triangles, conservative slabs, accurate hit distances) or fast "
@@ -58,9 +58,10 @@ int main(int argc, char** argv) {
     app.add_flag("--validation", options.validation, "Vulkan validation layer on; exit code 3 on any message");
     app.add_option("--present", present, "fifo, mailbox or immediate (falls back to fifo)")->capture_default_str();
     app.add_flag("--no-counters", noCounters, "no live N_TR / N_IT in the panel");
-    app.add_option("--tracer", tracer,
-                   "who draws: vulkan-packet, vulkan-single, cpu-reference or cpu-packet (default: cpu-packet on "
-                   "a CPU Vulkan device such as lavapipe, vulkan-packet on a GPU)");
+    app.add_option(
+        "--tracer", tracer,
+        "who draws: vulkan-packet, vulkan-single, vulkan-hybrid, cpu-reference or cpu-packet (default: cpu-packet on "
+        "a CPU Vulkan device such as lavapipe, vulkan-packet on a GPU)");
     app.add_option("--frame-budget", options.frameLoop.frameBudgetMs,
                    "frame-time budget in ms: while moving, the resolution is reduced to keep it")
         ->check(CLI::Range(1.0f, 10000.0f))
@@ -70,9 +71,10 @@ int main(int argc, char** argv) {
         ->check(CLI::Range(1u, 4096u))
         ->capture_default_str();
     std::string sideBySide;
-    app.add_option("--side-by-side", sideBySide,
-                   "trace the right half of the image with this tracer too (vulkan-packet, vulkan-single, "
-                   "cpu-reference, cpu-packet), both halves labelled with their kernel times");
+    app.add_option(
+        "--side-by-side", sideBySide,
+        "trace the right half of the image with this tracer too (vulkan-packet, vulkan-single, vulkan-hybrid, "
+        "cpu-reference, cpu-packet), both halves labelled with their kernel times");
     bool fullResolution = false;
     app.add_flag("--no-adaptive", fullResolution, "trace every frame at full resolution, also while moving");
     app.add_option("--record-path", options.recordPath,

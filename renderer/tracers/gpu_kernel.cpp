@@ -1,7 +1,8 @@
-// raypack's two Vulkan compute kernels (renderer/gpu_tracer.h) as tracers: "gpu-packet", the
-// shared-stack packet traversal (Gunther, Popov, Seidel 2007) of RenderSettings::packet, and
-// "gpu-single", one ray per invocation (Aila and Laine 2009), on the same node layout. One file
-// for both: they differ in the kernel the GpuTracer is told to dispatch, nothing else.
+// raypack's three Vulkan compute kernels (renderer/gpu_tracer.h) as tracers: "gpu-packet", the
+// shared-stack packet traversal (Gunther, Popov, Seidel 2007) of RenderSettings::packet,
+// "gpu-single", one ray per invocation (Aila and Laine 2009), and "gpu-hybrid", the packet until
+// it is incoherent and then single rays (Benthin et al. 2012; RenderSettings::hybrid), on the same
+// node layout. One file for all: they differ in the kernel the GpuTracer is told to dispatch.
 #include "renderer/error.h"
 #include "renderer/gpu_tracer.h"
 #include "renderer/tracers/tracer_rows.h"
@@ -14,7 +15,7 @@ public:
     GpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel)
         : tracer_(std::make_unique<GpuTracer>(context)), kernel_(kernel) {}
 
-    std::string name() const override { return kernel_ == KernelKind::Packet ? "gpu-packet" : "gpu-single"; }
+    std::string name() const override { return std::string("gpu-") + toString(kernel_); }
     std::string kernel() const override { return toString(kernel_); }
     TracerDevice device() const override { return TracerDevice::Gpu; }
     std::string describe(const RenderSettings&) const override { return vk::describe(tracer_->device()); }
@@ -23,7 +24,7 @@ public:
         TracerCapabilities c;
         c.intersectModes = true;
         c.image = c.hits = c.counters = c.gpuTimestamps = true;
-        c.packetShapes = kernel_ == KernelKind::Packet;
+        c.packetShapes = kernel_ != KernelKind::Single;
         return c;
     }
     Preparation prepare(const Scene& scene, const Bvh& bvh) override {

@@ -1,0 +1,211 @@
+// The hybrid packet / single-ray kernel (issue 14; shaders/trace.comp, traceHybrid; docs/gpu.md)
+// on lavapipe, against the CPU reference and against the two kernels it is made of: a K above
+// the packet's ray count splits every packet at the root, so each ray traverses as the single-ray
+// kernel does (same hits, same N_TR and N_IT); K = 0 with the visit rule off never splits, so the
+// packet traverses as the packet kernel does. Between the two, packets split part-way; their hits
+// must still be the reference's, on coherent, incoherent (random sliver soup) and deep trees, for
+// primary and shadow rays, and for packets of one subgroup (no barrier) and of several.
+#include "random_geometry.h"
+#include "test_gpu_common.h"
+
+#include "renderer/error.h"
+#include "scenes/generators.h"
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+namespace raypack::test {
+namespace {
+
+// Packets of one subgroup on lavapipe (a row of at most 8 rays: GpuTracer's packetIsOneSubgroup)
+// and of several subgroups; 5x6 pads at the image edges.
+const std::vector<PacketShape> kShapes = {{8, 1}, {8, 4}, {5, 6}, {16, 16}};
+// Fewer where lavapipe is slow (the deep tree: every ray enters every one of its 60 levels).
+const std::vector<PacketShape> kFewShapes = {{8, 1}, {8, 4}};
+
+HybridParams neverSplits() { return HybridParams{0u, 0.0f}; }
+HybridParams splitsAtTheRoot() { return HybridParams{0xFFFFFFFFu, 0.0f}; }
+
+bool sameHits(const Frame& a, const Frame& b) {
+    return a.hits.size() == b.hits.size() &&
+           (a.hits.empty() || std::memcmp(a.hits.data(), b.hits.data(), a.hits.size() * sizeof(HitRecord)) == 0);
+}
+
+bool sameCounters(const Frame& a, const Frame& b) {
+    return a.counters.size() == b.counters.size() &&
+           (a.counters.empty() ||
+            std::memcmp(a.counters.data(), b.counters.data(), a.counters.size() * sizeof(RayCounters)) == 0);
+}
+
+uint64_t primaryNodes(const Frame& f) {
+    uint64_t n = 0;
+    for (const RayCounters& c : f.counters) n += c.primaryNodes;
+    return n;
+}
+
+std::string label(const PacketShape& shape, const HybridParams& h, bool shadows) {
+    return "hybrid " + std::to_string(shape.width) + "x" + std::to_string(shape.height) +
+           " K=" + std::to_string(h.minRays) + " ratio " + std::to_string(h.visitRatio) + (shadows ? " shadows" : "");
+}
+
+RenderSettings settingsFor(const Scene& scene, uint32_t width, uint32_t height) {
+    RenderSettings settings;
+    settings.width = width;
+    settings.height = height;
+    settings.camera = frameScene(scene.bounds());
+    return settings;
+}
+
+// The two limits: the hybrid kernel is the single-ray kernel when it splits at the root, and the
+// packet kernel when it never splits, hit for hit and count for count (statistics variant).
+void expectLimitsAreTheTwoKernels(GpuTracer& tracer, RenderSettings settings, const Frame& cpu,
+                                  const std::vector<PacketShape>& shapes) {
+    const FrameRequest request{true, true, true};
+    for (const bool shadows : {true, false}) {
+        settings.shadows = shadows;
+        for (const PacketShape& shape : shapes) {
+            settings.packet = shape;
+            settings.kernel = KernelKind::Single;
+            const Frame single = tracer.render(settings, request);
+            settings.kernel = KernelKind::Packet;
+            const Frame packet = tracer.render(settings, request);
+            settings.kernel = KernelKind::Hybrid;
+            settings.hybrid = splitsAtTheRoot();
+            const Frame split = tracer.render(settings, request);
+            settings.hybrid = neverSplits();
+            const Frame kept = tracer.render(settings, request);
+            EXPECT_TRUE(sameHits(split, single)) << label(shape, splitsAtTheRoot(), shadows);
+            EXPECT_TRUE(sameCounters(split, single)) << label(shape, splitsAtTheRoot(), shadows);
+            EXPECT_TRUE(sameHits(kept, packet)) << label(shape, neverSplits(), shadows);
+            EXPECT_TRUE(sameCounters(kept, packet)) << label(shape, neverSplits(), shadows);
+            EXPECT_EQ(differingPixels(split, single), 0u) << label(shape, splitsAtTheRoot(), shadows);
+            EXPECT_EQ(differingPixels(kept, packet), 0u) << label(shape, neverSplits(), shadows);
+            if (shadows) {
+                expectMatchesReference(split, cpu, label(shape, splitsAtTheRoot(), shadows));
+                expectMatchesReference(kept, cpu, label(shape, neverSplits(), shadows));
+            }
+        }
+    }
+}
+
+// Every split rule between the limits: hits as the reference's (every ray, every shadow ray).
+void expectSplitsMatchReference(GpuTracer& tracer, RenderSettings settings, const Frame& cpu, bool exact,
+                                const std::vector<PacketShape>& shapes) {
+    const FrameRequest request{true, true, true};
+    settings.kernel = KernelKind::Hybrid;
+    for (const PacketShape& shape : shapes) {
+        settings.packet = shape;
+        const uint32_t rays = shape.rays();
+        const HybridParams rules[] = {{std::max(1u, rays / 4), 0.0f}, {std::max(1u, rays / 16), 0.0f},
+                                      {std::max(1u, rays / 2), 0.0f}, {0u, 1.5f},
+                                      {std::max(1u, rays / 8), 2.0f}, {1u, 1.0f}};
+        for (const HybridParams& h : rules) {
+            settings.hybrid = h;
+            const Frame gpu = tracer.render(settings, request);
+            if (exact) {
+                const HitAgreement agreement = compareHits(gpu, cpu);
+                EXPECT_EQ(agreement.agree, agreement.rays) << label(shape, h, true);
+                EXPECT_EQ(agreement.shadowAgree, agreement.shadowRays) << label(shape, h, true);
+            }
+            expectMatchesReference(gpu, cpu, label(shape, h, true));
+        }
+    }
+}
+
+TEST(GpuHybrid, LimitsAreTheSingleRayAndPacketKernels) {
+    const LoadedScene s = loadForTest("gen:default");
+    GpuTracer tracer(validatedContext());
+    tracer.upload(s.scene, s.bvh);
+    const RenderSettings settings = settingsFor(s.scene, 97, 61);
+    const Frame cpu = renderCpu(s.scene, s.bvh, settings, FrameRequest{true, true, false});
+    expectLimitsAreTheTwoKernels(tracer, settings, cpu, kShapes);
+    expectNoValidationMessages();
+}
+
+TEST(GpuHybrid, SplitPacketsMatchReferenceOnSibenik) {
+    const LoadedScene s = loadForTest(sharedScene("sibenik/sibenik_geom_75284.ply"));
+    GpuTracer tracer(validatedContext());
+    tracer.upload(s.scene, s.bvh);
+    RenderSettings settings = settingsFor(s.scene, 64, 48);
+    settings.camera = s.camera;
+    const Frame cpu = renderCpu(s.scene, s.bvh, settings, FrameRequest{true, true, false});
+    expectSplitsMatchReference(tracer, settings, cpu, false, {{8, 1}, {8, 4}, {16, 16}});
+    expectNoValidationMessages();
+}
+
+// Random slivers in random orientations (tests/random_geometry.h): neighbouring rays share few
+// nodes, so packets split early and often.
+TEST(GpuHybrid, IncoherentSoupHitsEqualReference) {
+    const Scene scene = randomSliverSoup(3000, 0.2f, 2.0f, 14);
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    GpuTracer tracer(validatedContext());
+    tracer.upload(scene, bvh);
+    RenderSettings settings = settingsFor(scene, 48, 32);
+    // From just outside the soup, so that it fills the image (frameScene keeps the whole box in
+    // view, a small part of the image).
+    settings.camera.eye = glm::vec3(0.3f, 0.2f, 4.5f);
+    settings.camera.at = glm::vec3(0.0f);
+    const Frame cpu = renderCpu(scene, bvh, settings, FrameRequest{true, true, false});
+    size_t hits = 0;
+    for (const HitRecord& h : cpu.hits) hits += h.prim != gpu::kNoHit;
+    ASSERT_GT(hits, cpu.hits.size() / 4) << "the soup should fill much of the image";
+    expectSplitsMatchReference(tracer, settings, cpu, true, {{8, 1}, {8, 4}, {5, 6}});
+    expectLimitsAreTheTwoKernels(tracer, settings, cpu, kFewShapes);
+
+    // Each rule alone splits packets part-way here: N_TR lies strictly between the single-ray
+    // kernel's (the fewest visits) and the packet kernel's (the union of its rays' visits).
+    RenderSettings s = settings;
+    s.packet = {8, 4};
+    const FrameRequest request{false, false, true};
+    s.kernel = KernelKind::Single;
+    const uint64_t single = primaryNodes(tracer.render(s, request));
+    s.kernel = KernelKind::Packet;
+    const uint64_t packet = primaryNodes(tracer.render(s, request));
+    ASSERT_LT(single, packet) << "the soup is meant to be incoherent";
+    s.kernel = KernelKind::Hybrid;
+    for (const HybridParams& h : {HybridParams{8u, 0.0f}, HybridParams{0u, 2.0f}}) {
+        s.hybrid = h;
+        const uint64_t hybrid = primaryNodes(tracer.render(s, request));
+        EXPECT_GT(hybrid, single) << label(s.packet, h, false);
+        EXPECT_LT(hybrid, packet) << label(s.packet, h, false);
+        std::printf("soup 8x4, N_TR summed over primary rays: single %llu, packet %llu, %s: %llu\n",
+                    (unsigned long long)single, (unsigned long long)packet, label(s.packet, h, false).c_str(),
+                    (unsigned long long)hybrid);
+    }
+    expectNoValidationMessages();
+}
+
+// A tree far deeper than 32 levels: the packet's wanted bits end at entry 32 (deeper entries are
+// assumed wanted) and each ray's stack after the split holds the packet's pending entries and its
+// own; neither may overflow (render() throws on kStatusStackOverflow).
+TEST(GpuHybrid, DeepTreeSplitsMatchReference) {
+    LoadedScene s;
+    s.scene = makeDeepScene(kDeepSceneMaxTriangles);
+    BvhBuildOptions options;
+    options.leafSize = 1;
+    s.bvh = buildBvh(s.scene, options);
+    ASSERT_GT(s.bvh.stats.maxLeafDepth, 50u);
+    GpuTracer tracer(validatedContext());
+    tracer.upload(s.scene, s.bvh);
+    const RenderSettings settings = settingsFor(s.scene, 32, 24);
+    const Frame cpu = renderCpu(s.scene, s.bvh, settings, FrameRequest{true, true, false});
+    expectSplitsMatchReference(tracer, settings, cpu, true, kFewShapes);
+    expectLimitsAreTheTwoKernels(tracer, settings, cpu, kFewShapes);
+    expectNoValidationMessages();
+}
+
+TEST(GpuHybrid, VisitRatioOutOfRangeIsAnError) {
+    const LoadedScene s = loadForTest("gen:default");
+    GpuTracer tracer(validatedContext());
+    tracer.upload(s.scene, s.bvh);
+    RenderSettings settings = settingsFor(s.scene, 16, 16);
+    settings.kernel = KernelKind::Hybrid;
+    settings.hybrid.visitRatio = -1.0f;
+    EXPECT_THROW(tracer.render(settings), Error);
+    settings.hybrid.visitRatio = 2.0f;
+    EXPECT_NO_THROW(tracer.render(settings));
+}
+
+}  // namespace
+}  // namespace raypack::test
