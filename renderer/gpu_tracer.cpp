@@ -42,10 +42,9 @@ struct PipelineKey {
     ShadowOrder shadowOrder;
     uint32_t hybridMinRays = 0;     // the hybrid kernel's split rules (0 for the other kernels)
     uint32_t hybridVisitRatio = 0;  // in 1/100
-    bool speculative = false;
     auto tie() const {
         return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
-                        hybridMinRays, hybridVisitRatio, speculative);
+                        hybridMinRays, hybridVisitRatio);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -429,7 +428,6 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
                                                                 : gpu::kShadowOrderNearest;
     data.hybridMinRays = key.hybridMinRays;
     data.hybridVisitRatio = key.hybridVisitRatio;
-    data.speculative = key.kernel == KernelKind::Single && key.speculative ? VK_TRUE : VK_FALSE;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
     std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
     for (size_t i = 0; i < entries.size(); ++i) {
@@ -562,7 +560,6 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     PipelineKey key{settings.kernel, shape.width,        shape.height,        0u, statistics, view,
                     s.stackEntries,  settings.intersect, settings.shadowOrder};
     setHybridRules(key, settings);
-    key.speculative = settings.speculativeTraversal;
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
@@ -745,7 +742,6 @@ std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const Re
     PipelineKey key{settings.kernel, settings.packet.width, settings.packet.height, pass, statistics, view,
                     s.stackEntries,  settings.intersect,    settings.shadowOrder};
     setHybridRules(key, settings);
-    key.speculative = settings.speculativeTraversal;
     VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
     pipelineInfo.pipeline = pipelineFor(s, key);
     uint32_t executables = 0;

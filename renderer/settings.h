@@ -62,10 +62,6 @@ struct RenderSettings {
     PhongParams phong;
     IntersectMode intersect = IntersectMode::Robust;
     ShadowOrder shadowOrder = ShadowOrder::Nearest;
-    // The single-ray Vulkan kernel's speculative traversal (Aila and Laine 2009): a ray that
-    // reaches a leaf postpones it and keeps descending until every ray of its subgroup holds one,
-    // so that the subgroup tests leaves together. The same hits; other work (docs/gpu.md).
-    bool speculativeTraversal = false;
     glm::vec3 background{0.08f, 0.09f, 0.11f};
     // Offset of every primary ray from its pixel's centre, in pixels (each component in
     // [-0.5, 0.5)): one sample of an anti-aliasing pattern (renderer/accumulate.h). Zero: centres.

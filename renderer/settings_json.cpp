@@ -116,7 +116,6 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["background"] = toJson(s.background);
     j["intersect"] = toString(s.intersect);
     j["shadow_order"] = toString(s.shadowOrder);
-    j["speculative_traversal"] = s.speculativeTraversal;
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["hybrid"] = {{"min_rays", s.hybrid.minRays}, {"visit_ratio", s.hybrid.visitRatio}};
@@ -200,7 +199,6 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
             badKey("hybrid", "visit_ratio must be 0 (off) or a ratio up to 1000");
     }
     readBool(j, "collect_counters", "", s.collectCounters);
-    readBool(j, "speculative_traversal", "", s.speculativeTraversal);
     if (const std::string view = readString(j, "view", ""); !view.empty()) {
         const auto parsed = parseViewMode(view);
         if (!parsed) badKey("view", "must be \"shaded\", \"nodes\" or \"tests\", got \"" + view + "\"");

@@ -2,8 +2,8 @@
 # Issue 14 on the lent H200 machine: the single-ray Vulkan kernel's variants against its default,
 # 1920x1080, primary and shadow rays, the report suite, one bench run per variant (each its own
 # JSON): the default with the compiler's statistics of every kernel (--pipeline-statistics) and the
-# driver's ray tracing beside it, --speculative, --shadow-order tree and larger, and speculative
-# with larger. Then OUT/kernels.md: Mrays/s per scene and ray kind, each variant / default, and
+# driver's ray tracing beside it, and --shadow-order tree and larger. (The run of 2026-12-02 also
+# measured a speculative traversal, since removed: docs/gpu.md.) Then OUT/kernels.md: Mrays/s per scene and ray kind, each variant / default, and
 # the default / the driver's ray tracing.
 # From the repository root on the device, with .device/ unpacked (scripts/device-pack.sh) and .gl/:
 #   scripts/device-kernels.sh [OUT_DIR]   (default: $OUT)
@@ -27,10 +27,8 @@ run() {
     echo "$name: bench failed (see kernels-$name.log)" >> "$out/errors.txt"
 }
 run default --pipeline-statistics
-run speculative --speculative --no-driver-rt
 run tree --shadow-order tree --no-driver-rt
 run larger --shadow-order larger --no-driver-rt
-run speculative-larger --speculative --shadow-order larger --no-driver-rt
 python3 - "$out" > "$out/kernels.md" <<'PY'
 import glob, json, os, sys
 out = sys.argv[1]

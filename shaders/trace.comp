@@ -45,8 +45,6 @@ layout(constant_id = kSpecPacketIsOneSubgroup) const bool kPacketIsOneSubgroup =
 layout(constant_id = kSpecFastIntersect) const bool kFastIntersect = false;
 // Which child a shadow ray of the single-ray kernel enters first (ShadowOrder, renderer/settings.h).
 layout(constant_id = kSpecShadowOrder) const uint kShadowOrder = kShadowOrderNearest;
-// The single-ray kernel's speculative traversal (traceSingleSpeculative).
-layout(constant_id = kSpecSpeculative) const bool kSpeculative = false;
 // The hybrid kernel's two split rules (traceHybrid, docs/gpu.md): the packet splits into single
 // rays when fewer than kHybridMinRays of its active rays want the node it visits (0: never by this
 // rule), or, when kHybridVisitRatio is not 0, when its inner-node visits summed over its active
@@ -670,82 +668,9 @@ void traceHybrid(inout RayQuery q) {
     }
 }
 
-// The while-while traversal with speculation (Aila and Laine 2009, section 4): the rays of a
-// subgroup run the inner-node loop and the leaf loop in lockstep only when they agree, so a ray
-// that reaches a leaf while others still traverse inner nodes idles. Here it postpones that leaf
-// and goes on through its stack until every ray of the subgroup still traversing holds a leaf,
-// then they test their leaves together. The hits are the same (the closest hit is the least
-// (t, triangle) over every test that hits, whatever the order); the postponed leaf's hits do not
-// yet cull the boxes tested meanwhile, which is the speculation's cost.
-void traceSingleSpeculative(inout RayQuery q) {
-    uvec2 stack[kRayStackEntries];
-    uint stackSize = 0u;
-    const GpuNode root = nodes[0];
-    float entry;
-    bool haveCurrent = q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
-    uvec2 current = nodeEntry(root);
-    uvec2 postponed = uvec2(0u);  // a leaf found ahead (y = its triangle count), y = 0: none
-    uint steps = 0u;
-    while (haveCurrent || postponed.y != 0u) {
-        while (haveCurrent && current.y == 0u) {
-            if (++steps > kMaxTraversalSteps) {
-                atomicOr(status, kStatusTraversalTruncated);
-                return;
-            }
-            const GpuNode left = nodes[current.x];
-            const GpuNode right = nodes[current.x + 1u];
-            if (kStatistics) q.nodes += 1u;
-            float entryLeft, entryRight;
-            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
-            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
-            if (hitLeft && hitRight) {
-                const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
-                current = nodeEntry(rightFirst ? right : left);
-                if (stackSize == kRayStackEntries) {
-                    atomicOr(status, kStatusStackOverflow);
-                    return;
-                }
-                stack[stackSize++] = nodeEntry(rightFirst ? left : right);
-            } else if (hitLeft || hitRight) {
-                current = nodeEntry(hitLeft ? left : right);
-            } else if (stackSize > 0u) {
-                current = stack[--stackSize];
-            } else {
-                haveCurrent = false;
-            }
-            if (haveCurrent && current.y != 0u && postponed.y == 0u) {
-                postponed = current;
-                haveCurrent = stackSize > 0u;
-                if (haveCurrent) current = stack[--stackSize];
-            }
-            if (subgroupAll(postponed.y != 0u)) break;
-        }
-        if (postponed.y != 0u) {
-            steps += 1u + postponed.y;
-            if (kStatistics) q.nodes += 1u;
-            intersectLeaf(q, postponed.x, postponed.y);
-            postponed = uvec2(0u);
-            if (!q.isActive) return;  // a shadow ray's occluder
-        }
-        while (haveCurrent && current.y != 0u) {
-            steps += 1u + current.y;
-            if (steps > kMaxTraversalSteps) {
-                atomicOr(status, kStatusTraversalTruncated);
-                return;
-            }
-            if (kStatistics) q.nodes += 1u;
-            intersectLeaf(q, current.x, current.y);
-            if (!q.isActive) return;
-            haveCurrent = stackSize > 0u;
-            if (haveCurrent) current = stack[--stackSize];
-        }
-    }
-}
-
 void trace(inout RayQuery q) {
     if (kKernel == kKernelPacket) tracePacket(q);
     else if (kKernel == kKernelHybrid) traceHybrid(q);
-    else if (kSpeculative) traceSingleSpeculative(q);
     else traceSingle(q);
 }
 

@@ -133,24 +133,6 @@ TEST_F(GpuShapes, ShadowOrdersGiveTheSameShadowsWithOtherWork) {
     expectNoValidationMessages();
 }
 
-// Speculative single-ray traversal finds the reference's hits and shadows, and works otherwise:
-// more nodes visited (the postponed leaf's hit culls nothing until it is tested).
-TEST_F(GpuShapes, SpeculativeTraversalGivesTheReferencesHitsWithOtherWork) {
-    RenderSettings settings = smallSettings(197, 151);
-    settings.kernel = KernelKind::Single;
-    const FrameRequest request{true, true, true};
-    const Frame cpu = renderCpu(scene_->scene, scene_->bvh, settings, request);
-    const Frame plain = tracer_->render(settings, request);
-    for (const ShadowOrder order : {ShadowOrder::Nearest, ShadowOrder::Larger}) {
-        settings.speculativeTraversal = true;
-        settings.shadowOrder = order;
-        const Frame speculative = tracer_->render(settings, request);
-        expectMatchesReference(speculative, cpu, std::string("speculative, shadow order ") + toString(order));
-        EXPECT_GE(summarizeCounters(speculative).primaryNodes, summarizeCounters(plain).primaryNodes);
-    }
-    expectNoValidationMessages();
-}
-
 // Host-timed passes (the viewer's choice on CPU devices) split the frame into several submissions:
 // the image and hits stay the same, and each pass gets a time that fits inside the frame's.
 TEST_F(GpuShapes, HostTimedPassesKeepTheFrameAndTimeEachPass) {

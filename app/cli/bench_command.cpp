@@ -42,7 +42,6 @@ struct BenchFlags {
     bool noEmbree = false;
     bool noDriverRt = false;
     bool pipelineStatistics = false;
-    bool speculative = false;
 };
 
 // What one cell traces: a tracer, with a packet shape where it traces packets, and the split rules
@@ -355,7 +354,6 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
               {"hybrid_min_rays", f.hybridMinRays},
               {"hybrid_visit_ratios", f.hybridVisitRatios},
               {"shadow_order", f.shadowOrder},
-              {"speculative_traversal", f.speculative},
               {"packets",
                [&] {
                    json list = json::array();
@@ -427,7 +425,6 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         settings.intersect = modes.front();
         settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
         settings.shadowOrder = shadowOrder;
-        settings.speculativeTraversal = f.speculative;
         json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
         scene["intersect"] = toString(settings.intersect);
 
@@ -565,9 +562,6 @@ CommandRunner addBenchCommand(CLI::App& app) {
     command->add_flag("--no-driver-rt", f.noDriverRt,
                       "Do not run the driver's ray tracing peer (VK_KHR_ray_tracing_pipeline; "
                       "it runs where the GPU offers it, after raypack's GPU cells)");
-    command->add_flag("--speculative", f.speculative,
-                      "The GPU single-ray kernel traverses speculatively (Aila and Laine 2009: a ray "
-                      "postpones the leaf it finds until its whole subgroup holds one; docs/gpu.md)");
     command->add_flag("--pipeline-statistics", f.pipelineStatistics,
                       "GPU cells also record the compiler's statistics of their kernels (registers, "
                       "spills, ... as the driver names them; VK_KHR_pipeline_executable_properties, where "

@@ -40,7 +40,6 @@ struct RenderFlags {
     std::string view = "shaded";
     std::string intersect = "robust";
     std::string shadowOrder = "nearest";
-    bool speculative = false;
     std::string out, hits, json, from;
     uint32_t repeat = 1;
     uint32_t spp = 1;
@@ -51,8 +50,8 @@ struct RenderFlags {
 
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
-        *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *speculative, *spp, *scale,
-        *heatScale, *hybridMinRays, *hybridVisitRatio;
+        *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
+        *hybridMinRays, *hybridVisitRatio;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -105,7 +104,6 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
         if (!order) throw Error("--shadow-order: \"" + f.shadowOrder + "\" is not " + shadowOrderNames());
         s.shadowOrder = *order;
     }
-    if (given(o.speculative)) s.speculativeTraversal = f.speculative;
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
     if (given(o.bins)) setup.bvh.binCount = f.bvh.binCount;
@@ -256,10 +254,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
                                      "area); the shadows are the same, the work differs (docs/gpu.md)")
                         ->check(CLI::IsMember({"nearest", "tree", "larger"}))
                         ->capture_default_str();
-    o.speculative = command->add_flag("--speculative", f.speculative,
-                                      "GPU --kernel single: speculative traversal (Aila and Laine 2009): a "
-                                      "ray postpones the leaf it finds until its subgroup holds one each; the "
-                                      "same hits, other work (docs/gpu.md)");
     command->add_option("--out", f.out,
                         "Write the image to this file: PNG for .png, JPEG (quality 95) for .jpg or "
                         ".jpeg; any other extension is refused before rendering");
@@ -322,8 +316,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
             throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
         if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--shadow-order applies to --device gpu --kernel single only");
-        if (given(options->speculative) && (cpu || settings.kernel != KernelKind::Single))
-            throw Error("--speculative applies to --device gpu --kernel single only");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
         // the render.
         if (!f.out.empty()) {
