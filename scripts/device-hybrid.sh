@@ -123,4 +123,8 @@ done
 echo "done in $(($(date +%s) - start)) s" | tee -a "$out/progress.txt"
 cat "$out/table.md" 2>/dev/null
 [ -f "$out/errors.txt" ] && cat "$out/errors.txt"
+# A device call returns at most 8 files: everything but the summary goes into one archive
+# (the files are removed only when the archive was written).
+(cd "$out" && files=$(ls | grep -v -e '^table.md$' -e '^results.tgz$') &&
+  tar czf results.tgz $files && rm -f $files) || echo "could not pack $out" >&2
 exit 0

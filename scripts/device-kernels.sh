@@ -69,3 +69,7 @@ for r in base["records"]:
         break
 PY
 echo "done in $(( $(date +%s) - start )) s" >> "$out/kernels.md"
+# A device call returns at most 8 files: everything but the summary goes into one archive
+# (the files are removed only when the archive was written).
+(cd "$out" && files=$(ls | grep -v -e '^kernels.md$' -e '^results.tgz$') &&
+  tar czf results.tgz $files && rm -f $files) || echo "could not pack $out" >&2
