@@ -108,6 +108,29 @@ std::optional<ShadowOrder> parseShadowOrder(std::string_view name) {
 }
 std::string shadowOrderNames() { return namesOf<ShadowOrder>(kShadowOrderNames); }
 
+namespace {
+
+template <class E>
+E requireName(std::span<const Named<E>> table, std::string_view what, std::string_view text) {
+    if (const std::optional<E> value = valueOf<E>(table, text)) return *value;
+    throw Error(std::string(what) + ": \"" + std::string(text) + "\" is not " + namesOf<E>(table));
+}
+
+}  // namespace
+
+KernelKind requireKernelKind(std::string_view what, std::string_view text) {
+    return requireName<KernelKind>(kKernelNames, what, text);
+}
+ViewMode requireViewMode(std::string_view what, std::string_view text) {
+    return requireName<ViewMode>(kViewNames, what, text);
+}
+IntersectMode requireIntersectMode(std::string_view what, std::string_view text) {
+    return requireName<IntersectMode>(kIntersectNames, what, text);
+}
+ShadowOrder requireShadowOrder(std::string_view what, std::string_view text) {
+    return requireName<ShadowOrder>(kShadowOrderNames, what, text);
+}
+
 PacketShape parsePacketShape(std::string_view what, std::string_view text) {
     const size_t x = text.find_first_of("xX");
     PacketShape shape;

@@ -33,6 +33,12 @@ std::string kernelKindNames();
 std::string viewModeNames();
 std::string intersectModeNames();
 std::string shadowOrderNames();
+// The same, throwing raypack::Error `WHAT: "TEXT" is not NAMES` for a name the table lacks: one
+// message for CLI flags, viewer flags and script steps.
+KernelKind requireKernelKind(std::string_view what, std::string_view text);
+ViewMode requireViewMode(std::string_view what, std::string_view text);
+IntersectMode requireIntersectMode(std::string_view what, std::string_view text);
+ShadowOrder requireShadowOrder(std::string_view what, std::string_view text);
 
 // "WxH" (or "WXH") with 1 <= W, H <= kMaxPacketSide, digits only (no sign, no spaces).
 PacketShape parsePacketShape(std::string_view what, std::string_view text);

@@ -79,6 +79,13 @@ std::vector<std::string> allTracerNames() {
     return names;
 }
 
+// Why the registry cannot make `name` on this machine ("" when it can).
+std::string unavailableReason(const std::string& name, const TracerEnvironment& environment) {
+    for (const TracerInfo& info : listTracers(environment))
+        if (info.name == name) return info.unavailable;
+    return "";
+}
+
 class EveryTracer : public ::testing::TestWithParam<std::tuple<std::string, size_t>> {};
 
 TEST_P(EveryTracer, AgreesWithTheCpuReference) {
@@ -86,8 +93,7 @@ TEST_P(EveryTracer, AgreesWithTheCpuReference) {
     const SceneCase& c = kScenes[sceneIndex];
     TracerEnvironment environment;
     environment.vulkan = testContext();
-    for (const TracerInfo& info : listTracers(environment))
-        if (info.name == name && !info.unavailable.empty()) GTEST_SKIP() << info.unavailable;
+    if (const std::string why = unavailableReason(name, environment); !why.empty()) GTEST_SKIP() << why;
 
     const Scene scene = openScene(c.spec);
     const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
@@ -169,8 +175,7 @@ TEST_P(EveryTracer, FastIntersectionAgreesWithTheReferencesFastPath) {
     const SceneCase& c = kScenes[sceneIndex];
     TracerEnvironment environment;
     environment.vulkan = testContext();
-    for (const TracerInfo& info : listTracers(environment))
-        if (info.name == name && !info.unavailable.empty()) GTEST_SKIP() << info.unavailable;
+    if (const std::string why = unavailableReason(name, environment); !why.empty()) GTEST_SKIP() << why;
     const std::unique_ptr<Tracer> tracer = makeTracer(name, environment);
     if (!tracer->capabilities().intersectModes) GTEST_SKIP() << name << " has its own intersection";
 

@@ -65,29 +65,14 @@ void decodeValue(ScriptStep& step) {
         if (value != "on" && value != "off") throw Error(what + ": \"" + value + "\" is not on or off");
         step.on = value == "on";
         break;
-    case ScriptAction::Kernel: {
-        const std::optional<KernelKind> kernel = parseKernelKind(value);
-        if (!kernel) throw Error(what + ": \"" + value + "\" is not " + kernelKindNames());
-        step.kernel = *kernel;
-        break;
-    }
-    case ScriptAction::Intersect: {
-        const std::optional<IntersectMode> intersect = parseIntersectMode(value);
-        if (!intersect) throw Error(what + ": \"" + value + "\" is not " + intersectModeNames());
-        step.intersect = *intersect;
-        break;
-    }
+    case ScriptAction::Kernel: step.kernel = requireKernelKind(what, value); break;
+    case ScriptAction::Intersect: step.intersect = requireIntersectMode(what, value); break;
     case ScriptAction::Tracer: step.tracer = requireTracerChoice(what, value); break;
     case ScriptAction::SideBySide:
         step.on = value != "off";
         if (step.on) step.tracer = requireTracerChoice(what, value);
         break;
-    case ScriptAction::View: {
-        const std::optional<ViewMode> view = parseViewMode(value);
-        if (!view) throw Error(what + ": \"" + value + "\" is not " + viewModeNames());
-        step.view = *view;
-        break;
-    }
+    case ScriptAction::View: step.view = requireViewMode(what, value); break;
     case ScriptAction::Open:
     case ScriptAction::Screenshot:
     case ScriptAction::WindowScreenshot: needsValue(); break;

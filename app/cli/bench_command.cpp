@@ -169,9 +169,8 @@ void addAccuracyFields(json& primary, const BenchScene& scene, const Scene& geom
 std::vector<IntersectMode> parseIntersectModes(const std::string& text) {
     std::vector<IntersectMode> modes;
     for (const std::string& name : splitList(text)) {
-        const std::optional<IntersectMode> mode = parseIntersectMode(name);
-        if (!mode) throw Error("--intersect: \"" + name + "\" is not " + intersectModeNames());
-        if (std::find(modes.begin(), modes.end(), *mode) == modes.end()) modes.push_back(*mode);
+        const IntersectMode mode = requireIntersectMode("--intersect", name);
+        if (std::find(modes.begin(), modes.end(), mode) == modes.end()) modes.push_back(mode);
     }
     if (modes.empty()) throw Error("--intersect: no mode given");
     return modes;
@@ -279,9 +278,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                     "--builder, --leaf-size and --bins do not apply");
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
-    const std::optional<ShadowOrder> parsedOrder = parseShadowOrder(f.shadowOrder);
-    if (!parsedOrder) throw Error("--shadow-order: \"" + f.shadowOrder + "\" is not " + shadowOrderNames());
-    const ShadowOrder shadowOrder = *parsedOrder;
+    const ShadowOrder shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
     const bool packetKernel = f.kernel == "all" || f.kernel == "packet";
     const bool singleKernel = f.kernel == "all" || f.kernel == "single";
     const bool hybridKernel = f.kernel == "all" || f.kernel == "hybrid";

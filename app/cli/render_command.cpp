@@ -81,29 +81,13 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.height)) s.height = f.height;
     if (given(o.lightHeight)) s.lightHeight = f.lightHeight;
     if (given(o.noShadows)) s.shadows = !f.noShadows;
-    if (given(o.kernel)) {
-        const auto kernel = parseKernelKind(f.kernel);
-        if (!kernel) throw Error("--kernel: \"" + f.kernel + "\" is not " + kernelKindNames());
-        s.kernel = *kernel;
-    }
+    if (given(o.kernel)) s.kernel = requireKernelKind("--kernel", f.kernel);
     if (given(o.packet)) s.packet = parsePacketShape("--packet", f.packet);
     if (given(o.hybridMinRays)) s.hybrid.minRays = f.hybridMinRays;
     if (given(o.hybridVisitRatio)) s.hybrid.visitRatio = f.hybridVisitRatio;
-    if (given(o.view)) {
-        const auto view = parseViewMode(f.view);
-        if (!view) throw Error("--view: \"" + f.view + "\" is not " + viewModeNames());
-        s.view = *view;
-    }
-    if (given(o.intersect)) {
-        const auto intersect = parseIntersectMode(f.intersect);
-        if (!intersect) throw Error("--intersect: \"" + f.intersect + "\" is not " + intersectModeNames());
-        s.intersect = *intersect;
-    }
-    if (given(o.shadowOrder)) {
-        const auto order = parseShadowOrder(f.shadowOrder);
-        if (!order) throw Error("--shadow-order: \"" + f.shadowOrder + "\" is not " + shadowOrderNames());
-        s.shadowOrder = *order;
-    }
+    if (given(o.view)) s.view = requireViewMode("--view", f.view);
+    if (given(o.intersect)) s.intersect = requireIntersectMode("--intersect", f.intersect);
+    if (given(o.shadowOrder)) s.shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
     if (given(o.bins)) setup.bvh.binCount = f.bvh.binCount;

@@ -111,21 +111,9 @@ int main(int argc, char** argv) {
         if (!tracer.empty()) options.tracer = ui::requireTracerChoice("--tracer", tracer);
         if (options.playFrames && options.playPath.empty()) throw Error("--play-frames needs --play-path");
         if (!sideBySide.empty()) options.sideBySide = ui::requireTracerChoice("--side-by-side", sideBySide);
-        if (!kernel.empty()) {
-            const std::optional<KernelKind> k = parseKernelKind(kernel);
-            if (!k) throw Error("--kernel: \"" + kernel + "\" is not " + kernelKindNames());
-            options.settings.kernel = *k;
-        }
-        if (!intersect.empty()) {
-            const std::optional<IntersectMode> mode = parseIntersectMode(intersect);
-            if (!mode) throw Error("--intersect: \"" + intersect + "\" is not " + intersectModeNames());
-            options.settings.intersect = *mode;
-        }
-        if (!view.empty()) {
-            const std::optional<ViewMode> v = parseViewMode(view);
-            if (!v) throw Error("--view: \"" + view + "\" is not " + viewModeNames());
-            options.settings.view = *v;
-        }
+        if (!kernel.empty()) options.settings.kernel = requireKernelKind("--kernel", kernel);
+        if (!intersect.empty()) options.settings.intersect = requireIntersectMode("--intersect", intersect);
+        if (!view.empty()) options.settings.view = requireViewMode("--view", view);
         if (!eye.empty() || !at.empty()) {
             if (eye.empty() || at.empty()) throw Error("--eye and --at go together");
             options.settings.camera.eye = parseVec3("--eye", eye);
