@@ -49,13 +49,6 @@ struct PipelineKey {
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
 
-// The hybrid kernel's split rules into its pipeline key (the other kernels keep 0, one pipeline).
-void setHybridRules(PipelineKey& key, const RenderSettings& settings) {
-    if (settings.kernel != KernelKind::Hybrid) return;
-    key.hybridMinRays = settings.hybrid.minRays;
-    key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
-}
-
 // Whether a packet of `width` x `height` rays runs as exactly one subgroup on `device`, so that
 // its vote needs no shared memory and no barrier. A workgroup no larger than the subgroup is one
 // subgroup on NVIDIA, AMD and Intel; lavapipe (llvmpipe) runs each row of a workgroup as its own
@@ -73,6 +66,20 @@ uint32_t viewConstant(ViewMode view) {
     case ViewMode::HeatIntersections: return gpu::kViewHeatIntersections;
     default: return gpu::kViewShaded;
     }
+}
+
+// The pipeline that traces `settings`' pass `pass` (kPass*): everything of the settings a
+// specialization constant takes, the hybrid kernel's split rules included (the other kernels keep
+// 0, one pipeline). One place for the frame's dispatches and for pipelineStatistics.
+PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries) {
+    PipelineKey key{settings.kernel,     settings.packet.width,       settings.packet.height, pass,
+                    statistics,          viewConstant(settings.view), stackEntries,           settings.intersect,
+                    settings.shadowOrder};
+    if (settings.kernel == KernelKind::Hybrid) {
+        key.hybridMinRays = settings.hybrid.minRays;
+        key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
+    }
+    return key;
 }
 
 }  // namespace
@@ -557,9 +564,7 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key{settings.kernel, shape.width,        shape.height,        0u, statistics, view,
-                    s.stackEntries,  settings.intersect, settings.shadowOrder};
-    setHybridRules(key, settings);
+    PipelineKey key = pipelineKeyFor(settings, 0u, statistics, s.stackEntries);
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
@@ -734,14 +739,11 @@ std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const Re
     const auto getStatistics = reinterpret_cast<PFN_vkGetPipelineExecutableStatisticsKHR>(
         vkGetDeviceProcAddr(s.ctx.device, "vkGetPipelineExecutableStatisticsKHR"));
     if (!getProperties || !getStatistics) return out;
-    const uint32_t view = viewConstant(settings.view);
     const bool statistics = settings.collectCounters || settings.view != ViewMode::Shaded;
     const uint32_t pass = shadowPass         ? gpu::kPassShadowShade
                           : settings.shadows ? gpu::kPassPrimary
                                              : gpu::kPassPrimaryShade;
-    PipelineKey key{settings.kernel, settings.packet.width, settings.packet.height, pass, statistics, view,
-                    s.stackEntries,  settings.intersect,    settings.shadowOrder};
-    setHybridRules(key, settings);
+    const PipelineKey key = pipelineKeyFor(settings, pass, statistics, s.stackEntries);
     VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
     pipelineInfo.pipeline = pipelineFor(s, key);
     uint32_t executables = 0;
