@@ -120,6 +120,9 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
     using namespace bvh_detail;
     const auto start = std::chrono::steady_clock::now();
     validateOptions(options);
+    if (options.builder == BvhBuilder::GpuLbvh)
+        throw Error(std::string("BVH build: ") + toString(options.builder) +
+                    " builds on a Vulkan device (buildBvhOnDevice, renderer/gpu_bvh.h), not on the CPU");
     if (primitiveBounds.size() >= size_t(UINT32_MAX))
         throw Error("BVH build: " + std::to_string(primitiveBounds.size()) + " primitives do not fit 32-bit indices");
     if (options.builder == BvhBuilder::SahSplit &&
@@ -148,6 +151,7 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
         case BvhBuilder::SahExact: bvh = buildSahExact(primitiveBounds, rootBox, options, progress); break;
         case BvhBuilder::SahBinned: bvh = buildSahBinned(primitiveBounds, rootBox, options, progress); break;
         case BvhBuilder::SahSplit: bvh = buildSahSplit(primitiveBounds, rootBox, options, progress, triangles); break;
+        case BvhBuilder::GpuLbvh: break;  // refused above
         }
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -234,6 +238,7 @@ const char* toString(BvhBuilder builder) {
     case BvhBuilder::SahExact: return "sah-exact";
     case BvhBuilder::SahBinned: return "sah-binned";
     case BvhBuilder::SahSplit: return "sah-split";
+    case BvhBuilder::GpuLbvh: return "gpu-lbvh";
     }
     return "unknown";
 }

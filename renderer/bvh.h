@@ -34,9 +34,15 @@ enum class BvhBuilder {
     SahExact,   // the report's builder: every centroid a candidate, three presorted lists
     SahBinned,  // Wald 2007, "On fast Construction of SAH-based BVHs": binned centroids, 3 axes
     SahSplit,   // Stich, Friedrich and Dietrich 2009, "Spatial Splits in Bounding Volume Hierarchies"
+    // Karras 2012 on the Vulkan device, leaves collapsed by the SAH (renderer/gpu_bvh.h): built by
+    // GpuBvhBuilder / buildBvhOnDevice, not by buildBvh, which has no device.
+    GpuLbvh,
 };
-// Every builder, in the order a menu lists them.
-inline constexpr BvhBuilder kAllBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit};
+// The builders that run on the CPU (buildBvh), in the order a menu lists them.
+inline constexpr BvhBuilder kCpuBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit};
+// Every builder, in the order a menu lists them: the CPU builders, then the device builders.
+inline constexpr BvhBuilder kAllBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit,
+                                                 BvhBuilder::GpuLbvh};
 // The builders that partition the primitives: every primitive is in exactly one leaf, and a leaf's
 // box is the union of its primitives' boxes. SahSplit is not one of them: a spatial split puts a
 // triangle into several leaves, each bounding only the part of it on its side of the split planes.
@@ -113,7 +119,8 @@ struct BvhTriangles {
 // Throws raypack::Error for options out of range (leafSize 0, a cost not positive and finite, a
 // bin count outside 2..256, a split alpha or budget out of range) and for a primitive box that is
 // empty or not finite; BuildCancelled when progress->cancel is set. Fills Bvh::stats, buildSeconds
-// included. SahSplit without `triangles` splits the primitive boxes themselves (a box chopped at
+// included. Throws raypack::Error for GpuLbvh (it needs a device: buildBvhOnDevice in
+// renderer/gpu_bvh.h). SahSplit without `triangles` splits the primitive boxes themselves (a box chopped at
 // the plane, valid for any primitive inside its box, looser than a clipped triangle's box).
 Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress = nullptr,
              const BvhTriangles* triangles = nullptr);
@@ -160,7 +167,7 @@ void walkBvh(const Bvh& bvh, Visit&& visit) {
 // never overflows.
 uint32_t bvhMaxDepth(const Bvh& bvh);
 
-// "sah-exact", "sah-binned", "sah-split".
+// "sah-exact", "sah-binned", "sah-split", "gpu-lbvh".
 const char* toString(BvhBuilder builder);
 // The builder whose toString is `name`, or nothing.
 std::optional<BvhBuilder> findBvhBuilder(std::string_view name);

@@ -61,7 +61,6 @@ GpuLayoutCounts gpuLayoutCounts(const Scene& scene, const Bvh& bvh) {
 
 void writeGpuLayout(const Scene& scene, const Bvh& bvh, const GpuLayoutCounts& counts, const GpuLayoutTargets& out) {
     RAYPACK_CHECK(counts.nodes == bvh.nodes.size() && counts.triangles == bvh.primIndices.size());
-    const bool materials = counts.materials > 0;
     // 1. Nodes: a leaf's first slot is its index into primIndices (leaf order = reference order).
     tbb::parallel_for(tbb::blocked_range<size_t>(0, counts.nodes, 16384), [&](const tbb::blocked_range<size_t>& range) {
         for (size_t i = range.begin(); i != range.end(); ++i) {
@@ -77,29 +76,40 @@ void writeGpuLayout(const Scene& scene, const Bvh& bvh, const GpuLayoutCounts& c
             }
         }
     });
-    // 2. The references' triangles, gathered in parallel (the gather reads vertices scattered over
-    //    the scene; the writes are sequential per range, and first touches of fresh staging pages
-    //    are spread over the threads too).
+    // 2. The references' triangles; 3. the materials and textures.
+    writeGpuTriangles(scene, bvh.primIndices, counts, out);
+    writeGpuMaterials(scene, counts, out);
+}
+
+void writeGpuTriangles(const Scene& scene, std::span<const uint32_t> order, const GpuLayoutCounts& counts,
+                       const GpuLayoutTargets& out) {
+    RAYPACK_CHECK(order.empty() ? counts.triangles == scene.triangleCount() : counts.triangles == order.size());
+    const bool materials = counts.materials > 0;
+    // Gathered in parallel (the gather reads vertices scattered over the scene; the writes are
+    // sequential per range, and first touches of fresh staging pages are spread over the threads too).
     tbb::parallel_for(
         tbb::blocked_range<size_t>(0, counts.triangles, 16384), [&](const tbb::blocked_range<size_t>& range) {
             for (size_t slot = range.begin(); slot != range.end(); ++slot) {
-                const uint32_t tri = bvh.primIndices[slot];
+                const uint32_t tri = order.empty() ? uint32_t(slot) : order[slot];
                 RAYPACK_CHECK(tri < scene.triangles.size());
                 const glm::uvec3 v = scene.triangles[tri];
                 const uint32_t material = materials ? scene.triangleMaterial[tri] : 0u;
                 out.triangles[slot] = {withBits(scene.positions[v.x], tri), withBits(scene.positions[v.y], material),
                                        glm::vec4(scene.positions[v.z], 0.0f)};
                 if (out.leafToFile) out.leafToFile[slot] = tri;
-                if (counts.normals)
+                if (counts.normals && out.normals)
                     out.normals[slot] = {glm::vec4(scene.normals[v.x], 0.0f), glm::vec4(scene.normals[v.y], 0.0f),
                                          glm::vec4(scene.normals[v.z], 0.0f)};
-                if (counts.uvs)
+                if (counts.uvs && out.uvs)
                     out.uvs[slot] = {glm::vec4(scene.uvs[v.x], scene.uvs[v.y]), glm::vec4(scene.uvs[v.z], 0.0f, 0.0f)};
-                if (counts.colors)
+                if (counts.colors && out.colors)
                     out.colors[slot] = {
                         glm::uvec4(scene.vertexColors[v.x], scene.vertexColors[v.y], scene.vertexColors[v.z], 0u)};
             }
         });
+}
+
+void writeGpuMaterials(const Scene& scene, const GpuLayoutCounts& counts, const GpuLayoutTargets& out) {
     for (size_t m = 0; m < counts.materials; ++m) {
         const Material& material = scene.materials[m];
         RAYPACK_CHECK(material.texture == kNoTexture || (material.texture < scene.textures.size() && counts.uvs));

@@ -7,6 +7,7 @@
 #include "shaders/gpu_types.h"
 
 #include <cstdint>
+#include <span>
 #include <vector>
 
 namespace raypack {
@@ -67,6 +68,15 @@ struct GpuLayoutTargets {
 // too). Every entry is written exactly once, so the targets may be uninitialised memory (the
 // upload writes into mapped staging buffers, which no one zero-fills first).
 void writeGpuLayout(const Scene& scene, const Bvh& bvh, const GpuLayoutCounts& counts, const GpuLayoutTargets& targets);
+
+// Step 2 of writeGpuLayout alone: slot k of triangles (normals, UVs, colours, leafToFile where the
+// targets have them) gets triangle order[k]; an empty `order` is the file order itself (slot k holds
+// triangle k: what the GPU builders read, renderer/gpu_bvh.h). counts.triangles entries are written.
+void writeGpuTriangles(const Scene& scene, std::span<const uint32_t> order, const GpuLayoutCounts& counts,
+                       const GpuLayoutTargets& targets);
+// The materials, the texture table and the texels (the parts of the layout that do not depend on the
+// tree), where counts has them.
+void writeGpuMaterials(const Scene& scene, const GpuLayoutCounts& counts, const GpuLayoutTargets& targets);
 
 // The deepest node below the root (root = 0), which sizes the traversal stacks: the builder's
 // statistics where they describe this tree, else a walk.

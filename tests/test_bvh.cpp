@@ -329,7 +329,7 @@ TEST(BvhDeterminism, SameTreeOnOneAndTwoThreads) {
 }
 
 TEST(BvhEdgeCases, ZeroPrimitives) {
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kCpuBvhBuilders) {
         const Bvh bvh = buildBvh(std::span<const Aabb>(), optionsFor(builder));
         ASSERT_EQ(bvh.nodes.size(), 1u);
         EXPECT_TRUE(bvh.nodes[0].isLeaf());
@@ -471,7 +471,7 @@ TEST(BvhBadInput, NonFiniteOrEmptyBoxAndBadOptionsThrow) {
 
 TEST(BvhProgress, PlacedReachesTotal) {
     const std::vector<Aabb> bounds = randomSoup(100000, 4);
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kCpuBvhBuilders) {
         BuildProgress progress;
         buildBvh(bounds, optionsFor(builder), &progress);
         EXPECT_EQ(progress.total.load(), bounds.size());
@@ -481,7 +481,7 @@ TEST(BvhProgress, PlacedReachesTotal) {
 
 TEST(BvhCancel, CancelledBeforeStartThrows) {
     const std::vector<Aabb> bounds = randomSoup(1000, 4);
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kCpuBvhBuilders) {
         BuildProgress progress;
         progress.cancel = true;
         EXPECT_THROW(buildBvh(bounds, optionsFor(builder), &progress), BuildCancelled);
@@ -493,7 +493,7 @@ TEST(BvhCancel, CancelledBeforeStartThrows) {
 // is loose because the test machine's two cores are shared with other builds.
 TEST(BvhCancel, CancelledMidBuildStopsQuickly) {
     const std::vector<Aabb> bounds = randomSoup(3'000'000, 8);
-    for (BvhBuilder builder : kAllBvhBuilders) {
+    for (BvhBuilder builder : kCpuBvhBuilders) {
         for (int delayMs : {5, 150}) {
             SCOPED_TRACE(std::string(toString(builder)) + " after " + std::to_string(delayMs) + " ms");
             BuildProgress progress;

@@ -1,0 +1,660 @@
+#include "renderer/gpu_bvh.h"
+
+#include "renderer/bvh_build.h"  // validateOptions
+#include "renderer/error.h"
+#include "renderer/gpu_layout.h"
+#include "renderer/measure/spread.h"  // secondsSince
+#include "shaders/lbvh.h"
+
+#include "lbvh.spv.h"
+#include "lbvh_prepare.spv.h"
+#include "prefix_scan.spv.h"
+#include "radix_sort.spv.h"
+
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+namespace raypack {
+
+static_assert(gpu::kLbvhMaxLeafPrimitives == kMaxLeafPrimitives, "one leaf bound for every builder");
+
+namespace {
+
+constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseEmit + 1;
+constexpr VkBufferUsageFlags kStorage =
+    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+
+uint32_t groupsFor(uint64_t invocations) {
+    return uint32_t((invocations + gpu::kLbvhGroupSize - 1) / gpu::kLbvhGroupSize);
+}
+
+// The module holding each phase's kernel.
+uint32_t moduleOf(uint32_t phase) {
+    switch (phase) {
+    case gpu::kLbvhPhaseBounds:
+    case gpu::kLbvhPhaseMorton: return 0;
+    case gpu::kLbvhPhaseHistogram:
+    case gpu::kLbvhPhaseScatter: return 1;
+    case gpu::kLbvhPhaseScanBlocks:
+    case gpu::kLbvhPhaseAddBlockSums: return 2;
+    default: return 3;
+    }
+}
+
+// The radix sort's prefix sums: the digit counts (256 per sort block) first, then the block sums
+// of every level of the scan's recursion, one region after another.
+struct ScanPlan {
+    struct Level {
+        uint32_t offset;  // in uints
+        uint32_t count;
+        uint32_t sums;  // where its block sums go
+    };
+    std::vector<Level> levels;  // levels[0] scans the digit counts
+    uint64_t words = 0;
+};
+ScanPlan planScan(uint64_t counts) {
+    ScanPlan plan;
+    uint64_t offset = 0, count = counts, next = counts;
+    for (;;) {
+        const uint64_t blocks = (count + gpu::kLbvhScanBlock - 1) / gpu::kLbvhScanBlock;
+        plan.levels.push_back({uint32_t(offset), uint32_t(count), uint32_t(next)});
+        offset = next;
+        next += blocks;
+        if (blocks <= 1) break;
+        count = blocks;
+    }
+    plan.words = next;
+    return plan;
+}
+
+}  // namespace
+
+GpuBvhSizes gpuBvhSizes(size_t triangles) {
+    GpuBvhSizes sizes;
+    sizes.nodes = triangles < 2 ? 1 : 2 * triangles - 1;
+    sizes.triangles = triangles;
+    return sizes;
+}
+
+struct GpuBvhBuilder::State {
+    const vk::VulkanContext& ctx;
+    VkCommandPool pool = VK_NULL_HANDLE;
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+    std::array<VkShaderModule, 4> modules{};
+    std::array<VkPipeline, kPhaseCount> pipelines{};
+    VkQueryPool queries = VK_NULL_HANDLE;
+    uint32_t subgroupsPerGroup = 0;
+
+    // The scene, file order.
+    vk::Buffer fileTriangles, fileNormals, fileUvs, fileColors, dummy;
+    const Scene* scene = nullptr;
+    size_t triangleCount = 0;
+    bool hasScene = false, normals = false, uvs = false, colors = false;
+    // The last build's order (its sorted values), kept for downloadOrder.
+    vk::Buffer order;
+    size_t orderCount = 0;
+
+    explicit State(const vk::VulkanContext& context) : ctx(context) {}
+};
+
+namespace {
+
+void destroyBuilder(GpuBvhBuilder::State& s) {
+    const VkDevice device = s.ctx.device;
+    if (!device) return;
+    vkDeviceWaitIdle(device);
+    for (VkPipeline& p : s.pipelines)
+        if (p) vkDestroyPipeline(device, p, nullptr);
+    for (VkShaderModule& m : s.modules)
+        if (m) vkDestroyShaderModule(device, m, nullptr);
+    for (vk::Buffer* b : {&s.fileTriangles, &s.fileNormals, &s.fileUvs, &s.fileColors, &s.dummy, &s.order})
+        vk::destroyBuffer(s.ctx, *b);
+    if (s.queries) vkDestroyQueryPool(device, s.queries, nullptr);
+    if (s.descriptorPool) vkDestroyDescriptorPool(device, s.descriptorPool, nullptr);
+    if (s.pipelineLayout) vkDestroyPipelineLayout(device, s.pipelineLayout, nullptr);
+    if (s.setLayout) vkDestroyDescriptorSetLayout(device, s.setLayout, nullptr);
+    if (s.pool) vkDestroyCommandPool(device, s.pool, nullptr);
+}
+
+VkPipeline createPhasePipeline(GpuBvhBuilder::State& s, uint32_t phase) {
+    struct Constants {
+        uint32_t phase;
+        uint32_t subgroupsPerGroup;
+    } data{phase, s.subgroupsPerGroup};
+    const std::array<VkSpecializationMapEntry, 2> entries{{
+        {gpu::kLbvhSpecPhase, offsetof(Constants, phase), sizeof(uint32_t)},
+        {gpu::kLbvhSpecSubgroupsPerGroup, offsetof(Constants, subgroupsPerGroup), sizeof(uint32_t)},
+    }};
+    // The sort's shared memory is sized by the second constant; the other kernels do not declare it
+    // (a map entry for a constant the module lacks is ignored).
+    VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
+    VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    info.stage.module = s.modules[moduleOf(phase)];
+    info.stage.pName = "main";
+    info.stage.pSpecializationInfo = &specialization;
+    info.layout = s.pipelineLayout;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    const VkResult result = vkCreateComputePipelines(s.ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
+    if (result < 0)
+        throw Error("gpu-lbvh: could not build kernel phase " + std::to_string(phase) + " on " + s.ctx.info.name +
+                    ": " + vk::resultName(result));
+    return pipeline;
+}
+
+}  // namespace
+
+GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::make_unique<State>(context)) {
+    State& s = *state_;
+    const vk::DeviceInfo& info = context.info;
+    if (info.subgroupSize == 0 || gpu::kLbvhGroupSize % info.subgroupSize != 0)
+        throw Error("gpu-lbvh: " + info.name + " has subgroups of " + std::to_string(info.subgroupSize) +
+                    " invocations, which do not divide the sort's workgroups of " +
+                    std::to_string(gpu::kLbvhGroupSize));
+    s.subgroupsPerGroup = gpu::kLbvhGroupSize / info.subgroupSize;
+    const uint64_t sortShared = ((uint64_t(s.subgroupsPerGroup) + 1) / 2 + 1) * gpu::kLbvhRadixDigits * 4;
+    if (sortShared > info.maxSharedMemoryBytes)
+        throw Error("gpu-lbvh: the radix sort needs " + std::to_string(sortShared) + " bytes of shared memory, " +
+                    info.name + " has " + std::to_string(info.maxSharedMemoryBytes));
+    try {
+        s.pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, "vkCreateCommandPool");
+        std::array<VkDescriptorSetLayoutBinding, gpu::kLbvhBindingCount> bindings{};
+        for (uint32_t b = 0; b < gpu::kLbvhBindingCount; ++b)
+            bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+        VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+        setInfo.bindingCount = gpu::kLbvhBindingCount;
+        setInfo.pBindings = bindings.data();
+        vk::check(vkCreateDescriptorSetLayout(context.device, &setInfo, nullptr, &s.setLayout),
+                  "vkCreateDescriptorSetLayout");
+        VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::LbvhParams)};
+        VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+        layoutInfo.setLayoutCount = 1;
+        layoutInfo.pSetLayouts = &s.setLayout;
+        layoutInfo.pushConstantRangeCount = 1;
+        layoutInfo.pPushConstantRanges = &push;
+        vk::check(vkCreatePipelineLayout(context.device, &layoutInfo, nullptr, &s.pipelineLayout),
+                  "vkCreatePipelineLayout");
+        VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::kLbvhBindingCount};
+        VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+        poolInfo.maxSets = 1;
+        poolInfo.poolSizeCount = 1;
+        poolInfo.pPoolSizes = &poolSize;
+        vk::check(vkCreateDescriptorPool(context.device, &poolInfo, nullptr, &s.descriptorPool),
+                  "vkCreateDescriptorPool");
+        VkDescriptorSetAllocateInfo allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+        allocate.descriptorPool = s.descriptorPool;
+        allocate.descriptorSetCount = 1;
+        allocate.pSetLayouts = &s.setLayout;
+        vk::check(vkAllocateDescriptorSets(context.device, &allocate, &s.set), "vkAllocateDescriptorSets");
+
+        s.modules[0] = vk::createShaderModule(context, lbvh_prepare_spv, sizeof(lbvh_prepare_spv), "lbvh_prepare.comp");
+        s.modules[1] = vk::createShaderModule(context, radix_sort_spv, sizeof(radix_sort_spv), "radix_sort.comp");
+        s.modules[2] = vk::createShaderModule(context, prefix_scan_spv, sizeof(prefix_scan_spv), "prefix_scan.comp");
+        s.modules[3] = vk::createShaderModule(context, lbvh_spv, sizeof(lbvh_spv), "lbvh.comp");
+        for (uint32_t phase = 0; phase < kPhaseCount; ++phase) s.pipelines[phase] = createPhasePipeline(s, phase);
+
+        if (info.timestamps) {
+            VkQueryPoolCreateInfo queryInfo{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+            queryInfo.queryType = VK_QUERY_TYPE_TIMESTAMP;
+            queryInfo.queryCount = 2;
+            vk::check(vkCreateQueryPool(context.device, &queryInfo, nullptr, &s.queries), "vkCreateQueryPool");
+        }
+        s.dummy = vk::createBuffer(context, 16, kStorage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "an unused binding");
+    } catch (...) {
+        destroyBuilder(s);
+        throw;
+    }
+}
+
+GpuBvhBuilder::~GpuBvhBuilder() {
+    if (state_) destroyBuilder(*state_);
+}
+
+bool GpuBvhBuilder::holds(const Scene& scene) const {
+    return state_->hasScene && state_->scene == &scene && state_->triangleCount == scene.triangleCount();
+}
+bool GpuBvhBuilder::hasNormals() const { return state_->normals; }
+bool GpuBvhBuilder::hasUvs() const { return state_->uvs; }
+bool GpuBvhBuilder::hasColors() const { return state_->colors; }
+
+double GpuBvhBuilder::setScene(const Scene& scene) {
+    State& s = *state_;
+    const auto start = SteadyClock::now();
+    const size_t n = scene.triangleCount();
+    // Ids reach 2n - 1 and every kernel's invocations fit one row of workgroups.
+    const uint64_t groups = groupsFor(2 * uint64_t(n));
+    if (2 * uint64_t(n) >= uint64_t(UINT32_MAX) || groups > s.ctx.info.maxWorkgroupCount[0])
+        throw Error("gpu-lbvh: " + scene.source + " has " + std::to_string(n) + " triangles; " + s.ctx.info.name +
+                    " dispatches at most " + std::to_string(s.ctx.info.maxWorkgroupCount[0]) +
+                    " workgroups in a row, enough for " +
+                    std::to_string(uint64_t(s.ctx.info.maxWorkgroupCount[0]) * gpu::kLbvhGroupSize / 2) +
+                    " (use a CPU builder)");
+    // The kernels' arithmetic assumes finite corners (loaders refuse others; a Scene made in code
+    // might not).
+    const size_t bad = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, scene.positions.size(), 65536), scene.positions.size(),
+        [&](const tbb::blocked_range<size_t>& range, size_t found) {
+            for (size_t i = range.begin(); i < range.end() && i < found; ++i) {
+                const glm::vec3& p = scene.positions[i];
+                if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) return i;
+            }
+            return found;
+        },
+        [](size_t a, size_t b) { return std::min(a, b); });
+    if (bad < scene.positions.size())
+        throw Error("gpu-lbvh: " + scene.source + ": vertex " + std::to_string(bad) + " is not finite");
+    for (const glm::uvec3& t : scene.triangles)
+        for (int c = 0; c < 3; ++c)
+            if (t[c] >= scene.positions.size())
+                throw Error("gpu-lbvh: " + scene.source + ": vertex index out of range");
+
+    vkQueueWaitIdle(s.ctx.queue);
+    for (vk::Buffer* b : {&s.fileTriangles, &s.fileNormals, &s.fileUvs, &s.fileColors, &s.order})
+        vk::destroyBuffer(s.ctx, *b);
+    s.hasScene = false;
+    s.orderCount = 0;
+
+    GpuLayoutCounts counts;
+    counts.triangles = n;
+    counts.normals = scene.hasNormals();
+    counts.uvs = scene.hasUvs();
+    counts.colors = scene.hasVertexColors();
+    counts.materials = scene.hasMaterials() ? scene.materials.size() : 0;
+    // File-order arrays through mapped staging memory, written by parallel workers.
+    struct Staged {
+        vk::Buffer* device;
+        vk::Buffer staging;
+    };
+    std::vector<Staged> staged;
+    struct Guard {
+        const vk::VulkanContext& ctx;
+        std::vector<Staged>& staged;
+        ~Guard() {
+            for (Staged& b : staged) vk::destroyBuffer(ctx, b.staging);
+        }
+    } guard{s.ctx, staged};
+    const auto make = [&](vk::Buffer& buffer, size_t bytes, const char* what) -> void* {
+        buffer = vk::createBuffer(s.ctx, bytes, kStorage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+        if (bytes == 0) return nullptr;
+        staged.push_back(
+            {&buffer, vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                       "a staging buffer")});
+        return staged.back().staging.mapped;
+    };
+    GpuLayoutTargets targets;
+    targets.triangles =
+        static_cast<gpu::GpuTriangle*>(make(s.fileTriangles, n * sizeof(gpu::GpuTriangle), "the file-order triangles"));
+    if (counts.normals)
+        targets.normals = static_cast<gpu::GpuTriangleNormals*>(
+            make(s.fileNormals, n * sizeof(gpu::GpuTriangleNormals), "the file-order normals"));
+    if (counts.uvs)
+        targets.uvs =
+            static_cast<gpu::GpuTriangleUvs*>(make(s.fileUvs, n * sizeof(gpu::GpuTriangleUvs), "the file-order UVs"));
+    if (counts.colors)
+        targets.colors = static_cast<gpu::GpuTriangleColors*>(
+            make(s.fileColors, n * sizeof(gpu::GpuTriangleColors), "the file-order colours"));
+    if (n > 0) writeGpuTriangles(scene, {}, counts, targets);
+    if (!staged.empty())
+        vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
+            for (const Staged& b : staged) {
+                const VkBufferCopy region{0, 0, b.staging.size};
+                vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
+            }
+        });
+    s.scene = &scene;
+    s.triangleCount = n;
+    s.normals = counts.normals;
+    s.uvs = counts.uvs;
+    s.colors = counts.colors;
+    s.hasScene = true;
+    return secondsSince(start);
+}
+
+GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs) {
+    State& s = *state_;
+    const auto start = SteadyClock::now();
+    if (!isGpuBvhBuilder(options.builder))
+        throw Error(std::string("gpu-lbvh: asked to build with ") + toString(options.builder) + ", a CPU builder");
+    bvh_detail::validateOptions(options);
+    if (!s.hasScene) throw Error("gpu-lbvh: no scene uploaded");
+    RAYPACK_CHECK_MSG(outputs.nodes && outputs.triangles, "a device build writes nodes and triangles");
+    const uint32_t n = uint32_t(s.triangleCount);
+    const GpuBvhSizes sizes = gpuBvhSizes(n);
+    const uint32_t inner = n < 2 ? 0u : n - 1u;
+    const uint32_t sortBlocks = std::max(1u, (n + gpu::kLbvhSortBlock - 1) / gpu::kLbvhSortBlock);
+    const ScanPlan scan = planScan(uint64_t(sortBlocks) * gpu::kLbvhRadixDigits);
+    const uint32_t levels = std::min(inner, gpu::kLbvhMaxDepth);
+
+    // Scratch, sized from the triangle count and freed when the build returns.
+    const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+    struct Scratch {
+        const vk::VulkanContext& ctx;
+        vk::Buffer keysA, keysB, valuesB, scan, inner, levels, boxes, costs, flags, queue, indirect, state, readback;
+        ~Scratch() {
+            for (vk::Buffer* b : {&keysA, &keysB, &valuesB, &scan, &inner, &levels, &boxes, &costs, &flags, &queue,
+                                  &indirect, &state, &readback})
+                vk::destroyBuffer(ctx, *b);
+        }
+        uint64_t bytes() const {
+            uint64_t total = 0;
+            for (const vk::Buffer* b :
+                 {&keysA, &keysB, &valuesB, &scan, &inner, &levels, &boxes, &costs, &flags, &queue, &indirect, &state})
+                total += b->size;
+            return total;
+        }
+    } x{s.ctx};
+    vk::destroyBuffer(s.ctx, s.order);
+    s.orderCount = 0;
+    s.order = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the build's triangle order");
+    x.keysA = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the build's Morton codes");
+    x.keysB = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the radix sort's keys");
+    x.valuesB = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the radix sort's values");
+    x.scan = vk::createBuffer(s.ctx, scan.words * 4, kStorage, local, "the radix sort's digit counts");
+    x.inner = vk::createBuffer(s.ctx, uint64_t(inner) * 16, kStorage, local, "the build's inner nodes");
+    x.levels = vk::createBuffer(s.ctx, uint64_t(levels + 1) * 8, kStorage, local, "the build's levels");
+    x.boxes = vk::createBuffer(s.ctx, uint64_t(inner) * 32, kStorage, local, "the build's boxes");
+    x.costs = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's SAH costs");
+    x.flags = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's node flags");
+    x.queue = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's level queue");
+    x.indirect = vk::createBuffer(s.ctx, uint64_t(levels + 1) * 16, kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
+                                  local, "the build's dispatch arguments");
+    x.state = vk::createBuffer(s.ctx, gpu::kLbvhStateWords * 4, kStorage, local, "the build's state");
+    x.readback = vk::createBuffer(s.ctx, gpu::kLbvhStateWords * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                  VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                  "the build's statistics");
+
+    const uint32_t attributes = (s.normals && outputs.normals ? gpu::kLbvhHasNormals : 0u) |
+                                (s.uvs && outputs.uvs ? gpu::kLbvhHasUvs : 0u) |
+                                (s.colors && outputs.colors ? gpu::kLbvhHasColors : 0u);
+    {
+        std::array<VkBuffer, gpu::kLbvhBindingCount> buffers{};
+        buffers[gpu::kLbvhBindFileTriangles] = s.fileTriangles.buffer;
+        buffers[gpu::kLbvhBindKeysA] = x.keysA.buffer;
+        buffers[gpu::kLbvhBindValuesA] = s.order.buffer;
+        buffers[gpu::kLbvhBindKeysB] = x.keysB.buffer;
+        buffers[gpu::kLbvhBindValuesB] = x.valuesB.buffer;
+        buffers[gpu::kLbvhBindScan] = x.scan.buffer;
+        buffers[gpu::kLbvhBindState] = x.state.buffer;
+        buffers[gpu::kLbvhBindInner] = x.inner.buffer;
+        buffers[gpu::kLbvhBindLevels] = x.levels.buffer;
+        buffers[gpu::kLbvhBindBoxes] = x.boxes.buffer;
+        buffers[gpu::kLbvhBindCosts] = x.costs.buffer;
+        buffers[gpu::kLbvhBindFlags] = x.flags.buffer;
+        buffers[gpu::kLbvhBindQueue] = x.queue.buffer;
+        buffers[gpu::kLbvhBindIndirect] = x.indirect.buffer;
+        buffers[gpu::kLbvhBindNodes] = outputs.nodes;
+        buffers[gpu::kLbvhBindTriangles] = outputs.triangles;
+        const bool normals = attributes & gpu::kLbvhHasNormals, uvs = attributes & gpu::kLbvhHasUvs,
+                   colors = attributes & gpu::kLbvhHasColors;
+        buffers[gpu::kLbvhBindFileNormals] = normals ? s.fileNormals.buffer : s.dummy.buffer;
+        buffers[gpu::kLbvhBindNormals] = normals ? outputs.normals : s.dummy.buffer;
+        buffers[gpu::kLbvhBindFileUvs] = uvs ? s.fileUvs.buffer : s.dummy.buffer;
+        buffers[gpu::kLbvhBindUvs] = uvs ? outputs.uvs : s.dummy.buffer;
+        buffers[gpu::kLbvhBindFileColors] = colors ? s.fileColors.buffer : s.dummy.buffer;
+        buffers[gpu::kLbvhBindColors] = colors ? outputs.colors : s.dummy.buffer;
+        std::array<VkDescriptorBufferInfo, gpu::kLbvhBindingCount> infos{};
+        std::array<VkWriteDescriptorSet, gpu::kLbvhBindingCount> writes{};
+        for (uint32_t b = 0; b < gpu::kLbvhBindingCount; ++b) {
+            infos[b] = {buffers[b], 0, VK_WHOLE_SIZE};
+            writes[b] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+            writes[b].dstSet = s.set;
+            writes[b].dstBinding = b;
+            writes[b].descriptorCount = 1;
+            writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+            writes[b].pBufferInfo = &infos[b];
+        }
+        vkUpdateDescriptorSets(s.ctx.device, gpu::kLbvhBindingCount, writes.data(), 0, nullptr);
+    }
+
+    gpu::LbvhParams base{};
+    base.counts = {n, options.leafSize, 0u, attributes};
+    base.costs = {options.traversalCost, options.intersectionCost, 0.0f, 0.0f};
+    vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
+        const auto barrier = [&] {
+            vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
+                              VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
+                              VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT |
+                                  VK_PIPELINE_STAGE_TRANSFER_BIT,
+                              VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
+                                  VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
+        };
+        const auto bind = [&](uint32_t phase, const gpu::LbvhParams& params) {
+            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelines[phase]);
+            vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
+        };
+        const auto dispatch = [&](uint32_t phase, uint32_t groups, const gpu::LbvhParams& params) {
+            if (groups == 0) return;
+            bind(phase, params);
+            vkCmdDispatch(cmd, groups, 1, 1);
+            barrier();
+        };
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1, &s.set, 0, nullptr);
+        if (s.queries) {
+            vkCmdResetQueryPool(cmd, s.queries, 0, 2);
+            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, s.queries, 0);
+        }
+        // The state: zero, but the lower bounds start at the largest ordered value.
+        vkCmdFillBuffer(cmd, x.state.buffer, 0, VK_WHOLE_SIZE, 0u);
+        vkCmdFillBuffer(cmd, x.indirect.buffer, 0, VK_WHOLE_SIZE, 0u);
+        barrier();
+        vkCmdFillBuffer(cmd, x.state.buffer, gpu::kLbvhStateBoxLo * 4, 12, 0xFFFFFFFFu);
+        vkCmdFillBuffer(cmd, x.state.buffer, gpu::kLbvhStateCentroidLo * 4, 12, 0xFFFFFFFFu);
+        barrier();
+        // 1, 2: bounds and Morton codes.
+        dispatch(gpu::kLbvhPhaseBounds, groupsFor(n), base);
+        dispatch(gpu::kLbvhPhaseMorton, groupsFor(n), base);
+        if (n >= 2) {
+            // 3: four passes of 8 bits, A -> B -> A -> B -> A.
+            for (uint32_t pass = 0; pass < 4; ++pass) {
+                gpu::LbvhParams sort = base;
+                sort.counts.z = pass * gpu::kLbvhRadixBits;
+                sort.offsets = {sortBlocks, 0u, pass % 2u, 0u};
+                dispatch(gpu::kLbvhPhaseHistogram, sortBlocks, sort);
+                for (const ScanPlan::Level& level : scan.levels) {
+                    gpu::LbvhParams p = base;
+                    p.counts.z = level.count;
+                    p.offsets = {level.offset, level.sums, 0u, 0u};
+                    dispatch(gpu::kLbvhPhaseScanBlocks, (level.count + gpu::kLbvhScanBlock - 1) / gpu::kLbvhScanBlock,
+                             p);
+                }
+                for (size_t l = scan.levels.size() - 1; l-- > 0;) {  // every level with more than one block
+                    const ScanPlan::Level& level = scan.levels[l];
+                    gpu::LbvhParams p = base;
+                    p.counts.z = level.count;
+                    p.offsets = {level.offset, level.sums, 0u, 0u};
+                    dispatch(gpu::kLbvhPhaseAddBlockSums, (level.count + gpu::kLbvhScanBlock - 1) / gpu::kLbvhScanBlock,
+                             p);
+                }
+                dispatch(gpu::kLbvhPhaseScatter, sortBlocks, sort);
+            }
+            // 4: the hierarchy.
+            dispatch(gpu::kLbvhPhaseHierarchy, groupsFor(inner), base);
+        }
+        // 5: leaf order.
+        dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
+        const auto levelDispatch = [&](uint32_t phase, uint32_t level) {
+            gpu::LbvhParams p = base;
+            p.counts.z = level;
+            bind(phase, p);
+            vkCmdDispatchIndirect(cmd, x.indirect.buffer, VkDeviceSize(level) * 16);
+            barrier();
+        };
+        if (n >= 2) {
+            // 6: the levels, top down; 7: boxes and costs, bottom up.
+            dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
+            for (uint32_t level = 0; level + 1 < levels; ++level) {
+                levelDispatch(gpu::kLbvhPhaseEnumerate, level);
+                gpu::LbvhParams p = base;
+                p.counts.z = level;
+                dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
+            }
+            for (uint32_t level = levels; level-- > 0;) levelDispatch(gpu::kLbvhPhaseBottomUp, level);
+        }
+        // 8: the root, then the nodes level by level.
+        dispatch(gpu::kLbvhPhaseRoot, 1, base);
+        for (uint32_t level = 0; level < levels; ++level) levelDispatch(gpu::kLbvhPhaseEmit, level);
+        if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, s.queries, 1);
+        const VkBufferCopy region{0, 0, gpu::kLbvhStateWords * 4};
+        vkCmdCopyBuffer(cmd, x.state.buffer, x.readback.buffer, 1, &region);
+    });
+
+    std::array<uint32_t, gpu::kLbvhStateWords> state{};
+    std::memcpy(state.data(), x.readback.mapped, sizeof state);
+    if (state[gpu::kLbvhStateStatus] & gpu::kLbvhStatusSubgroupLayout)
+        throw Error("gpu-lbvh: the radix sort's subgroups on " + s.ctx.info.name + " are not consecutive runs of " +
+                    std::to_string(s.ctx.info.subgroupSize) + " invocations as the device reports (use a CPU builder)");
+    Result result;
+    BvhStats& stats = result.stats;
+    uint64_t depthSum = 0;
+    for (uint32_t depth = 0; depth <= gpu::kLbvhMaxDepth; ++depth) {
+        const uint32_t leaves = state[gpu::kLbvhStateLeaves + depth];
+        stats.leafCount += leaves;
+        depthSum += uint64_t(depth) * leaves;
+    }
+    stats.nodeCount = 1 + 2 * state[gpu::kLbvhStateInnerCount];
+    stats.maxLeafDepth = state[gpu::kLbvhStateMaxDepth];
+    stats.avgLeafDepth = stats.leafCount ? double(depthSum) / double(stats.leafCount) : 0.0;
+    stats.avgPrimsPerLeaf = stats.leafCount ? double(n) / double(stats.leafCount) : 0.0;
+    float rootCost, rootArea;
+    std::memcpy(&rootCost, &state[gpu::kLbvhStateRootCost], 4);
+    std::memcpy(&rootArea, &state[gpu::kLbvhStateRootArea], 4);
+    stats.sahCost = rootArea > 0.0f ? double(rootCost) / double(rootArea) : 0.0;
+    stats.bytes = sizes.nodes * sizeof(gpu::GpuNode) + uint64_t(n) * 4;
+    stats.references = n;
+    stats.primitives = n;
+    if (s.queries) {
+        std::array<uint64_t, 2> stamps{};
+        if (vkGetQueryPoolResults(s.ctx.device, s.queries, 0, 2, sizeof stamps, stamps.data(), sizeof(uint64_t),
+                                  VK_QUERY_RESULT_64_BIT) == VK_SUCCESS)
+            result.deviceSeconds = double(stamps[1] - stamps[0]) * double(s.ctx.info.timestampPeriodNs) * 1e-9;
+    }
+    result.scratchBytes = x.bytes();
+    s.orderCount = n;
+    stats.buildSeconds = secondsSince(start);
+    return result;
+}
+
+std::vector<uint32_t> GpuBvhBuilder::downloadOrder() {
+    State& s = *state_;
+    std::vector<uint32_t> order(s.orderCount);
+    if (order.empty()) return order;
+    vk::Buffer staging = vk::createBuffer(s.ctx, order.size() * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                          VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                          "the order's read-back");
+    try {
+        vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
+            const VkBufferCopy region{0, 0, order.size() * 4};
+            vkCmdCopyBuffer(cmd, s.order.buffer, staging.buffer, 1, &region);
+        });
+    } catch (...) {
+        vk::destroyBuffer(s.ctx, staging);
+        throw;
+    }
+    std::memcpy(order.data(), staging.mapped, order.size() * 4);
+    vk::destroyBuffer(s.ctx, staging);
+    return order;
+}
+
+Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, std::vector<uint32_t> order) {
+    RAYPACK_CHECK_MSG(!nodes.empty(), "a device build has a root");
+    const auto bits = [](float f) {
+        uint32_t u;
+        std::memcpy(&u, &f, 4);
+        return u;
+    };
+    Bvh bvh;
+    bvh.primIndices = std::move(order);
+    bvh.nodes.resize(1);
+    struct Pending {
+        uint32_t slot;  // in `nodes`
+        uint32_t node;  // in bvh.nodes
+    };
+    std::vector<Pending> stack{{0, 0}};
+    while (!stack.empty()) {
+        const Pending item = stack.back();
+        stack.pop_back();
+        const gpu::GpuNode& g = nodes[item.slot];
+        const uint32_t index = bits(g.lo.w), count = bits(g.hi.w);
+        BvhNode& node = bvh.nodes[item.node];
+        node.lo = glm::vec3(g.lo);
+        node.hi = glm::vec3(g.hi);
+        if (count != 0 || index == 0) {
+            if (count == 0) {  // the empty scene's root
+                node.lo = Aabb{}.lo;
+                node.hi = Aabb{}.hi;
+            }
+            if (uint64_t(index) + count > bvh.primIndices.size())
+                throw Error("gpu-lbvh: a downloaded leaf lies outside the triangles");
+            node.index = index;
+            node.count = count;
+            continue;
+        }
+        if (uint64_t(index) + 1 >= nodes.size() || bvh.nodes.size() + 2 > nodes.size())
+            throw Error("gpu-lbvh: a downloaded node points outside the node array");
+        const uint32_t pair = uint32_t(bvh.nodes.size());
+        node.index = pair;
+        node.count = 0;
+        bvh.nodes.resize(bvh.nodes.size() + 2);
+        stack.push_back({index + 1, pair + 1});
+        stack.push_back({index, pair});
+    }
+    return bvh;
+}
+
+Bvh buildBvhOnDevice(const vk::VulkanContext& context, const Scene& scene, const BvhBuildOptions& options,
+                     BuildProgress* progress) {
+    if (progress) {
+        progress->total.store(scene.triangleCount());
+        progress->done.store(0);
+    }
+    bvh_detail::throwIfCancelled(progress);
+    GpuBvhBuilder builder(context);
+    builder.setScene(scene);
+    const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
+    struct Outputs {
+        const vk::VulkanContext& ctx;
+        vk::Buffer nodes, triangles, readback;
+        ~Outputs() {
+            for (vk::Buffer* b : {&nodes, &triangles, &readback}) vk::destroyBuffer(ctx, *b);
+        }
+    } out{context};
+    out.nodes = vk::createBuffer(context, sizes.nodes * sizeof(gpu::GpuNode), kStorage,
+                                 VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "BVH nodes");
+    out.triangles = vk::createBuffer(context, sizes.triangles * sizeof(gpu::GpuTriangle), kStorage,
+                                     VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "triangles");
+    const GpuBvhBuilder::Result built = builder.build(options, {out.nodes.buffer, out.triangles.buffer});
+    out.readback = vk::createBuffer(context, sizes.nodes * sizeof(gpu::GpuNode), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                    "the nodes' read-back");
+    VkCommandPool pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, "vkCreateCommandPool");
+    try {
+        vk::submitAndWait(context, pool, [&](VkCommandBuffer cmd) {
+            const VkBufferCopy region{0, 0, sizes.nodes * sizeof(gpu::GpuNode)};
+            vkCmdCopyBuffer(cmd, out.nodes.buffer, out.readback.buffer, 1, &region);
+        });
+    } catch (...) {
+        vkDestroyCommandPool(context.device, pool, nullptr);
+        throw;
+    }
+    vkDestroyCommandPool(context.device, pool, nullptr);
+    const auto* slots = static_cast<const gpu::GpuNode*>(out.readback.mapped);
+    Bvh bvh = bvhFromGpuNodes({slots, sizes.nodes}, builder.downloadOrder());
+    bvh.options = options;
+    bvh.stats = computeBvhStats(bvh, options);
+    bvh.stats.buildSeconds = built.stats.buildSeconds;
+    if (progress) progress->done.store(scene.triangleCount());
+    return bvh;
+}
+
+}  // namespace raypack

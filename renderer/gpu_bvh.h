@@ -1,0 +1,94 @@
+#pragma once
+// BVH construction on the Vulkan device that traces (issue 13): the builder gpu-lbvh (Karras 2012,
+// with the leaves collapsed by the SAH; shaders/lbvh.h has the algorithm). It writes the tracers'
+// node layout and the leaf-order triangles straight into device buffers: no host round trip and no
+// tree on the CPU. Its Table 1 statistics come from a reduction on the device, a few hundred bytes
+// read back. A CPU consumer (the CPU tracers, `stats`, a test) asks for the canonical tree with
+// buildBvhOnDevice, which builds the same tree and downloads it.
+//
+// Data flow: Scene --setScene--> file-order triangles on the device (kept while only the tree
+// changes) --build(options)--> nodes + leaf-order triangles in the caller's buffers + BvhStats.
+#include "renderer/bvh.h"
+#include "renderer/scene.h"
+#include "renderer/vk/context.h"
+#include "shaders/gpu_types.h"
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <vector>
+
+namespace raypack {
+
+// True for the builders that run on a Vulkan device (gpu-lbvh).
+constexpr bool isGpuBvhBuilder(BvhBuilder builder) { return builder == BvhBuilder::GpuLbvh; }
+
+// Entries of each output array a device build of `triangles` triangles writes: 2n - 1 node slots
+// (Karras' inner node i's children at 1 + 2i and 2 + 2i; slots below a collapsed node stay unused)
+// and n triangles. At least one node (the root leaf of an empty scene).
+struct GpuBvhSizes {
+    size_t nodes = 1;
+    size_t triangles = 0;
+};
+GpuBvhSizes gpuBvhSizes(size_t triangles);
+
+// Where a build writes: device buffers of at least gpuBvhSizes' entries each (storage buffers).
+// The attribute buffers are needed where the scene has the attribute (null otherwise).
+struct GpuBvhOutputs {
+    VkBuffer nodes = VK_NULL_HANDLE;      // gpu::GpuNode
+    VkBuffer triangles = VK_NULL_HANDLE;  // gpu::GpuTriangle, leaf order
+    VkBuffer normals = VK_NULL_HANDLE;    // gpu::GpuTriangleNormals, leaf order
+    VkBuffer uvs = VK_NULL_HANDLE;        // gpu::GpuTriangleUvs, leaf order
+    VkBuffer colors = VK_NULL_HANDLE;     // gpu::GpuTriangleColors, leaf order
+};
+
+class GpuBvhBuilder {
+public:
+    // Creates the build kernels' pipelines on `context`, which must outlive the builder. Throws
+    // raypack::Error when the device cannot run them (a subgroup size that does not divide 256).
+    explicit GpuBvhBuilder(const vk::VulkanContext& context);
+    ~GpuBvhBuilder();
+    GpuBvhBuilder(const GpuBvhBuilder&) = delete;
+    GpuBvhBuilder& operator=(const GpuBvhBuilder&) = delete;
+
+    // Uploads the scene's triangles (with their normals, UVs and colours where the scene has them)
+    // in file order; every build reads them until the next setScene. Returns the host's wall time.
+    // Throws raypack::Error for a vertex that is not finite or when the device is out of memory.
+    double setScene(const Scene& scene);
+    // Whether `scene` is the one uploaded (the same object with the same triangle count).
+    bool holds(const Scene& scene) const;
+    // Whether the uploaded scene has each attribute (the outputs it needs).
+    bool hasNormals() const;
+    bool hasUvs() const;
+    bool hasColors() const;
+
+    struct Result {
+        BvhStats stats;             // of the built tree; buildSeconds is the host's wall time
+        double deviceSeconds = 0;   // the build's commands by the device's timestamps (0 without)
+        uint64_t scratchBytes = 0;  // temporary device memory of the build, freed before it returns
+    };
+    // Builds with `options` (builder gpu-lbvh; leafSize, traversalCost and intersectionCost are
+    // honoured, the bin and split settings do not apply) into `outputs`, and waits for it. Throws
+    // raypack::Error for options out of range, without a scene, or when the device is out of memory.
+    Result build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs);
+    // The last build's leaf order: slot k holds triangle order[k] (Bvh::primIndices).
+    std::vector<uint32_t> downloadOrder();
+
+    struct State;
+
+private:
+    std::unique_ptr<State> state_;
+};
+
+// The canonical tree of a device build, from its node slots and its order: nodes renumbered depth
+// first from the root (children after their parents, the unused slots dropped), leaves indexing
+// `order` as Bvh::primIndices. Statistics are left for the caller.
+Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, std::vector<uint32_t> order);
+
+// Builds on `context`'s device and downloads the canonical tree (for the CPU tracers and tools).
+// Its stats are computeBvhStats of the downloaded tree, buildSeconds the device build's wall time.
+// Throws as GpuBvhBuilder does; BuildCancelled when progress->cancel is set before the build starts.
+Bvh buildBvhOnDevice(const vk::VulkanContext& context, const Scene& scene, const BvhBuildOptions& options,
+                     BuildProgress* progress = nullptr);
+
+}  // namespace raypack

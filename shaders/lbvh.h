@@ -1,0 +1,149 @@
+// The GPU BVH builder gpu-lbvh (renderer/gpu_bvh.h, issue 13), defined once for GLSL and C++: its
+// descriptor bindings, specialization constants, push constants and the layout of its small state
+// buffer. The kernels are shaders/lbvh_prepare.comp (bounds, Morton codes), radix_sort.comp and
+// prefix_scan.comp (the key sort), and lbvh.comp (hierarchy, gather, boxes and SAH collapse, the
+// top-down emission of the tracers' node layout, shaders/gpu_types.h).
+//
+// The algorithm (Karras 2012, "Maximizing Parallelism in the Construction of BVHs, Octrees, and k-d
+// Trees"; the collapse by the SAH as in Karras and Aila 2013, section 4):
+//   1. bounds of the triangles' boxes and of their centroids (lbvh_prepare, kLbvhPhaseBounds);
+//   2. a 30-bit Morton code per triangle from its centroid in the centroid bounds (kLbvhPhaseMorton);
+//   3. a stable LSD radix sort of (code, triangle) by the code: 8 bits a pass, 4 passes;
+//   4. the binary radix tree over the sorted codes, ties broken by the sorted position (so every
+//      key is distinct): inner node i's children, range and the parent of every node;
+//   5. the triangles (and normals, UVs, colours) gathered into sorted order: the tracers' leaf order;
+//   6. the inner nodes listed level by level, top down (one indirect dispatch a level, each level
+//      appending the next to one queue);
+//   7. bottom up, level by level from the deepest, each inner node's box and SAH cost
+//      S(node) = min(leaf: A·N·C_isect, inner: A·C_trav + S(left) + S(right)), and whether the node
+//      is better as one leaf (it must be when N <= leafSize, it may not when N > kMaxLeafPrimitives);
+//   8. top down again, every node reached from the root that is not a leaf writes its two children
+//      into the node array; Karras' inner node i's children go to slots 1 + 2i and 2 + 2i, so
+//      siblings are adjacent as the kernels require. Slots below a collapsed node are never written
+//      and never reached.
+// Steps 6-8 walk levels rather than climbing from the leaves with one atomic counter per node
+// (Karras 2012, section 4): on lavapipe (Mesa 22.3) that counter's atomics returned the same value to
+// two invocations of one subgroup, and the levels need no communication within a dispatch.
+// The statistics (leaves per depth, inner nodes, the deepest leaf, the root's SAH cost) are summed
+// on the way and read back: a few hundred bytes, never the tree.
+#ifndef RAYPACK_SHADERS_LBVH_H
+#define RAYPACK_SHADERS_LBVH_H
+#include "common.h"
+
+RP_BEGIN_NAMESPACE
+
+// Set 0 of every build kernel; every binding a storage buffer (the indirect arguments are also an
+// indirect buffer). Attributes absent from the scene bind a small unused buffer.
+const uint kLbvhBindFileTriangles = 0u;  // GpuTriangle[] in file order (uploaded once per scene)
+const uint kLbvhBindKeysA = 1u;          // uint[]: Morton codes, sorted in place over 4 passes
+const uint kLbvhBindValuesA = 2u;        // uint[]: triangle indices (file order), sorted with the codes
+const uint kLbvhBindKeysB = 3u;          // uint[]: the radix sort's other half
+const uint kLbvhBindValuesB = 4u;        // uint[]
+const uint kLbvhBindScan = 5u;           // uint[]: digit counts per sort block, then their prefix sums
+const uint kLbvhBindState = 6u;          // uint[kLbvhStateWords]: bounds, counters, statistics
+const uint kLbvhBindInner = 7u;          // uvec4[n - 1]: left id, right id, first, last
+const uint kLbvhBindLevels = 8u;         // uint[2 levels]: each level's first queue entry and count
+const uint kLbvhBindBoxes = 9u;          // vec4[2 (n - 1)]: lo, hi of every inner node
+const uint kLbvhBindCosts = 10u;         // float[n - 1]: S(inner node), area in units of the scene
+const uint kLbvhBindFlags = 11u;         // uint[n - 1]: kLbvhCollapsed, kLbvhLive
+const uint kLbvhBindQueue = 12u;         // uint[n - 1]: the inner nodes, level after level
+const uint kLbvhBindIndirect = 13u;      // uvec4[levels]: the emission's dispatch per level
+const uint kLbvhBindNodes = 14u;         // GpuNode[2n - 1]: the tracers' nodes (output)
+const uint kLbvhBindTriangles = 15u;     // GpuTriangle[n]: leaf order (output)
+const uint kLbvhBindFileNormals = 16u;   // GpuTriangleNormals[] file order
+const uint kLbvhBindNormals = 17u;       // GpuTriangleNormals[] leaf order (output)
+const uint kLbvhBindFileUvs = 18u;       // GpuTriangleUvs[] file order
+const uint kLbvhBindUvs = 19u;           // GpuTriangleUvs[] leaf order (output)
+const uint kLbvhBindFileColors = 20u;    // GpuTriangleColors[] file order
+const uint kLbvhBindColors = 21u;        // GpuTriangleColors[] leaf order (output)
+const uint kLbvhBindingCount = 22u;
+
+// Specialization constants of every build kernel.
+const uint kLbvhSpecPhase = 0u;              // kLbvhPhase* (a kernel file holds several phases)
+const uint kLbvhSpecSubgroupsPerGroup = 1u;  // radix_sort.comp: kLbvhGroupSize / subgroup size
+
+// One workgroup is this many invocations in every build kernel.
+const uint kLbvhGroupSize = 256u;
+// The radix sort: 8-bit digits, 4 passes over the 32-bit keys (the codes use 30), each workgroup
+// sorting a block of kLbvhSortItems x kLbvhGroupSize keys.
+const uint kLbvhRadixBits = 8u;
+const uint kLbvhRadixDigits = 256u;
+const uint kLbvhSortItems = 8u;
+const uint kLbvhSortBlock = kLbvhGroupSize * kLbvhSortItems;
+// The scan: each workgroup scans kLbvhScanItems x kLbvhGroupSize entries.
+const uint kLbvhScanItems = 4u;
+const uint kLbvhScanBlock = kLbvhGroupSize * kLbvhScanItems;
+
+// Phases (kLbvhSpecPhase).
+const uint kLbvhPhaseBounds = 0u;        // lbvh_prepare.comp
+const uint kLbvhPhaseMorton = 1u;        // lbvh_prepare.comp
+const uint kLbvhPhaseHistogram = 2u;     // radix_sort.comp
+const uint kLbvhPhaseScatter = 3u;       // radix_sort.comp
+const uint kLbvhPhaseScanBlocks = 4u;    // prefix_scan.comp: exclusive scan per block, block sums out
+const uint kLbvhPhaseAddBlockSums = 5u;  // prefix_scan.comp
+const uint kLbvhPhaseHierarchy = 6u;     // lbvh.comp
+const uint kLbvhPhaseGather = 7u;        // lbvh.comp
+const uint kLbvhPhaseLevelRoot = 8u;    // lbvh.comp: one invocation, the queue's first level
+const uint kLbvhPhaseEnumerate = 9u;     // lbvh.comp: one level's inner children into the queue
+const uint kLbvhPhaseNextLevel = 10u;    // lbvh.comp: one invocation, the next level's dispatch
+const uint kLbvhPhaseBottomUp = 11u;     // lbvh.comp: one level's boxes and costs
+const uint kLbvhPhaseRoot = 12u;         // lbvh.comp: one invocation, the root's node
+const uint kLbvhPhaseEmit = 13u;         // lbvh.comp: one level's children into the node array
+
+// Push constants of every phase, 48 bytes.
+struct LbvhParams {
+    // x: triangle count n; y: leaf size; z: the sort's bit shift, the emitted level, or the scan's
+    // element count; w: attribute bits (kLbvhHas*)
+    uvec4 counts;
+    // x: the sort's block count or the scan's input offset (in uints); y: the scan's block-sums
+    // offset; z, w: unused
+    uvec4 offsets;
+    // x: C_trav, y: C_isect, z, w: unused
+    vec4 costs;
+};
+RP_CHECK_SIZE(LbvhParams, 48);
+
+const uint kLbvhHasNormals = 1u;
+const uint kLbvhHasUvs = 2u;
+const uint kLbvhHasColors = 4u;
+
+// Bits of kLbvhBindFlags: the node is one leaf in the built tree; the node is reached from the root.
+const uint kLbvhCollapsed = 1u;
+const uint kLbvhLive = 2u;
+// Ids in kLbvhBindInner's children: inner node i is id i, sorted triangle j is id n - 1 + j.
+
+// The most primitives one leaf may hold (renderer/bvh.h's kMaxLeafPrimitives, checked there).
+const uint kLbvhMaxLeafPrimitives = 1024u;
+// The deepest a Karras tree can be: every level down fixes one more bit of the 30-bit code extended
+// by the 32-bit sorted position, so a path has at most 62 inner nodes and its leaf is at depth <= 62.
+const uint kLbvhMaxDepth = 62u;
+
+// Words of kLbvhBindState.
+const uint kLbvhStateBoxLo = 0u;         // 3 words: the triangles' bounds, ordered uints (below)
+const uint kLbvhStateBoxHi = 3u;         // 3 words
+const uint kLbvhStateCentroidLo = 6u;    // 3 words: the centroids' bounds
+const uint kLbvhStateCentroidHi = 9u;    // 3 words
+const uint kLbvhStateInnerCount = 12u;   // inner nodes reached from the root
+const uint kLbvhStateMaxDepth = 13u;     // the deepest leaf (root 0)
+const uint kLbvhStateQueueTail = 14u;    // entries of kLbvhBindQueue pushed so far
+const uint kLbvhStateRootCost = 15u;     // float bits: S(root)
+const uint kLbvhStateRootArea = 16u;     // float bits: the root's half area, same units
+const uint kLbvhStateStatus = 19u;       // kLbvhStatus* bits: 0 after a good build
+const uint kLbvhStateLeaves = 32u;       // kLbvhMaxDepth + 1 words: leaves at each depth
+const uint kLbvhStateWords = 96u;
+
+// A radix sort workgroup found its subgroups other than the host assumed (radix_sort.comp).
+const uint kLbvhStatusSubgroupLayout = 1u;
+
+// Floats as uints whose unsigned order is the floats' order (for atomicMin / atomicMax).
+RP_FUNC uint lbvhOrderedBits(float f) {
+    const uint u = floatBitsToUint(f);
+    return (u & 0x80000000u) != 0u ? ~u : (u | 0x80000000u);
+}
+RP_FUNC float lbvhFromOrderedBits(uint u) {
+    return uintBitsToFloat((u & 0x80000000u) != 0u ? (u & 0x7FFFFFFFu) : ~u);
+}
+
+RP_END_NAMESPACE
+
+#endif  // RAYPACK_SHADERS_LBVH_H

@@ -1,0 +1,193 @@
+// The GPU builder gpu-lbvh (renderer/gpu_bvh.h, issue 13) on the test device (lavapipe here): every
+// tree it builds is a valid BVH for the tracers (every triangle in exactly one leaf, boxes that hold
+// their children and their triangles, the leaf threshold kept, depth within the stack sizing), its
+// device-side statistics equal a CPU recomputation from the downloaded tree, and rays traced
+// through it hit what the CPU reference hits, on generated, degenerate and shared scenes.
+#include "renderer/gpu_bvh.h"
+
+#include "renderer/camera.h"
+#include "renderer/cpu_tracer.h"
+#include "renderer/gpu_tracer.h"
+#include "scenes/generators.h"
+#include "scenes/load.h"
+#include "shaders/lbvh.h"
+#include "test_gpu_common.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <random>
+
+namespace raypack {
+namespace {
+
+using test::validatedContext;
+
+BvhBuildOptions lbvhOptions(uint32_t leafSize = 1) {
+    BvhBuildOptions options;
+    options.builder = BvhBuilder::GpuLbvh;
+    options.leafSize = leafSize;
+    return options;
+}
+
+Aabb triangleBox(const Scene& scene, uint32_t t) { return scene.triangleBounds(t); }
+
+// Everything a tracer relies on, checked on the canonical tree of a device build.
+void expectValidTree(const Scene& scene, const Bvh& bvh, uint32_t leafSize) {
+    const size_t n = scene.triangleCount();
+    ASSERT_EQ(bvh.primIndices.size(), n);
+    std::vector<uint32_t> seen(n, 0);
+    for (uint32_t t : bvh.primIndices) {
+        ASSERT_LT(t, n);
+        ++seen[t];
+    }
+    EXPECT_EQ(std::count(seen.begin(), seen.end(), 1u), std::ptrdiff_t(n)) << "the order is a permutation";
+    std::vector<uint32_t> covered(n, 0);
+    size_t problems = 0;
+    walkBvh(bvh, [&](uint32_t, const BvhNode& node, uint32_t) {
+        if (problems > 10) return;
+        const Aabb box{node.lo, node.hi};
+        if (node.isLeaf()) {
+            if (n == 0) return;
+            if (node.count > kMaxLeafPrimitives) ++problems;
+            Aabb tight;
+            for (uint32_t k = node.index; k < node.index + node.count; ++k) {
+                ++covered[k];
+                tight.grow(triangleBox(scene, bvh.primIndices[k]));
+            }
+            // A leaf's box is exactly its triangles' box.
+            if (tight.lo != box.lo || tight.hi != box.hi) ++problems;
+        } else {
+            const BvhNode& l = bvh.nodes[node.index];
+            const BvhNode& r = bvh.nodes[node.index + 1];
+            // Children inside their parent, and the parent exactly their union.
+            if (glm::min(l.lo, r.lo) != node.lo || glm::max(l.hi, r.hi) != node.hi) ++problems;
+        }
+    });
+    EXPECT_EQ(problems, 0u);
+    EXPECT_EQ(std::count(covered.begin(), covered.end(), 1u), std::ptrdiff_t(n)) << "every slot in one leaf";
+    // Leaf threshold: count the triangles below each inner node; none may have leafSize or fewer.
+    std::vector<uint32_t> below(bvh.nodes.size(), 0);
+    for (size_t i = bvh.nodes.size(); i-- > 0;) {
+        const BvhNode& node = bvh.nodes[i];
+        below[i] = node.isLeaf() ? node.count : below[node.index] + below[node.index + 1];
+        if (!node.isLeaf()) {
+            EXPECT_GT(below[i], leafSize) << "inner node " << i << " should have been a leaf";
+        }
+    }
+    EXPECT_LE(bvhMaxDepth(bvh), gpu::kLbvhMaxDepth);
+}
+
+TEST(GpuLbvh, BuildsValidTreesOfGeneratedScenesAtEveryLeafSize) {
+    const Scene scene = makeSphereFlake(20000);
+    for (uint32_t leafSize : {1u, 2u, 4u, 8u}) {
+        SCOPED_TRACE("leaf size " + std::to_string(leafSize));
+        const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, lbvhOptions(leafSize));
+        expectValidTree(scene, bvh, leafSize);
+    }
+    EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
+}
+
+TEST(GpuLbvh, DeviceStatisticsEqualACpuRecomputationOfTheDownloadedTree) {
+    const Scene scene = makeTerrain(30000);
+    GpuBvhBuilder builder(validatedContext());
+    builder.setScene(scene);
+    const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
+    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    vk::Buffer nodes =
+        vk::createBuffer(validatedContext(), sizes.nodes * 32, usage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "nodes");
+    vk::Buffer triangles = vk::createBuffer(validatedContext(), sizes.triangles * 48, usage,
+                                            VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "triangles");
+    const GpuBvhBuilder::Result built = builder.build(lbvhOptions(2), {nodes.buffer, triangles.buffer});
+    vk::destroyBuffer(validatedContext(), nodes);
+    vk::destroyBuffer(validatedContext(), triangles);
+    const Bvh downloaded = buildBvhOnDevice(validatedContext(), scene, lbvhOptions(2));
+    const BvhStats& cpu = downloaded.stats;
+    const BvhStats& gpu = built.stats;
+    EXPECT_EQ(gpu.nodeCount, cpu.nodeCount);
+    EXPECT_EQ(gpu.leafCount, cpu.leafCount);
+    EXPECT_EQ(gpu.maxLeafDepth, cpu.maxLeafDepth);
+    EXPECT_DOUBLE_EQ(gpu.avgLeafDepth, cpu.avgLeafDepth);
+    EXPECT_DOUBLE_EQ(gpu.avgPrimsPerLeaf, cpu.avgPrimsPerLeaf);
+    EXPECT_NEAR(gpu.sahCost, cpu.sahCost, 1e-4 * cpu.sahCost);
+    EXPECT_GT(built.scratchBytes, 0u);
+    // Within reach of the CPU builders' quality on an ordinary scene.
+    BvhBuildOptions exact;
+    exact.leafSize = 2;
+    EXPECT_LT(cpu.sahCost, 1.5 * buildBvh(scene, exact).stats.sahCost);
+}
+
+TEST(GpuLbvh, IsDeterministic) {
+    const Scene scene = makeSphereFlake(5000);
+    const Bvh a = buildBvhOnDevice(validatedContext(), scene, lbvhOptions(4));
+    const Bvh b = buildBvhOnDevice(validatedContext(), scene, lbvhOptions(4));
+    ASSERT_EQ(a.nodes.size(), b.nodes.size());
+    EXPECT_EQ(a.primIndices, b.primIndices);
+    EXPECT_EQ(0, std::memcmp(a.nodes.data(), b.nodes.data(), a.nodes.size() * sizeof(BvhNode)));
+}
+
+Scene sceneOfTriangles(std::vector<glm::vec3> positions) {
+    Scene scene;
+    scene.source = "test triangles";
+    scene.positions = std::move(positions);
+    for (uint32_t i = 0; i + 2 < scene.positions.size(); i += 3) scene.triangles.push_back({i, i + 1, i + 2});
+    return scene;
+}
+
+TEST(GpuLbvh, DegenerateInputs) {
+    // 0, 1 and 2 triangles.
+    for (size_t count : {0u, 1u, 2u, 3u}) {
+        std::vector<glm::vec3> p;
+        for (size_t i = 0; i < count; ++i) {
+            const float x = float(i) * 2.0f;
+            p.insert(p.end(), {{x, 0, 0}, {x + 1, 0, 0}, {x, 1, 0}});
+        }
+        const Scene scene = sceneOfTriangles(p);
+        SCOPED_TRACE(std::to_string(count) + " triangles");
+        const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, lbvhOptions());
+        expectValidTree(scene, bvh, 1);
+        EXPECT_EQ(bvh.stats.leafCount, count == 0 ? 1u : bvh.stats.leafCount);
+    }
+    // Every centroid equal (one Morton code for all): leaves stay within kMaxLeafPrimitives and the
+    // index tie-break gives a balanced tree.
+    {
+        std::vector<glm::vec3> p;
+        for (int i = 0; i < 5000; ++i) p.insert(p.end(), {{-1, -1, 0}, {1, -1, 0}, {0, 2, 0}});
+        const Scene scene = sceneOfTriangles(p);
+        const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, lbvhOptions());
+        expectValidTree(scene, bvh, 1);
+        EXPECT_LE(bvh.stats.maxLeafDepth, 13u);
+    }
+    // Huge and tiny coordinates, and many triangles sharing one Morton cell beside a far one.
+    for (float scale : {1e30f, 1e-30f}) {
+        SCOPED_TRACE("scale " + std::to_string(scale));
+        std::mt19937 random(7);
+        std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+        std::vector<glm::vec3> p;
+        for (int i = 0; i < 3000; ++i) {
+            const glm::vec3 c(u(random), u(random), u(random));
+            p.insert(p.end(), {scale * c, scale * (c + glm::vec3(0.01f, 0, 0)), scale * (c + glm::vec3(0, 0.01f, 0))});
+        }
+        for (int i = 0; i < 500; ++i) {
+            const glm::vec3 c(1e-4f * u(random), 1e-4f * u(random), 0.0f);
+            p.insert(p.end(), {scale * c, scale * (c + glm::vec3(1e-6f, 0, 0)), scale * (c + glm::vec3(0, 1e-6f, 0))});
+        }
+        const Scene scene = sceneOfTriangles(p);
+        const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, lbvhOptions());
+        expectValidTree(scene, bvh, 1);
+        EXPECT_TRUE(std::isfinite(bvh.stats.sahCost));
+    }
+    EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
+}
+
+TEST(GpuLbvh, RefusesWhatItCannotBuild) {
+    Scene scene = sceneOfTriangles({{0, 0, 0}, {1, 0, 0}, {0, std::numeric_limits<float>::infinity(), 0}});
+    EXPECT_THROW(buildBvhOnDevice(validatedContext(), scene, lbvhOptions()), Error);
+    const Scene good = sceneOfTriangles({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
+    EXPECT_THROW(buildBvhOnDevice(validatedContext(), good, lbvhOptions(0)), Error);
+    EXPECT_THROW(buildBvh(good, lbvhOptions()), Error) << "buildBvh has no device";
+}
+
+}  // namespace
+}  // namespace raypack
