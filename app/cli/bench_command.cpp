@@ -415,7 +415,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         std::fprintf(stderr, "bench: loading %s (%s) and building its BVH\n", benchScene.name.c_str(),
                      benchScene.spec.c_str());
         const LoadedScene loaded = loadSceneTimed(benchScene.spec);
-        const Bvh bvh = buildBvh(loaded.scene, bvhOptions);
+        const Bvh bvh = buildSceneBvh(loaded.scene, bvhOptions, f.gpu);
         RenderSettings settings;
         settings.width = width;
         settings.height = height;

@@ -315,7 +315,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         checkFrameMemory(settings, f.device == "gpu");
 
         const LoadedScene loaded = loadSceneTimed(setup.scene);
-        const Bvh bvh = buildBvh(loaded.scene, setup.bvh);
+        const Bvh bvh = buildSceneBvh(loaded.scene, setup.bvh, f.gpu);
         if (!cameraGiven) {
             const Camera framed = startCamera(loaded.scene, bvh);
             settings.camera.eye = framed.eye;

@@ -1,5 +1,7 @@
 #include "app/cli/scene_setup.h"
 
+#include "app/cli/tracing.h"
+#include "renderer/gpu_bvh.h"
 #include "scenes/load.h"
 
 #include <chrono>
@@ -36,7 +38,10 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
                         std::to_string(kMaxLeafPrimitives) + ", what a GPU ray can test within its traversal budget)")
         ->check(CLI::Range(1u, kMaxLeafPrimitives))
         ->capture_default_str();
-    command.add_option("--builder", flags.builder, "BVH builder: " + builders)->capture_default_str();
+    command
+        .add_option("--builder", flags.builder,
+                    "BVH builder: " + builders + " (gpu-lbvh builds on the Vulkan device, docs/bvh.md)")
+        ->capture_default_str();
     command.add_option("--bins", flags.binCount, "Bins per axis of the binned SAH builder (sah-binned only), 2..256")
         ->check(CLI::Range(2u, 256u))
         ->capture_default_str();
@@ -62,6 +67,12 @@ BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
     options.splitAlpha = flags.splitAlpha;
     options.splitBudget = flags.splitBudget;
     return options;
+}
+
+Bvh buildSceneBvh(const Scene& scene, const BvhBuildOptions& options, const std::string& gpu) {
+    if (!isGpuBvhBuilder(options.builder)) return buildBvh(scene, options);
+    const VulkanSession session(gpu, false);
+    return buildBvhOnDevice(session.context, scene, options);
 }
 
 std::string sceneArgumentHelp() {

@@ -32,6 +32,11 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags);
 // Throws raypack::Error for an unknown builder name.
 BvhBuildOptions toBvhOptions(const BvhFlags& flags);
 
+// Builds the scene's BVH with `options`: on the CPU (buildBvh), or for a device builder (gpu-lbvh)
+// on the Vulkan device `gpu` names ("" automatic, as --gpu) and downloaded (buildBvhOnDevice), so
+// that every tracer and printout takes it. T_B is the device build's wall time then.
+Bvh buildSceneBvh(const Scene& scene, const BvhBuildOptions& options, const std::string& gpu = "");
+
 // The help line of the SCENE argument: a file or a generator spec (sceneSpecHelp()).
 std::string sceneArgumentHelp();
 

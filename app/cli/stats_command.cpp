@@ -12,6 +12,7 @@ CommandRunner addStatsCommand(CLI::App& app) {
     struct Flags {
         std::string scene;
         BvhFlags bvh;
+        std::string gpu;
         bool json = false;
     };
     auto flags = std::make_shared<Flags>();
@@ -24,12 +25,15 @@ CommandRunner addStatsCommand(CLI::App& app) {
                            "load time (seconds) and load speed (MB/s of file, or of scene memory for a generator).");
     command->add_option("SCENE", flags->scene, sceneArgumentHelp())->required();
     addBvhFlags(*command, flags->bvh);
+    command->add_option("--gpu", flags->gpu,
+                        "Vulkan device a device builder (--builder gpu-lbvh) runs on: index or case-insensitive "
+                        "name substring (default: discrete > integrated > CPU/lavapipe)");
     command->add_flag("--json", flags->json,
                       "Print the row as one JSON object (keys carry their units) instead of text");
     return [flags] {
         const BvhBuildOptions options = toBvhOptions(flags->bvh);
         const LoadedScene loaded = loadSceneTimed(flags->scene);
-        const Bvh bvh = buildBvh(loaded.scene, options);
+        const Bvh bvh = buildSceneBvh(loaded.scene, options, flags->gpu);
         if (flags->json)
             std::printf("%s\n", table1Json(loaded.info, bvh.stats, options).dump(2).c_str());
         else
