@@ -86,6 +86,10 @@ struct BvhStats {
     uint32_t maxLeafDepth = 0;     // D_MAX
     double avgPrimsPerLeaf = 0.0;  // O_AVG: primitive references per leaf
     double buildSeconds = 0.0;     // T_B
+    // A device builder's (gpu-lbvh) commands by the device's timestamps, without the host's
+    // submission and scratch allocation that buildSeconds includes; 0 for the CPU builders.
+    double deviceBuildSeconds = 0.0;
+    uint64_t buildScratchBytes = 0;  // a device build's temporary device memory (freed after it)
     double sahCost = 0.0;          // SAH cost of the whole tree, relative to the root's area
     size_t bytes = 0;              // nodes + primitive indices
     // Entries of Bvh::primIndices (references) and distinct primitives they name. Equal for the

@@ -540,6 +540,8 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             result.deviceSeconds = double(stamps[1] - stamps[0]) * double(s.ctx.info.timestampPeriodNs) * 1e-9;
     }
     result.scratchBytes = x.bytes();
+    stats.deviceBuildSeconds = result.deviceSeconds;
+    stats.buildScratchBytes = result.scratchBytes;
     s.orderCount = n;
     stats.buildSeconds = secondsSince(start);
     return result;
@@ -653,6 +655,8 @@ Bvh buildBvhOnDevice(const vk::VulkanContext& context, const Scene& scene, const
     bvh.options = options;
     bvh.stats = computeBvhStats(bvh, options);
     bvh.stats.buildSeconds = built.stats.buildSeconds;
+    bvh.stats.deviceBuildSeconds = built.stats.deviceBuildSeconds;
+    bvh.stats.buildScratchBytes = built.stats.buildScratchBytes;
     if (progress) progress->done.store(scene.triangleCount());
     return bvh;
 }
