@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Issue 13 on the lent H200 machine: the GPU builder gpu-lbvh against the driver's own BLAS build
+# and the CPU builders, in one call. For every scene of the report and scaling suites' largest
+# (Sibenik, Sponza, Conference, Armadillo, Dragon, terrain 1M and 10M, the dragon subdivided to
+# 13M): bench --device gpu --kernel single at 1920x1080 with --builder gpu-lbvh (three runs, for
+# T_B medians; the driver's ray tracing peer runs in each and times its BLAS build), then once with
+# sah-binned and sah-exact (SAH cost and single-ray trace speed of their trees). The summary table
+# (build rates, ratios to the driver, SAH and trace ratios to sah-exact) goes to $OUT/gpu-build.txt,
+# everything else into $OUT/results.tgz.
+#
+# Prepare here: scripts/device-pack.sh build. On the device, from the repository root (the run
+# tool, carry [".gl", ".device"]): bash scripts/device-gpu-build.sh
+set -uo pipefail
+out=${OUT:-${OUT_DIR:-out}}
+mkdir -p "$out/runs"
+if [ ! -x .device/bin/raypack-cli ] && [ -f .device/round.tar.xz ]; then tar xJf .device/round.tar.xz; fi
+source scripts/device-env.sh
+S=.device/scenes
+scenes="$S/sibenik/sibenik_geom_75284.ply,$S/dabrovic_sponza/sponza.obj,$S/conference/conference_geom.ply"
+scenes+=",$S/stanford/armadillo_decimated_99976.obj,$S/stanford/dragon_vrip_res2.ply"
+scenes+=",gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"
+scenes=${SCENE_LIST:-$scenes}
+nvidia-smi --query-gpu=name,driver_version --format=csv > "$out/runs/gpu.txt" 2>&1
+common=(bench --scenes "$scenes" --device gpu --kernel single --width 1920 --height 1080 --repeat 5)
+run() {  # NAME BUILDER [FLAGS...]
+  local name=$1 builder=$2
+  shift 2
+  timeout "${RUN_TIMEOUT_S:-140}" .device/bin/raypack-cli "${common[@]}" --builder "$builder" "$@" --out "$out/runs/$name.json" \
+    > /dev/null 2>> "$out/runs/progress.log" || echo "FAILED $name" | tee -a "$out/gpu-build.txt"
+}
+run lbvh-1 gpu-lbvh
+run lbvh-2 gpu-lbvh --no-driver-rt --repeat 1
+run lbvh-3 gpu-lbvh --no-driver-rt --repeat 1
+run binned sah-binned --no-driver-rt --repeat 1
+run exact sah-exact --no-driver-rt
+python3 - "$out/runs" >> "$out/gpu-build.txt" <<'PY'
+import glob, json, statistics, sys
+runs = sys.argv[1]
+def load(name):
+    try:
+        return json.load(open(f"{runs}/{name}.json"))["records"]
+    except Exception:
+        return []
+def by_scene(records, tracer, kind="primary"):
+    out = {}
+    for r in records:
+        if r.get("tracer") == tracer and r.get("ray_kind", "primary") == kind:
+            out.setdefault(r["scene"], r)
+    return out
+lbvh_runs = [by_scene(load(f"lbvh-{i}"), "gpu-single") for i in (1, 2, 3)]
+driver = by_scene(load("lbvh-1"), "driver-rt")
+binned, exact = by_scene(load("binned"), "gpu-single"), by_scene(load("exact"), "gpu-single")
+print(f"{'scene':22s} {'tris':>9s} {'lbvh T_B':>9s} {'device':>9s} {'Mtri/s':>8s} {'driver':>9s} {'Mtri/s':>8s}"
+      f" {'dev/drv':>7s} {'binned T_B':>10s} {'SAH/exact':>9s} {'trace/exact':>11s} {'scratch B/tri':>13s}")
+for scene, first in lbvh_runs[0].items():
+    rows = [r[scene] for r in lbvh_runs if scene in r]
+    tris = first["triangles"]
+    wall = statistics.median(r["t_b_s"] for r in rows)
+    device = statistics.median(r.get("t_b_device_s", 0) for r in rows)
+    d = driver.get(scene, {}).get("t_b_blas_s", float("nan"))
+    e, b = exact.get(scene), binned.get(scene)
+    sah = first["sah_cost"] / e["sah_cost"] if e else float("nan")
+    trace = first["perf_mrays_s"] / e["perf_mrays_s"] if e else float("nan")
+    print(f"{scene[-22:]:22s} {tris:9d} {wall:9.4f} {device:9.4f} {tris / device / 1e6:8.1f} {d:9.4f}"
+          f" {tris / d / 1e6:8.1f} {d / device:7.2f} {b['t_b_s'] if b else float('nan'):10.4f} {sah:9.3f}"
+          f" {trace:11.3f} {first.get('build_scratch_bytes', 0) / tris:13.1f}")
+print("T_B: host wall time of the device build (scratch allocation, submission, wait); device: its timestamps;"
+      " driver: the driver's BLAS build by timestamps (driver-rt peer, run lbvh-1); dev/drv > 1: gpu-lbvh faster;"
+      " SAH and trace: gpu-lbvh tree / sah-exact tree, single-ray kernel primary Mrays/s; medians of 3 runs for lbvh")
+PY
+cat "$out/gpu-build.txt"
+tar czf "$out/results.tgz" -C "$out" runs
+rm -rf "$out/runs"
