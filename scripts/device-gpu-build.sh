@@ -21,18 +21,18 @@ scenes+=",$S/stanford/armadillo_decimated_99976.obj,$S/stanford/dragon_vrip_res2
 scenes+=",gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"
 scenes=${SCENE_LIST:-$scenes}
 nvidia-smi --query-gpu=name,driver_version --format=csv > "$out/runs/gpu.txt" 2>&1
-common=(bench --scenes "$scenes" --device gpu --kernel single --width 1920 --height 1080 --repeat 5)
+common=(bench --scenes "$scenes" --device gpu --kernel single --width 1920 --height 1080)
 run() {  # NAME BUILDER [FLAGS...]
   local name=$1 builder=$2
   shift 2
   timeout "${RUN_TIMEOUT_S:-140}" .device/bin/raypack-cli "${common[@]}" --builder "$builder" "$@" --out "$out/runs/$name.json" \
     > /dev/null 2>> "$out/runs/progress.log" || echo "FAILED $name" | tee -a "$out/gpu-build.txt"
 }
-run lbvh-1 gpu-lbvh
+run lbvh-1 gpu-lbvh --repeat 5
 run lbvh-2 gpu-lbvh --no-driver-rt --repeat 1
 run lbvh-3 gpu-lbvh --no-driver-rt --repeat 1
 run binned sah-binned --no-driver-rt --repeat 1
-run exact sah-exact --no-driver-rt
+run exact sah-exact --no-driver-rt --repeat 5
 python3 - "$out/runs" >> "$out/gpu-build.txt" <<'PY'
 import glob, json, statistics, sys
 runs = sys.argv[1]
