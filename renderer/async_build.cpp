@@ -1,7 +1,9 @@
 #include "renderer/async_build.h"
 
 #include "renderer/error.h"
+#include "renderer/gpu_bvh.h"
 #include "renderer/measure/spread.h"
+#include "renderer/vk/context.h"
 
 #include <exception>
 #include <vector>
@@ -17,8 +19,8 @@ const char* toString(BuildPhase phase) {
     return "?";
 }
 
-AsyncSceneBuilder::AsyncSceneBuilder(SceneLoader loader)
-    : loader_(std::move(loader)), worker_([this] { workerLoop(); }) {
+AsyncSceneBuilder::AsyncSceneBuilder(SceneLoader loader, std::string buildDevice)
+    : loader_(std::move(loader)), buildDevice_(std::move(buildDevice)), worker_([this] { workerLoop(); }) {
     RAYPACK_CHECK(loader_);
 }
 
@@ -158,7 +160,22 @@ void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
         }
 
         const auto buildStart = std::chrono::steady_clock::now();
-        auto bvh = std::make_shared<const Bvh>(buildBvh(*scene, request.options, &job.buildProgress));
+        std::shared_ptr<const Bvh> bvh;
+        if (isGpuBvhBuilder(request.options.builder)) {
+            if (!deviceContext_) {
+                vk::VulkanContextOptions options;
+                options.device = buildDevice_;
+                deviceContext_ = std::shared_ptr<vk::VulkanContext>(
+                    new vk::VulkanContext(vk::createVulkanContext(options)), [](vk::VulkanContext* context) {
+                        vk::destroyVulkanContext(*context);
+                        delete context;
+                    });
+            }
+            bvh = std::make_shared<const Bvh>(
+                buildBvhOnDevice(*deviceContext_, *scene, request.options, &job.buildProgress));
+        } else {
+            bvh = std::make_shared<const Bvh>(buildBvh(*scene, request.options, &job.buildProgress));
+        }
         const double buildSeconds = secondsSince(buildStart);
 
         std::lock_guard lock(mutex_);

@@ -25,6 +25,10 @@
 
 namespace raypack {
 
+namespace vk {
+struct VulkanContext;
+}
+
 // The renderer library does not call the loaders (scenes/ links renderer/), so the caller passes
 // the function that opens a scene spec (a file path or a generator spec, scenes/load.h openScene).
 // It reports through LoadProgress, throws raypack::Error for a bad file and LoadCancelled once
@@ -66,7 +70,11 @@ const char* toString(BuildPhase phase);
 
 class AsyncSceneBuilder {
 public:
-    explicit AsyncSceneBuilder(SceneLoader loader);
+    // `buildDevice`: the Vulkan device (vk::VulkanContextOptions::device, "" automatic) on which the
+    // worker builds with a device builder (gpu-lbvh): it makes its own context there on the first
+    // such build, builds and downloads the canonical tree (buildBvhOnDevice), so the render thread
+    // takes it like any other.
+    explicit AsyncSceneBuilder(SceneLoader loader, std::string buildDevice = "");
     // Cancels the running job, drops the waiting one and joins the worker.
     ~AsyncSceneBuilder();
     AsyncSceneBuilder(const AsyncSceneBuilder&) = delete;
@@ -111,6 +119,8 @@ private:
     void cancelRunningLocked();
 
     SceneLoader loader_;
+    std::string buildDevice_;
+    std::shared_ptr<vk::VulkanContext> deviceContext_;  // the worker's, made on its first device build
     mutable std::mutex mutex_;
     std::condition_variable wake_;    // a request arrived, or shutdown
     std::condition_variable idleCv_;  // a job ended

@@ -1296,8 +1296,10 @@ int runViewer(const ViewerOptions& options) {
     // On lavapipe the timestamps of the window's frames do not bracket the dispatches (measured: 17
     // us for a 57 ms pass), so there GpuTracer::render times each pass on the host.
     s.tracer->setHostTimedPasses(s.cpuDevice);
+    // A device builder (gpu-lbvh) runs on the viewer's own device, through the worker's context.
     s.builder = std::make_unique<AsyncSceneBuilder>(
-        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); });
+        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); },
+        std::to_string(s.context.info.index));
 
     s.panel.settings = options.settings;
     s.panel.bvh = options.bvh;

@@ -43,7 +43,8 @@ void printTable1(std::FILE* out, const SceneInfo& scene, const BvhStats& bvh, co
     std::fprintf(out, "           %10u %8.3f %6u %7.3f %9.3f\n", bvh.leafCount, bvh.avgLeafDepth, bvh.maxLeafDepth,
                  bvh.avgPrimsPerLeaf, bvh.buildSeconds);
     if (bvh.deviceBuildSeconds > 0.0)
-        std::fprintf(out, "           built on the device in %.4f s by its timestamps (%.1f Mtri/s), %.1f MB of scratch\n",
+        std::fprintf(out,
+                     "           built on the device in %.4f s by its timestamps (%.1f Mtri/s), %.1f MB of scratch\n",
                      bvh.deviceBuildSeconds, double(scene.triangles) / bvh.deviceBuildSeconds / 1e6,
                      double(bvh.buildScratchBytes) / 1e6);
     std::fprintf(out, "           nodes %u, SAH cost %.3f, %.2f MB (%.1f bytes/triangle)\n", bvh.nodeCount, bvh.sahCost,
