@@ -2,6 +2,7 @@
 
 #include "renderer/camera.h"
 #include "renderer/error.h"
+#include "renderer/gpu_bvh.h"
 #include "renderer/gpu_layout.h"
 #include "renderer/measure/spread.h"
 #include "shaders/bindings.h"
@@ -108,6 +109,10 @@ struct GpuTracer::State {
     bool hostTimedPasses = false;  // setHostTimedPasses
     uint32_t stackEntries = 1;
     Aabb sceneBounds;
+    // buildOnDevice: the device builder (made on first use) and the scene whose materials,
+    // textures and file-order triangles it uploaded (kept while only the tree changes).
+    std::unique_ptr<GpuBvhBuilder> builder;
+    const Scene* deviceBuiltScene = nullptr;
 
     // Frame.
     uint32_t width = 0, height = 0;
@@ -217,63 +222,86 @@ namespace {
 
 void writeDescriptors(GpuTracer::State& s);
 
+// Device-local buffers filled through mapped staging buffers of the same size: add() creates both
+// and returns the staging memory to write, submit() copies every one in one submission. Staging
+// buffers are freed on every path out.
+struct StagedUpload {
+    const vk::VulkanContext& ctx;
+    VkCommandPool pool;
+    struct Staged {
+        vk::Buffer* device;
+        vk::Buffer staging;
+    };
+    std::vector<Staged> staged;
+
+    StagedUpload(const vk::VulkanContext& context, VkCommandPool commandPool) : ctx(context), pool(commandPool) {}
+    ~StagedUpload() {
+        for (Staged& b : staged) vk::destroyBuffer(ctx, b.staging);
+    }
+    StagedUpload(const StagedUpload&) = delete;
+    StagedUpload& operator=(const StagedUpload&) = delete;
+
+    void* add(vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) {
+        const size_t bytes = count * entryBytes;
+        checkBindable(bytes, what);
+        // Every bound array gets a buffer, an empty one too (an empty scene's triangles).
+        buffer = vk::createBuffer(ctx, bytes, kSceneUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+        if (bytes == 0) return nullptr;
+        staged.push_back(
+            {&buffer, vk::createBuffer(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                       "a staging buffer")});
+        return staged.back().staging.mapped;
+    }
+    // A device-local buffer the device fills itself (a device build's output).
+    void deviceOnly(vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) const {
+        checkBindable(count * entryBytes, what);
+        buffer = vk::createBuffer(ctx, count * entryBytes, kSceneUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+    }
+    // A storage buffer binds at most maxStorageBufferRange bytes (the texels of large textures are
+    // the likeliest to exceed it).
+    void checkBindable(size_t bytes, const char* what) const {
+        if (ctx.info.maxStorageBufferBytes > 0 && bytes > ctx.info.maxStorageBufferBytes)
+            throw Error("GPU: the " + std::string(what) + " need " + std::to_string(bytes) + " bytes, more than " +
+                        ctx.info.name + " binds in one storage buffer (" +
+                        std::to_string(ctx.info.maxStorageBufferBytes) + ")");
+    }
+    void submit() {
+        if (staged.empty()) return;
+        vk::submitAndWait(ctx, pool, [&](VkCommandBuffer cmd) {
+            for (const Staged& b : staged) {
+                const VkBufferCopy region{0, 0, b.staging.size};
+                vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
+            }
+        });
+    }
+    static constexpr VkBufferUsageFlags kSceneUsage =
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+};
+
+// The stack entries a tree of depth `maxDepth` needs (a leaf at depth D has at most D pending
+// siblings; one more for the root leaf); throws when the packet stack does not fit shared memory.
+uint32_t stackEntriesFor(const GpuTracer::State& s, uint32_t maxDepth);
+
 }  // namespace
 
 double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     State& s = *state_;
     const auto start = Clock::now();
     const GpuLayoutCounts counts = gpuLayoutCounts(scene, bvh);
-    const uint32_t maxDepth = gpuTreeDepth(bvh);
-
-    // Deepest leaf at depth D needs at most D pending siblings; one more for safety margin in the
-    // entry count's arithmetic (a root leaf still gets a stack of one).
-    const uint32_t entries = maxDepth + 1;
-    const uint64_t packetStackBytes = uint64_t(entries) * 8u;
-    if (packetStackBytes + kVoteBytes > s.ctx.info.maxSharedMemoryBytes)
-        throw Error("GPU: the BVH is " + std::to_string(maxDepth) + " levels deep; its packet stack needs " +
-                    std::to_string(packetStackBytes) + " bytes of shared memory but " + s.ctx.info.name + " has " +
-                    std::to_string(s.ctx.info.maxSharedMemoryBytes) +
-                    " (build with a larger leaf size or use the CPU tracer)");
+    const uint32_t entries = stackEntriesFor(s, gpuTreeDepth(bvh));
 
     vkQueueWaitIdle(s.ctx.queue);
     for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors, &s.textures, &s.texels})
         vk::destroyBuffer(s.ctx, *b);
     s.hasScene = false;
+    s.deviceBuiltScene = nullptr;
 
     // Each array gets its device-local buffer and a mapped staging buffer of the same size; the
     // layout is written straight into the staging memory by parallel workers (writeGpuLayout: no
     // host-side copy of the layout, no zero-filled temporaries), then one submission copies every
-    // array. Staging buffers are freed on every path out.
-    struct Staged {
-        vk::Buffer* device;
-        vk::Buffer staging;
-    };
-    std::vector<Staged> staged;
-    struct StagingGuard {
-        const vk::VulkanContext& ctx;
-        std::vector<Staged>& staged;
-        ~StagingGuard() {
-            for (Staged& b : staged) vk::destroyBuffer(ctx, b.staging);
-        }
-    } guard{s.ctx, staged};
-    const VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
-    const auto make = [&](vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) -> void* {
-        const size_t bytes = count * entryBytes;
-        // A storage buffer binds at most maxStorageBufferRange bytes (the texels of large
-        // textures are the likeliest to exceed it).
-        if (s.ctx.info.maxStorageBufferBytes > 0 && bytes > s.ctx.info.maxStorageBufferBytes)
-            throw Error("GPU: the " + std::string(what) + " need " + std::to_string(bytes) + " bytes, more than " +
-                        s.ctx.info.name + " binds in one storage buffer (" +
-                        std::to_string(s.ctx.info.maxStorageBufferBytes) + ")");
-        // Every bound array gets a buffer, an empty one too (an empty scene's triangles).
-        buffer = vk::createBuffer(s.ctx, bytes, usage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
-        if (bytes == 0) return nullptr;
-        staged.push_back(
-            {&buffer, vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                                       "a staging buffer")});
-        return staged.back().staging.mapped;
-    };
+    // array.
+    StagedUpload staging(s.ctx, s.pool);
     // UVs come with textures (Scene::uvs): the UVs, the texture table and the texels together.
     s.hasNormals = counts.normals;
     s.hasMaterials = counts.materials > 0;
@@ -287,44 +315,106 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
         written.texels = 0;
     }
     GpuLayoutTargets targets;
-    targets.nodes = static_cast<gpu::GpuNode*>(make(s.nodes, counts.nodes, sizeof(gpu::GpuNode), "BVH nodes"));
-    targets.triangles =
-        static_cast<gpu::GpuTriangle*>(make(s.triangles, counts.triangles, sizeof(gpu::GpuTriangle), "triangles"));
+    targets.nodes = static_cast<gpu::GpuNode*>(staging.add(s.nodes, counts.nodes, sizeof(gpu::GpuNode), "BVH nodes"));
+    targets.triangles = static_cast<gpu::GpuTriangle*>(
+        staging.add(s.triangles, counts.triangles, sizeof(gpu::GpuTriangle), "triangles"));
     if (s.hasNormals)
         targets.normals = static_cast<gpu::GpuTriangleNormals*>(
-            make(s.normals, counts.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals"));
+            staging.add(s.normals, counts.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals"));
     if (s.hasMaterials)
-        targets.materials =
-            static_cast<gpu::GpuMaterial*>(make(s.materials, counts.materials, sizeof(gpu::GpuMaterial), "materials"));
+        targets.materials = static_cast<gpu::GpuMaterial*>(
+            staging.add(s.materials, counts.materials, sizeof(gpu::GpuMaterial), "materials"));
     if (s.hasUvs) {
         targets.uvs =
-            static_cast<gpu::GpuTriangleUvs*>(make(s.uvs, counts.triangles, sizeof(gpu::GpuTriangleUvs), "UVs"));
+            static_cast<gpu::GpuTriangleUvs*>(staging.add(s.uvs, counts.triangles, sizeof(gpu::GpuTriangleUvs), "UVs"));
         targets.textures = static_cast<gpu::GpuTexture*>(
-            make(s.textures, counts.textures, sizeof(gpu::GpuTexture), "the texture table"));
-        targets.texels = static_cast<uint32_t*>(make(s.texels, counts.texels, sizeof(uint32_t), "texels"));
+            staging.add(s.textures, counts.textures, sizeof(gpu::GpuTexture), "the texture table"));
+        targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels, sizeof(uint32_t), "texels"));
     }
     if (s.hasColors)
         targets.colors = static_cast<gpu::GpuTriangleColors*>(
-            make(s.colors, counts.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours"));
+            staging.add(s.colors, counts.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours"));
     const auto converted = Clock::now();
     writeGpuLayout(scene, bvh, written, targets);
     const auto transferStart = Clock::now();
     s.lastUpload.allocationSeconds = std::chrono::duration<double>(converted - start).count();
     s.lastUpload.conversionSeconds = std::chrono::duration<double>(transferStart - converted).count();
-    if (!staged.empty()) {
-        vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
-            for (const Staged& b : staged) {
-                const VkBufferCopy region{0, 0, b.staging.size};
-                vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
-            }
-        });
-    }
+    staging.submit();
     s.lastUpload.transferSeconds = secondsSince(transferStart);
     s.stackEntries = entries;
     s.sceneBounds = scene.bounds();
     s.hasScene = true;
     if (s.width > 0) writeDescriptors(s);
     return secondsSince(start);
+}
+
+GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBuildOptions& options) {
+    State& s = *state_;
+    const auto start = Clock::now();
+    if (!isGpuBvhBuilder(options.builder))
+        throw Error(std::string("GPU: ") + toString(options.builder) + " is not a device builder");
+    if (!s.builder) s.builder = std::make_unique<GpuBvhBuilder>(s.ctx);
+    vkQueueWaitIdle(s.ctx.queue);
+    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.uvs, &s.colors}) vk::destroyBuffer(s.ctx, *b);
+    s.hasScene = false;
+
+    DeviceBuild result;
+    // What does not depend on the tree is uploaded once per scene: the builder's file-order
+    // triangles and attributes, the materials and the textures.
+    const bool sameScene = s.deviceBuiltScene == &scene && s.builder->holds(scene);
+    if (!sameScene) {
+        for (vk::Buffer* b : {&s.materials, &s.textures, &s.texels}) vk::destroyBuffer(s.ctx, *b);
+        s.deviceBuiltScene = nullptr;
+        Bvh none;  // counts of the scene alone: no tree yet
+        none.nodes.resize(1);
+        GpuLayoutCounts counts = gpuLayoutCounts(scene, none);
+        s.hasNormals = counts.normals;
+        s.hasMaterials = counts.materials > 0;
+        s.hasUvs = counts.uvs && counts.texels > 0;
+        s.hasColors = counts.colors;
+        if (!s.hasUvs) counts.textures = counts.texels = 0;
+        StagedUpload staging(s.ctx, s.pool);
+        GpuLayoutTargets targets;
+        if (s.hasMaterials)
+            targets.materials = static_cast<gpu::GpuMaterial*>(
+                staging.add(s.materials, counts.materials, sizeof(gpu::GpuMaterial), "materials"));
+        if (s.hasUvs) {
+            targets.textures = static_cast<gpu::GpuTexture*>(
+                staging.add(s.textures, counts.textures, sizeof(gpu::GpuTexture), "the texture table"));
+            targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels, sizeof(uint32_t), "texels"));
+        }
+        writeGpuMaterials(scene, counts, targets);
+        staging.submit();
+        s.builder->setScene(scene);
+        s.deviceBuiltScene = &scene;
+        result.uploadSeconds = secondsSince(start);
+    }
+    // The tree's arrays, which the build fills on the device.
+    const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
+    StagedUpload outputs(s.ctx, s.pool);
+    outputs.deviceOnly(s.nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes");
+    outputs.deviceOnly(s.triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles");
+    GpuBvhOutputs targets{s.nodes.buffer, s.triangles.buffer};
+    if (s.hasNormals) {
+        outputs.deviceOnly(s.normals, sizes.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals");
+        targets.normals = s.normals.buffer;
+    }
+    if (s.hasUvs) {
+        outputs.deviceOnly(s.uvs, sizes.triangles, sizeof(gpu::GpuTriangleUvs), "UVs");
+        targets.uvs = s.uvs.buffer;
+    }
+    if (s.hasColors) {
+        outputs.deviceOnly(s.colors, sizes.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours");
+        targets.colors = s.colors.buffer;
+    }
+    result.stats = s.builder->build(options, targets).stats;
+    s.stackEntries = stackEntriesFor(s, result.stats.maxLeafDepth);
+    s.lastUpload = {};
+    s.sceneBounds = scene.bounds();
+    s.hasScene = true;
+    if (s.width > 0) writeDescriptors(s);
+    result.seconds = secondsSince(start);
+    return result;
 }
 
 GpuTracer::UploadTimings GpuTracer::lastUploadTimings() const { return state_->lastUpload; }
@@ -345,6 +435,17 @@ uint64_t GpuTracer::sceneBytes() const {
 }
 
 namespace {
+
+uint32_t stackEntriesFor(const GpuTracer::State& s, uint32_t maxDepth) {
+    const uint32_t entries = maxDepth + 1;
+    const uint64_t packetStackBytes = uint64_t(entries) * 8u;
+    if (packetStackBytes + kVoteBytes > s.ctx.info.maxSharedMemoryBytes)
+        throw Error("GPU: the BVH is " + std::to_string(maxDepth) + " levels deep; its packet stack needs " +
+                    std::to_string(packetStackBytes) + " bytes of shared memory but " + s.ctx.info.name + " has " +
+                    std::to_string(s.ctx.info.maxSharedMemoryBytes) +
+                    " (build with a larger leaf size or use the CPU tracer)");
+    return entries;
+}
 
 void writeDescriptors(GpuTracer::State& s) {
     std::array<const vk::Buffer*, gpu::kBindingCount> buffers{};

@@ -43,6 +43,17 @@ public:
     // Throws raypack::Error when the device is out of memory or the tree is too deep for the
     // stack the device's shared memory can hold.
     double upload(const Scene& scene, const Bvh& bvh);
+    // Builds the BVH on this device with a device builder (options.builder gpu-lbvh,
+    // renderer/gpu_bvh.h) straight into the tracer's buffers, replacing the previous scene: no tree
+    // on the host and no round trip (issue 13). The materials, textures and the builder's file-order
+    // triangles are uploaded only when `scene` is not the one of the last device build (it must stay
+    // unchanged while it is used). Throws raypack::Error as upload() and GpuBvhBuilder do.
+    struct DeviceBuild {
+        BvhStats stats;            // of the built tree (device-side statistics), T_B included
+        double uploadSeconds = 0;  // T_CU of this call: the scene's upload, 0 when it was kept
+        double seconds = 0;        // the whole call: upload, allocation, build
+    };
+    DeviceBuild buildOnDevice(const Scene& scene, const BvhBuildOptions& options);
     bool hasScene() const;
     // Where the last upload's T_CU went (issue 13): creating the device and staging buffers, writing
     // the layout into the staging memory (writeGpuLayout, page faults of fresh memory included),

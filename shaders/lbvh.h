@@ -83,7 +83,7 @@ const uint kLbvhPhaseScanBlocks = 4u;    // prefix_scan.comp: exclusive scan per
 const uint kLbvhPhaseAddBlockSums = 5u;  // prefix_scan.comp
 const uint kLbvhPhaseHierarchy = 6u;     // lbvh.comp
 const uint kLbvhPhaseGather = 7u;        // lbvh.comp
-const uint kLbvhPhaseLevelRoot = 8u;    // lbvh.comp: one invocation, the queue's first level
+const uint kLbvhPhaseLevelRoot = 8u;     // lbvh.comp: one invocation, the queue's first level
 const uint kLbvhPhaseEnumerate = 9u;     // lbvh.comp: one level's inner children into the queue
 const uint kLbvhPhaseNextLevel = 10u;    // lbvh.comp: one invocation, the next level's dispatch
 const uint kLbvhPhaseBottomUp = 11u;     // lbvh.comp: one level's boxes and costs
@@ -119,17 +119,17 @@ const uint kLbvhMaxLeafPrimitives = 1024u;
 const uint kLbvhMaxDepth = 62u;
 
 // Words of kLbvhBindState.
-const uint kLbvhStateBoxLo = 0u;         // 3 words: the triangles' bounds, ordered uints (below)
-const uint kLbvhStateBoxHi = 3u;         // 3 words
-const uint kLbvhStateCentroidLo = 6u;    // 3 words: the centroids' bounds
-const uint kLbvhStateCentroidHi = 9u;    // 3 words
-const uint kLbvhStateInnerCount = 12u;   // inner nodes reached from the root
-const uint kLbvhStateMaxDepth = 13u;     // the deepest leaf (root 0)
-const uint kLbvhStateQueueTail = 14u;    // entries of kLbvhBindQueue pushed so far
-const uint kLbvhStateRootCost = 15u;     // float bits: S(root)
-const uint kLbvhStateRootArea = 16u;     // float bits: the root's half area, same units
-const uint kLbvhStateStatus = 19u;       // kLbvhStatus* bits: 0 after a good build
-const uint kLbvhStateLeaves = 32u;       // kLbvhMaxDepth + 1 words: leaves at each depth
+const uint kLbvhStateBoxLo = 0u;        // 3 words: the triangles' bounds, ordered uints (below)
+const uint kLbvhStateBoxHi = 3u;        // 3 words
+const uint kLbvhStateCentroidLo = 6u;   // 3 words: the centroids' bounds
+const uint kLbvhStateCentroidHi = 9u;   // 3 words
+const uint kLbvhStateInnerCount = 12u;  // inner nodes reached from the root
+const uint kLbvhStateMaxDepth = 13u;    // the deepest leaf (root 0)
+const uint kLbvhStateQueueTail = 14u;   // entries of kLbvhBindQueue pushed so far
+const uint kLbvhStateRootCost = 15u;    // float bits: S(root)
+const uint kLbvhStateRootArea = 16u;    // float bits: the root's half area, same units
+const uint kLbvhStateStatus = 19u;      // kLbvhStatus* bits: 0 after a good build
+const uint kLbvhStateLeaves = 32u;      // kLbvhMaxDepth + 1 words: leaves at each depth
 const uint kLbvhStateWords = 96u;
 
 // A radix sort workgroup found its subgroups other than the host assumed (radix_sort.comp).
@@ -140,9 +140,7 @@ RP_FUNC uint lbvhOrderedBits(float f) {
     const uint u = floatBitsToUint(f);
     return (u & 0x80000000u) != 0u ? ~u : (u | 0x80000000u);
 }
-RP_FUNC float lbvhFromOrderedBits(uint u) {
-    return uintBitsToFloat((u & 0x80000000u) != 0u ? (u & 0x7FFFFFFFu) : ~u);
-}
+RP_FUNC float lbvhFromOrderedBits(uint u) { return uintBitsToFloat((u & 0x80000000u) != 0u ? (u & 0x7FFFFFFFu) : ~u); }
 
 RP_END_NAMESPACE
 

@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstring>
 #include <filesystem>
 #include <random>
 
@@ -179,6 +180,51 @@ TEST(GpuLbvh, DegenerateInputs) {
         EXPECT_TRUE(std::isfinite(bvh.stats.sahCost));
     }
     EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
+}
+
+// The tracer's own device build (GpuTracer::buildOnDevice: no host round trip) traces exactly what
+// the downloaded tree traces through upload(), and both match the CPU reference over that tree: on
+// Sibenik and on a textured glTF (the normals, UVs and textures gathered into leaf order).
+TEST(GpuLbvh, TracerBuildsInItsOwnBuffersAndMatchesTheReference) {
+    for (const char* relative : {"sibenik/sibenik_geom_75284.ply", "gltf/Duck/glTF/Duck.gltf"}) {
+        SCOPED_TRACE(relative);
+        const Scene scene = openScene(test::sharedScene(relative));
+        RenderSettings settings;
+        settings.width = 200;
+        settings.height = 150;
+        settings.camera = frameScene(scene.bounds());
+        settings.kernel = KernelKind::Single;
+        const FrameRequest request{true, true, false};
+
+        GpuTracer own(validatedContext());
+        const GpuTracer::DeviceBuild built = own.buildOnDevice(scene, lbvhOptions(2));
+        EXPECT_GT(built.uploadSeconds, 0.0);
+        const Frame ownFrame = own.render(settings, request);
+
+        const Bvh downloaded = buildBvhOnDevice(validatedContext(), scene, lbvhOptions(2));
+        EXPECT_EQ(built.stats.leafCount, downloaded.stats.leafCount);
+        EXPECT_EQ(built.stats.nodeCount, downloaded.stats.nodeCount);
+        EXPECT_EQ(built.stats.maxLeafDepth, downloaded.stats.maxLeafDepth);
+        GpuTracer uploaded(validatedContext());
+        uploaded.upload(scene, downloaded);
+        const Frame uploadedFrame = uploaded.render(settings, request);
+        EXPECT_EQ(ownFrame.rgba, uploadedFrame.rgba);
+        ASSERT_EQ(ownFrame.hits.size(), uploadedFrame.hits.size());
+        EXPECT_EQ(
+            0, std::memcmp(ownFrame.hits.data(), uploadedFrame.hits.data(), ownFrame.hits.size() * sizeof(HitRecord)));
+        test::expectMatchesReference(ownFrame, renderCpu(scene, downloaded, settings, request), relative);
+
+        // Another leaf size over the same scene keeps the scene's upload and still traces right.
+        const GpuTracer::DeviceBuild again = own.buildOnDevice(scene, lbvhOptions(8));
+        EXPECT_EQ(again.uploadSeconds, 0.0);
+        EXPECT_LT(again.stats.leafCount, built.stats.leafCount);
+        BvhBuildOptions eight = lbvhOptions(8);
+        test::expectMatchesReference(
+            own.render(settings, request),
+            renderCpu(scene, buildBvhOnDevice(validatedContext(), scene, eight), settings, request),
+            std::string(relative) + " leaf 8");
+    }
+    test::expectNoValidationMessages();
 }
 
 TEST(GpuLbvh, RefusesWhatItCannotBuild) {

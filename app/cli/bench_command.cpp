@@ -8,6 +8,7 @@
 #include "app/cli/scene_setup.h"
 #include "app/cli/tracing.h"
 #include "renderer/error.h"
+#include "renderer/gpu_bvh.h"
 #include "renderer/measure/accuracy.h"
 #include "renderer/measure/agreement.h"
 #include "renderer/measure/machine.h"
@@ -429,10 +430,22 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         // are what the others are compared with.
         std::vector<HitRecord> referenceHits;
         std::map<const Tracer*, Preparation> prepared;  // on a tracer's first cell of the scene
+        // Tracers that built the tree themselves (a device builder on a GPU tracer): its statistics.
+        std::map<const Tracer*, BvhStats> builtInTracer;
         for (const Cell& cell : cells) {
             progress.begin(benchScene.name, cell.label());
             Tracer& tracer = *cell.tracer;
-            if (!prepared.count(&tracer)) prepared[&tracer] = tracer.prepare(loaded.scene, bvh);
+            if (!prepared.count(&tracer)) {
+                std::optional<Tracer::DeviceBuildPreparation> built;
+                if (isGpuBvhBuilder(bvhOptions.builder))
+                    built = tracer.prepareWithDeviceBuild(loaded.scene, bvhOptions);
+                if (built) {
+                    prepared[&tracer] = built->preparation;
+                    builtInTracer[&tracer] = built->stats;
+                } else {
+                    prepared[&tracer] = tracer.prepare(loaded.scene, bvh);
+                }
+            }
             RenderSettings cellSettings = settings;
             if (cell.packet) cellSettings.packet = *cell.packet;
             if (cell.hybrid) cellSettings.hybrid = *cell.hybrid;
@@ -445,6 +458,19 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             } else {
                 MeasuredFrames measured = measureFrames(tracer, prepared[&tracer], cellSettings, repeats, false);
                 addFrameRecords(records, scene, tracer, cell, measured);
+                if (const auto built = builtInTracer.find(&tracer); built != builtInTracer.end())
+                    for (size_t k = records.size() - 2; k < records.size(); ++k) {
+                        // The tree this tracer built in its own buffers (the same tree as the
+                        // scene's downloaded one: the builder is deterministic), timed there.
+                        json& record = records[k];
+                        record["bvh_built_in_tracer"] = true;
+                        record["t_b_s"] = built->second.buildSeconds;
+                        record["t_b_device_s"] = built->second.deviceBuildSeconds;
+                        // From the scene in host memory to a traced frame: T_CU + T_B + T_F (the
+                        // kernels' pipelines are compiled before, in the warm-up).
+                        record["t_scene_to_frame_s"] =
+                            record.value("t_cu_s", 0.0) + built->second.buildSeconds + record.value("t_f_s", 0.0);
+                    }
                 if (f.pipelineStatistics)
                     if (const json stats = tracer.pipelineStatistics(cellSettings); !stats.is_null())
                         for (size_t k = records.size() - 2; k < records.size(); ++k)

@@ -38,6 +38,16 @@ public:
         p.transferSeconds = split.transferSeconds;
         return p;
     }
+    std::optional<DeviceBuildPreparation> prepareWithDeviceBuild(const Scene& scene,
+                                                                 const BvhBuildOptions& options) override {
+        const GpuTracer::DeviceBuild built = tracer_->buildOnDevice(scene, options);
+        DeviceBuildPreparation p;
+        p.preparation.seconds = built.uploadSeconds;
+        p.preparation.bytes = tracer_->sceneBytes();
+        p.preparation.isUpload = true;
+        p.stats = built.stats;
+        return p;
+    }
     Frame render(const RenderSettings& settings, const FrameRequest& request) override {
         return tracer_->render(withKernel(settings), request);
     }

@@ -76,6 +76,21 @@ public:
     // Converts `bvh` over `scene` to the tracer's layout, replacing the previous scene. Both must
     // outlive the frames rendered from them. Throws raypack::Error (out of memory, a tree too deep).
     virtual Preparation prepare(const Scene& scene, const Bvh& bvh) = 0;
+    // Builds the BVH with a device builder (gpu-lbvh) where the tracer runs, straight into its own
+    // layout, replacing the previous scene (issue 13: no tree on the host, no round trip). Returns
+    // the Preparation (T_CU: the scene's upload, 0 when the scene was already there) and the built
+    // tree's statistics (T_B); nullopt for tracers that cannot (the CPU tracers and the peers take
+    // the downloaded tree through prepare()).
+    struct DeviceBuildPreparation {
+        Preparation preparation;
+        BvhStats stats;
+    };
+    virtual std::optional<DeviceBuildPreparation> prepareWithDeviceBuild(const Scene& scene,
+                                                                         const BvhBuildOptions& options) {
+        (void)scene;
+        (void)options;
+        return std::nullopt;
+    }
     // One frame, synchronously. Throws raypack::Error before prepare() or for settings the tracer
     // cannot run (a packet shape the device cannot hold).
     virtual Frame render(const RenderSettings& settings, const FrameRequest& request) = 0;
