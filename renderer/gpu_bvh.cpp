@@ -2,7 +2,6 @@
 
 #include "renderer/bvh_build.h"  // validateOptions
 #include "renderer/error.h"
-#include "renderer/gpu_layout.h"
 #include "renderer/measure/spread.h"  // secondsSince
 #include "shaders/lbvh.h"
 
@@ -12,6 +11,7 @@
 #include "radix_sort.spv.h"
 
 #include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/parallel_reduce.h>
 
 #include <algorithm>
@@ -94,11 +94,11 @@ struct GpuBvhBuilder::State {
     VkQueryPool queries = VK_NULL_HANDLE;
     uint32_t subgroupsPerGroup = 0;
 
-    // The scene, file order.
-    vk::Buffer fileTriangles, fileNormals, fileUvs, fileColors, dummy;
+    // The scene as it is in host memory: vertex arrays, vertex indices, triangle materials.
+    vk::Buffer positions, indices, triangleMaterials, vertexNormals, vertexUvs, vertexColors, dummy;
     const Scene* scene = nullptr;
     size_t triangleCount = 0;
-    bool hasScene = false, normals = false, uvs = false, colors = false;
+    bool hasScene = false, normals = false, uvs = false, colors = false, materials = false;
     // The last build's order (its sorted values), kept for downloadOrder.
     vk::Buffer order;
     size_t orderCount = 0;
@@ -116,7 +116,8 @@ void destroyBuilder(GpuBvhBuilder::State& s) {
         if (p) vkDestroyPipeline(device, p, nullptr);
     for (VkShaderModule& m : s.modules)
         if (m) vkDestroyShaderModule(device, m, nullptr);
-    for (vk::Buffer* b : {&s.fileTriangles, &s.fileNormals, &s.fileUvs, &s.fileColors, &s.dummy, &s.order})
+    for (vk::Buffer* b : {&s.positions, &s.indices, &s.triangleMaterials, &s.vertexNormals, &s.vertexUvs,
+                          &s.vertexColors, &s.dummy, &s.order})
         vk::destroyBuffer(s.ctx, *b);
     if (s.queries) vkDestroyQueryPool(device, s.queries, nullptr);
     if (s.descriptorPool) vkDestroyDescriptorPool(device, s.descriptorPool, nullptr);
@@ -259,18 +260,16 @@ double GpuBvhBuilder::setScene(const Scene& scene) {
                 throw Error("gpu-lbvh: " + scene.source + ": vertex index out of range");
 
     vkQueueWaitIdle(s.ctx.queue);
-    for (vk::Buffer* b : {&s.fileTriangles, &s.fileNormals, &s.fileUvs, &s.fileColors, &s.order})
+    for (vk::Buffer* b :
+         {&s.positions, &s.indices, &s.triangleMaterials, &s.vertexNormals, &s.vertexUvs, &s.vertexColors, &s.order})
         vk::destroyBuffer(s.ctx, *b);
     s.hasScene = false;
     s.orderCount = 0;
 
-    GpuLayoutCounts counts;
-    counts.triangles = n;
-    counts.normals = scene.hasNormals();
-    counts.uvs = scene.hasUvs();
-    counts.colors = scene.hasVertexColors();
-    counts.materials = scene.hasMaterials() ? scene.materials.size() : 0;
-    // File-order arrays through mapped staging memory, written by parallel workers.
+    // The arrays as they are in host memory (vertices once, indices; 24 bytes a triangle on a
+    // closed mesh instead of the 48 of the tracers' triangles), copied into mapped staging memory by
+    // parallel workers and to the device in one submission; the gather kernel makes the tracers'
+    // layout from them on the device.
     struct Staged {
         vk::Buffer* device;
         vk::Buffer staging;
@@ -283,28 +282,39 @@ double GpuBvhBuilder::setScene(const Scene& scene) {
             for (Staged& b : staged) vk::destroyBuffer(ctx, b.staging);
         }
     } guard{s.ctx, staged};
-    const auto make = [&](vk::Buffer& buffer, size_t bytes, const char* what) -> void* {
+    const auto stage = [&](vk::Buffer& buffer, const void* data, size_t bytes, const char* what) {
+        if (s.ctx.info.maxStorageBufferBytes > 0 && bytes > s.ctx.info.maxStorageBufferBytes)
+            throw Error("gpu-lbvh: the " + std::string(what) + " of " + scene.source + " need " +
+                        std::to_string(bytes) + " bytes, more than " + s.ctx.info.name +
+                        " binds in one storage buffer (use a CPU builder)");
         buffer = vk::createBuffer(s.ctx, bytes, kStorage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
-        if (bytes == 0) return nullptr;
+        if (bytes == 0) return;
         staged.push_back(
             {&buffer, vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                        VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
                                        "a staging buffer")});
-        return staged.back().staging.mapped;
+        auto* target = static_cast<unsigned char*>(staged.back().staging.mapped);
+        const auto* source = static_cast<const unsigned char*>(data);
+        constexpr size_t kChunk = size_t(1) << 20;
+        tbb::parallel_for(size_t(0), (bytes + kChunk - 1) / kChunk, [&](size_t chunk) {
+            const size_t begin = chunk * kChunk;
+            std::memcpy(target + begin, source + begin, std::min(kChunk, bytes - begin));
+        });
     };
-    GpuLayoutTargets targets;
-    targets.triangles =
-        static_cast<gpu::GpuTriangle*>(make(s.fileTriangles, n * sizeof(gpu::GpuTriangle), "the file-order triangles"));
-    if (counts.normals)
-        targets.normals = static_cast<gpu::GpuTriangleNormals*>(
-            make(s.fileNormals, n * sizeof(gpu::GpuTriangleNormals), "the file-order normals"));
-    if (counts.uvs)
-        targets.uvs =
-            static_cast<gpu::GpuTriangleUvs*>(make(s.fileUvs, n * sizeof(gpu::GpuTriangleUvs), "the file-order UVs"));
-    if (counts.colors)
-        targets.colors = static_cast<gpu::GpuTriangleColors*>(
-            make(s.fileColors, n * sizeof(gpu::GpuTriangleColors), "the file-order colours"));
-    if (n > 0) writeGpuTriangles(scene, {}, counts, targets);
+    static_assert(sizeof(glm::vec3) == 12 && sizeof(glm::uvec3) == 12 && sizeof(glm::vec2) == 8,
+                  "the kernels read tightly packed float and uint arrays");
+    stage(s.positions, scene.positions.data(), scene.positions.size() * sizeof(glm::vec3), "positions");
+    stage(s.indices, scene.triangles.data(), n * sizeof(glm::uvec3), "vertex indices");
+    s.materials = scene.hasMaterials();
+    s.normals = scene.hasNormals();
+    s.uvs = scene.hasUvs();
+    s.colors = scene.hasVertexColors();
+    if (s.materials)
+        stage(s.triangleMaterials, scene.triangleMaterial.data(), n * sizeof(uint32_t), "triangle materials");
+    if (s.normals) stage(s.vertexNormals, scene.normals.data(), scene.normals.size() * sizeof(glm::vec3), "normals");
+    if (s.uvs) stage(s.vertexUvs, scene.uvs.data(), scene.uvs.size() * sizeof(glm::vec2), "UVs");
+    if (s.colors)
+        stage(s.vertexColors, scene.vertexColors.data(), scene.vertexColors.size() * sizeof(uint32_t), "colours");
     if (!staged.empty())
         vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
             for (const Staged& b : staged) {
@@ -314,9 +324,6 @@ double GpuBvhBuilder::setScene(const Scene& scene) {
         });
     s.scene = &scene;
     s.triangleCount = n;
-    s.normals = counts.normals;
-    s.uvs = counts.uvs;
-    s.colors = counts.colors;
     s.hasScene = true;
     return secondsSince(start);
 }
@@ -374,12 +381,14 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                                   VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
                                   "the build's statistics");
 
-    const uint32_t attributes = (s.normals && outputs.normals ? gpu::kLbvhHasNormals : 0u) |
-                                (s.uvs && outputs.uvs ? gpu::kLbvhHasUvs : 0u) |
-                                (s.colors && outputs.colors ? gpu::kLbvhHasColors : 0u);
+    const uint32_t attributes =
+        (s.normals && outputs.normals ? gpu::kLbvhHasNormals : 0u) | (s.uvs && outputs.uvs ? gpu::kLbvhHasUvs : 0u) |
+        (s.colors && outputs.colors ? gpu::kLbvhHasColors : 0u) | (s.materials ? gpu::kLbvhHasMaterials : 0u);
     {
         std::array<VkBuffer, gpu::kLbvhBindingCount> buffers{};
-        buffers[gpu::kLbvhBindFileTriangles] = s.fileTriangles.buffer;
+        buffers[gpu::kLbvhBindPositions] = s.positions.buffer;
+        buffers[gpu::kLbvhBindIndices] = s.indices.buffer;
+        buffers[gpu::kLbvhBindMaterials] = s.materials ? s.triangleMaterials.buffer : s.dummy.buffer;
         buffers[gpu::kLbvhBindKeysA] = x.keysA.buffer;
         buffers[gpu::kLbvhBindValuesA] = s.order.buffer;
         buffers[gpu::kLbvhBindKeysB] = x.keysB.buffer;
@@ -397,11 +406,11 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         buffers[gpu::kLbvhBindTriangles] = outputs.triangles;
         const bool normals = attributes & gpu::kLbvhHasNormals, uvs = attributes & gpu::kLbvhHasUvs,
                    colors = attributes & gpu::kLbvhHasColors;
-        buffers[gpu::kLbvhBindFileNormals] = normals ? s.fileNormals.buffer : s.dummy.buffer;
+        buffers[gpu::kLbvhBindVertexNormals] = normals ? s.vertexNormals.buffer : s.dummy.buffer;
         buffers[gpu::kLbvhBindNormals] = normals ? outputs.normals : s.dummy.buffer;
-        buffers[gpu::kLbvhBindFileUvs] = uvs ? s.fileUvs.buffer : s.dummy.buffer;
+        buffers[gpu::kLbvhBindVertexUvs] = uvs ? s.vertexUvs.buffer : s.dummy.buffer;
         buffers[gpu::kLbvhBindUvs] = uvs ? outputs.uvs : s.dummy.buffer;
-        buffers[gpu::kLbvhBindFileColors] = colors ? s.fileColors.buffer : s.dummy.buffer;
+        buffers[gpu::kLbvhBindVertexColors] = colors ? s.vertexColors.buffer : s.dummy.buffer;
         buffers[gpu::kLbvhBindColors] = colors ? outputs.colors : s.dummy.buffer;
         std::array<VkDescriptorBufferInfo, gpu::kLbvhBindingCount> infos{};
         std::array<VkWriteDescriptorSet, gpu::kLbvhBindingCount> writes{};

@@ -6,8 +6,9 @@
 // read back. A CPU consumer (the CPU tracers, `stats`, a test) asks for the canonical tree with
 // buildBvhOnDevice, which builds the same tree and downloads it.
 //
-// Data flow: Scene --setScene--> file-order triangles on the device (kept while only the tree
-// changes) --build(options)--> nodes + leaf-order triangles in the caller's buffers + BvhStats.
+// Data flow: Scene --setScene--> its vertex arrays and vertex indices on the device, as they are in
+// host memory (kept while only the tree changes) --build(options)--> nodes + leaf-order triangles in the caller's
+// buffers + BvhStats.
 #include "renderer/bvh.h"
 #include "renderer/scene.h"
 #include "renderer/vk/context.h"
@@ -51,9 +52,11 @@ public:
     GpuBvhBuilder(const GpuBvhBuilder&) = delete;
     GpuBvhBuilder& operator=(const GpuBvhBuilder&) = delete;
 
-    // Uploads the scene's triangles (with their normals, UVs and colours where the scene has them)
-    // in file order; every build reads them until the next setScene. Returns the host's wall time.
-    // Throws raypack::Error for a vertex that is not finite or when the device is out of memory.
+    // Uploads the scene's positions, vertex indices and triangle materials (with its vertex normals,
+    // UVs and colours where it has them) as they are in host memory; every build reads them until the
+    // next setScene, and its gather makes the tracers' leaf-order triangles from them. Returns the
+    // host's wall time. Throws raypack::Error for a vertex that is not finite, an index out of range
+    // or when the device is out of memory.
     double setScene(const Scene& scene);
     // Whether `scene` is the one uploaded (the same object with the same triangle count).
     bool holds(const Scene& scene) const;

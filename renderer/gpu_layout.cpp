@@ -83,14 +83,14 @@ void writeGpuLayout(const Scene& scene, const Bvh& bvh, const GpuLayoutCounts& c
 
 void writeGpuTriangles(const Scene& scene, std::span<const uint32_t> order, const GpuLayoutCounts& counts,
                        const GpuLayoutTargets& out) {
-    RAYPACK_CHECK(order.empty() ? counts.triangles == scene.triangleCount() : counts.triangles == order.size());
+    RAYPACK_CHECK(counts.triangles == order.size());
     const bool materials = counts.materials > 0;
     // Gathered in parallel (the gather reads vertices scattered over the scene; the writes are
     // sequential per range, and first touches of fresh staging pages are spread over the threads too).
     tbb::parallel_for(
         tbb::blocked_range<size_t>(0, counts.triangles, 16384), [&](const tbb::blocked_range<size_t>& range) {
             for (size_t slot = range.begin(); slot != range.end(); ++slot) {
-                const uint32_t tri = order.empty() ? uint32_t(slot) : order[slot];
+                const uint32_t tri = order[slot];
                 RAYPACK_CHECK(tri < scene.triangles.size());
                 const glm::uvec3 v = scene.triangles[tri];
                 const uint32_t material = materials ? scene.triangleMaterial[tri] : 0u;

@@ -70,8 +70,8 @@ struct GpuLayoutTargets {
 void writeGpuLayout(const Scene& scene, const Bvh& bvh, const GpuLayoutCounts& counts, const GpuLayoutTargets& targets);
 
 // Step 2 of writeGpuLayout alone: slot k of triangles (normals, UVs, colours, leafToFile where the
-// targets have them) gets triangle order[k]; an empty `order` is the file order itself (slot k holds
-// triangle k: what the GPU builders read, renderer/gpu_bvh.h). counts.triangles entries are written.
+// targets have them) gets triangle order[k]; counts.triangles (= order.size()) entries are written.
+// (The device builder gathers the same layout on the device: shaders/lbvh.comp's gather.)
 void writeGpuTriangles(const Scene& scene, std::span<const uint32_t> order, const GpuLayoutCounts& counts,
                        const GpuLayoutTargets& targets);
 // The materials, the texture table and the texels (the parts of the layout that do not depend on the

@@ -110,7 +110,7 @@ struct GpuTracer::State {
     uint32_t stackEntries = 1;
     Aabb sceneBounds;
     // buildOnDevice: the device builder (made on first use) and the scene whose materials,
-    // textures and file-order triangles it uploaded (kept while only the tree changes).
+    // textures and vertex arrays it uploaded (kept while only the tree changes).
     std::unique_ptr<GpuBvhBuilder> builder;
     const Scene* deviceBuiltScene = nullptr;
 
@@ -359,8 +359,8 @@ GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBui
     s.hasScene = false;
 
     DeviceBuild result;
-    // What does not depend on the tree is uploaded once per scene: the builder's file-order
-    // triangles and attributes, the materials and the textures.
+    // What does not depend on the tree is uploaded once per scene: the builder's vertex arrays
+    // and indices, the materials and the textures.
     const bool sameScene = s.deviceBuiltScene == &scene && s.builder->holds(scene);
     if (!sameScene) {
         for (vk::Buffer* b : {&s.materials, &s.textures, &s.texels}) vk::destroyBuffer(s.ctx, *b);

@@ -45,8 +45,8 @@ public:
     double upload(const Scene& scene, const Bvh& bvh);
     // Builds the BVH on this device with a device builder (options.builder gpu-lbvh,
     // renderer/gpu_bvh.h) straight into the tracer's buffers, replacing the previous scene: no tree
-    // on the host and no round trip (issue 13). The materials, textures and the builder's file-order
-    // triangles are uploaded only when `scene` is not the one of the last device build (it must stay
+    // on the host and no round trip (issue 13). The materials, textures and the builder's vertex arrays and
+    // indices are uploaded only when `scene` is not the one of the last device build (it must stay
     // unchanged while it is used). Throws raypack::Error as upload() and GpuBvhBuilder do.
     struct DeviceBuild {
         BvhStats stats;            // of the built tree (device-side statistics), T_B included

@@ -15,7 +15,9 @@ layout(local_size_x = kLbvhGroupSize) in;
 layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhaseHierarchy;
 layout(push_constant) uniform Params { LbvhParams params; };
 
-layout(std430, set = 0, binding = kLbvhBindFileTriangles) readonly buffer FileTriangles { GpuTriangle fileTriangles[]; };
+layout(std430, set = 0, binding = kLbvhBindPositions) readonly buffer Positions { float positions[]; };
+layout(std430, set = 0, binding = kLbvhBindIndices) readonly buffer Indices { uint indices[]; };
+layout(std430, set = 0, binding = kLbvhBindMaterials) readonly buffer Materials { uint triangleMaterials[]; };
 layout(std430, set = 0, binding = kLbvhBindKeysA) readonly buffer Keys { uint keys[]; };
 layout(std430, set = 0, binding = kLbvhBindValuesA) readonly buffer Values { uint values[]; };
 layout(std430, set = 0, binding = kLbvhBindState) coherent buffer State { uint state[]; };
@@ -28,11 +30,11 @@ layout(std430, set = 0, binding = kLbvhBindQueue) buffer Queue { uint queue[]; }
 layout(std430, set = 0, binding = kLbvhBindIndirect) buffer Indirect { uvec4 indirect[]; };
 layout(std430, set = 0, binding = kLbvhBindNodes) writeonly buffer Nodes { GpuNode nodes[]; };
 layout(std430, set = 0, binding = kLbvhBindTriangles) buffer Triangles { GpuTriangle triangles[]; };
-layout(std430, set = 0, binding = kLbvhBindFileNormals) readonly buffer FileNormals { GpuTriangleNormals fileNormals[]; };
+layout(std430, set = 0, binding = kLbvhBindVertexNormals) readonly buffer VertexNormals { float vertexNormals[]; };
 layout(std430, set = 0, binding = kLbvhBindNormals) writeonly buffer Normals { GpuTriangleNormals normals[]; };
-layout(std430, set = 0, binding = kLbvhBindFileUvs) readonly buffer FileUvs { GpuTriangleUvs fileUvs[]; };
+layout(std430, set = 0, binding = kLbvhBindVertexUvs) readonly buffer VertexUvs { float vertexUvs[]; };
 layout(std430, set = 0, binding = kLbvhBindUvs) writeonly buffer Uvs { GpuTriangleUvs uvs[]; };
-layout(std430, set = 0, binding = kLbvhBindFileColors) readonly buffer FileColors { GpuTriangleColors fileColors[]; };
+layout(std430, set = 0, binding = kLbvhBindVertexColors) readonly buffer VertexColors { uint vertexColors[]; };
 layout(std430, set = 0, binding = kLbvhBindColors) writeonly buffer Colors { GpuTriangleColors colors[]; };
 
 uint triangleCount() { return params.counts.x; }
@@ -77,16 +79,42 @@ void hierarchy() {
     flags[i] = 0u;
 }
 
-// ---- Step 5: the triangles and their attributes in sorted (leaf) order.
+// ---- Step 5: the triangles and their attributes in sorted (leaf) order, in the tracers' layout
+// (shaders/gpu_types.h; what writeGpuTriangles writes on the host for the CPU-built path).
+
+vec3 position(uint v) { return vec3(positions[3u * v], positions[3u * v + 1u], positions[3u * v + 2u]); }
+vec4 normal(uint v) { return vec4(vertexNormals[3u * v], vertexNormals[3u * v + 1u], vertexNormals[3u * v + 2u], 0.0f); }
+vec2 uv(uint v) { return vec2(vertexUvs[2u * v], vertexUvs[2u * v + 1u]); }
 
 void gather() {
     const uint k = gl_GlobalInvocationID.x;
     if (k >= triangleCount()) return;
     const uint t = values[k];
-    triangles[k] = fileTriangles[t];
-    if ((params.counts.w & kLbvhHasNormals) != 0u) normals[k] = fileNormals[t];
-    if ((params.counts.w & kLbvhHasUvs) != 0u) uvs[k] = fileUvs[t];
-    if ((params.counts.w & kLbvhHasColors) != 0u) colors[k] = fileColors[t];
+    const uvec3 v = uvec3(indices[3u * t], indices[3u * t + 1u], indices[3u * t + 2u]);
+    const uint material = (params.counts.w & kLbvhHasMaterials) != 0u ? triangleMaterials[t] : 0u;
+    GpuTriangle triangle;
+    triangle.v0 = vec4(position(v.x), uintBitsToFloat(t));
+    triangle.v1 = vec4(position(v.y), uintBitsToFloat(material));
+    triangle.v2 = vec4(position(v.z), 0.0f);
+    triangles[k] = triangle;
+    if ((params.counts.w & kLbvhHasNormals) != 0u) {
+        GpuTriangleNormals n;
+        n.n0 = normal(v.x);
+        n.n1 = normal(v.y);
+        n.n2 = normal(v.z);
+        normals[k] = n;
+    }
+    if ((params.counts.w & kLbvhHasUvs) != 0u) {
+        GpuTriangleUvs u;
+        u.uv01 = vec4(uv(v.x), uv(v.y));
+        u.uv2 = vec4(uv(v.z), 0.0f, 0.0f);
+        uvs[k] = u;
+    }
+    if ((params.counts.w & kLbvhHasColors) != 0u) {
+        GpuTriangleColors c;
+        c.rgba = uvec4(vertexColors[v.x], vertexColors[v.y], vertexColors[v.z], 0u);
+        colors[k] = c;
+    }
 }
 
 // ---- Step 6: the inner nodes, level by level.

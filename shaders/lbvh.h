@@ -34,29 +34,31 @@ RP_BEGIN_NAMESPACE
 
 // Set 0 of every build kernel; every binding a storage buffer (the indirect arguments are also an
 // indirect buffer). Attributes absent from the scene bind a small unused buffer.
-const uint kLbvhBindFileTriangles = 0u;  // GpuTriangle[] in file order (uploaded once per scene)
-const uint kLbvhBindKeysA = 1u;          // uint[]: Morton codes, sorted in place over 4 passes
-const uint kLbvhBindValuesA = 2u;        // uint[]: triangle indices (file order), sorted with the codes
-const uint kLbvhBindKeysB = 3u;          // uint[]: the radix sort's other half
-const uint kLbvhBindValuesB = 4u;        // uint[]
-const uint kLbvhBindScan = 5u;           // uint[]: digit counts per sort block, then their prefix sums
-const uint kLbvhBindState = 6u;          // uint[kLbvhStateWords]: bounds, counters, statistics
-const uint kLbvhBindInner = 7u;          // uvec4[n - 1]: left id, right id, first, last
-const uint kLbvhBindLevels = 8u;         // uint[2 levels]: each level's first queue entry and count
-const uint kLbvhBindBoxes = 9u;          // vec4[2 (n - 1)]: lo, hi of every inner node
-const uint kLbvhBindCosts = 10u;         // float[n - 1]: S(inner node), area in units of the scene
-const uint kLbvhBindFlags = 11u;         // uint[n - 1]: kLbvhCollapsed, kLbvhLive
-const uint kLbvhBindQueue = 12u;         // uint[n - 1]: the inner nodes, level after level
-const uint kLbvhBindIndirect = 13u;      // uvec4[levels]: the emission's dispatch per level
-const uint kLbvhBindNodes = 14u;         // GpuNode[2n - 1]: the tracers' nodes (output)
-const uint kLbvhBindTriangles = 15u;     // GpuTriangle[n]: leaf order (output)
-const uint kLbvhBindFileNormals = 16u;   // GpuTriangleNormals[] file order
-const uint kLbvhBindNormals = 17u;       // GpuTriangleNormals[] leaf order (output)
-const uint kLbvhBindFileUvs = 18u;       // GpuTriangleUvs[] file order
-const uint kLbvhBindUvs = 19u;           // GpuTriangleUvs[] leaf order (output)
-const uint kLbvhBindFileColors = 20u;    // GpuTriangleColors[] file order
-const uint kLbvhBindColors = 21u;        // GpuTriangleColors[] leaf order (output)
-const uint kLbvhBindingCount = 22u;
+const uint kLbvhBindPositions = 0u;       // float[3 per vertex]: the scene's positions (uploaded once per scene)
+const uint kLbvhBindKeysA = 1u;           // uint[]: Morton codes, sorted in place over 4 passes
+const uint kLbvhBindValuesA = 2u;         // uint[]: triangle indices (file order), sorted with the codes
+const uint kLbvhBindKeysB = 3u;           // uint[]: the radix sort's other half
+const uint kLbvhBindValuesB = 4u;         // uint[]
+const uint kLbvhBindScan = 5u;            // uint[]: digit counts per sort block, then their prefix sums
+const uint kLbvhBindState = 6u;           // uint[kLbvhStateWords]: bounds, counters, statistics
+const uint kLbvhBindInner = 7u;           // uvec4[n - 1]: left id, right id, first, last
+const uint kLbvhBindLevels = 8u;          // uint[2 levels]: each level's first queue entry and count
+const uint kLbvhBindBoxes = 9u;           // vec4[2 (n - 1)]: lo, hi of every inner node
+const uint kLbvhBindCosts = 10u;          // float[n - 1]: S(inner node), area in units of the scene
+const uint kLbvhBindFlags = 11u;          // uint[n - 1]: kLbvhCollapsed, kLbvhLive
+const uint kLbvhBindQueue = 12u;          // uint[n - 1]: the inner nodes, level after level
+const uint kLbvhBindIndirect = 13u;       // uvec4[levels]: the emission's dispatch per level
+const uint kLbvhBindNodes = 14u;          // GpuNode[2n - 1]: the tracers' nodes (output)
+const uint kLbvhBindTriangles = 15u;      // GpuTriangle[n]: leaf order (output)
+const uint kLbvhBindVertexNormals = 16u;  // float[3 per vertex] (kLbvhHasNormals)
+const uint kLbvhBindNormals = 17u;        // GpuTriangleNormals[] leaf order (output)
+const uint kLbvhBindVertexUvs = 18u;      // float[2 per vertex] (kLbvhHasUvs)
+const uint kLbvhBindUvs = 19u;            // GpuTriangleUvs[] leaf order (output)
+const uint kLbvhBindVertexColors = 20u;   // uint[per vertex], RGBA8 (kLbvhHasColors)
+const uint kLbvhBindColors = 21u;         // GpuTriangleColors[] leaf order (output)
+const uint kLbvhBindIndices = 22u;        // uint[3 per triangle]: vertex indices, file order
+const uint kLbvhBindMaterials = 23u;      // uint[per triangle]: material index (kLbvhHasMaterials)
+const uint kLbvhBindingCount = 24u;
 
 // Specialization constants of every build kernel.
 const uint kLbvhSpecPhase = 0u;              // kLbvhPhase* (a kernel file holds several phases)
@@ -106,6 +108,7 @@ RP_CHECK_SIZE(LbvhParams, 48);
 const uint kLbvhHasNormals = 1u;
 const uint kLbvhHasUvs = 2u;
 const uint kLbvhHasColors = 4u;
+const uint kLbvhHasMaterials = 8u;
 
 // Bits of kLbvhBindFlags: the node is one leaf in the built tree; the node is reached from the root.
 const uint kLbvhCollapsed = 1u;

@@ -10,7 +10,8 @@ layout(local_size_x = kLbvhGroupSize) in;
 layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhaseBounds;
 layout(push_constant) uniform Params { LbvhParams params; };
 
-layout(std430, set = 0, binding = kLbvhBindFileTriangles) readonly buffer FileTriangles { GpuTriangle fileTriangles[]; };
+layout(std430, set = 0, binding = kLbvhBindPositions) readonly buffer Positions { float positions[]; };
+layout(std430, set = 0, binding = kLbvhBindIndices) readonly buffer Indices { uint indices[]; };
 layout(std430, set = 0, binding = kLbvhBindKeysA) writeonly buffer Keys { uint keys[]; };
 layout(std430, set = 0, binding = kLbvhBindValuesA) writeonly buffer Values { uint values[]; };
 layout(std430, set = 0, binding = kLbvhBindState) coherent buffer State { uint state[]; };
@@ -19,9 +20,11 @@ shared uint groupBounds[12];
 
 // Centroids as the CPU builders compute them (renderer/bvh_build.h, centroidOf): no overflow near
 // FLT_MAX.
-vec3 centroidOf(GpuTriangle t, out vec3 lo, out vec3 hi) {
-    lo = min(min(t.v0.xyz, t.v1.xyz), t.v2.xyz);
-    hi = max(max(t.v0.xyz, t.v1.xyz), t.v2.xyz);
+vec3 vertex(uint v) { return vec3(positions[3u * v], positions[3u * v + 1u], positions[3u * v + 2u]); }
+vec3 centroidOf(uint t, out vec3 lo, out vec3 hi) {
+    const vec3 a = vertex(indices[3u * t]), b = vertex(indices[3u * t + 1u]), c = vertex(indices[3u * t + 2u]);
+    lo = min(min(a, b), c);
+    hi = max(max(a, b), c);
     return 0.5f * lo + 0.5f * hi;
 }
 
@@ -32,7 +35,7 @@ void bounds() {
     const uint t = gl_GlobalInvocationID.x;
     if (t < params.counts.x) {
         vec3 lo, hi;
-        const vec3 c = centroidOf(fileTriangles[t], lo, hi);
+        const vec3 c = centroidOf(t, lo, hi);
         for (uint a = 0u; a < 3u; ++a) {
             atomicMin(groupBounds[kLbvhStateBoxLo + a], lbvhOrderedBits(lo[a]));
             atomicMax(groupBounds[kLbvhStateBoxHi + a], lbvhOrderedBits(hi[a]));
@@ -62,7 +65,7 @@ void morton() {
     const uint t = gl_GlobalInvocationID.x;
     if (t >= params.counts.x) return;
     vec3 lo, hi;
-    const vec3 c = centroidOf(fileTriangles[t], lo, hi);
+    const vec3 c = centroidOf(t, lo, hi);
     uint code = 0u;
     for (uint a = 0u; a < 3u; ++a) {
         const float boundLo = lbvhFromOrderedBits(state[kLbvhStateCentroidLo + a]);
