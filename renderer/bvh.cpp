@@ -120,7 +120,7 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
     using namespace bvh_detail;
     const auto start = std::chrono::steady_clock::now();
     validateOptions(options);
-    if (options.builder == BvhBuilder::GpuLbvh)
+    if (options.builder == BvhBuilder::GpuLbvh || options.builder == BvhBuilder::GpuPloc)
         throw Error(std::string("BVH build: ") + toString(options.builder) +
                     " builds on a Vulkan device (buildBvhOnDevice, renderer/gpu_bvh.h), not on the CPU");
     if (primitiveBounds.size() >= size_t(UINT32_MAX))
@@ -151,7 +151,8 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
         case BvhBuilder::SahExact: bvh = buildSahExact(primitiveBounds, rootBox, options, progress); break;
         case BvhBuilder::SahBinned: bvh = buildSahBinned(primitiveBounds, rootBox, options, progress); break;
         case BvhBuilder::SahSplit: bvh = buildSahSplit(primitiveBounds, rootBox, options, progress, triangles); break;
-        case BvhBuilder::GpuLbvh: break;  // refused above
+        case BvhBuilder::GpuLbvh:
+        case BvhBuilder::GpuPloc: break;  // refused above
         }
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -239,6 +240,7 @@ const char* toString(BvhBuilder builder) {
     case BvhBuilder::SahBinned: return "sah-binned";
     case BvhBuilder::SahSplit: return "sah-split";
     case BvhBuilder::GpuLbvh: return "gpu-lbvh";
+    case BvhBuilder::GpuPloc: return "gpu-ploc";
     }
     return "unknown";
 }

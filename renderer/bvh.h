@@ -37,12 +37,15 @@ enum class BvhBuilder {
     // Karras 2012 on the Vulkan device, leaves collapsed by the SAH (renderer/gpu_bvh.h): built by
     // GpuBvhBuilder / buildBvhOnDevice, not by buildBvh, which has no device.
     GpuLbvh,
+    // Meister and Bittner 2018's locally-ordered clustering over the Morton-sorted triangles on the
+    // device, the same collapse (renderer/gpu_bvh.h); likewise built by GpuBvhBuilder.
+    GpuPloc,
 };
 // The builders that run on the CPU (buildBvh), in the order a menu lists them.
 inline constexpr BvhBuilder kCpuBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit};
 // Every builder, in the order a menu lists them: the CPU builders, then the device builders.
 inline constexpr BvhBuilder kAllBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit,
-                                                 BvhBuilder::GpuLbvh};
+                                                 BvhBuilder::GpuLbvh, BvhBuilder::GpuPloc};
 // The builders that partition the primitives: every primitive is in exactly one leaf, and a leaf's
 // box is the union of its primitives' boxes. SahSplit is not one of them: a spatial split puts a
 // triangle into several leaves, each bounding only the part of it on its side of the split planes.
@@ -171,7 +174,7 @@ void walkBvh(const Bvh& bvh, Visit&& visit) {
 // never overflows.
 uint32_t bvhMaxDepth(const Bvh& bvh);
 
-// "sah-exact", "sah-binned", "sah-split", "gpu-lbvh".
+// "sah-exact", "sah-binned", "sah-split", "gpu-lbvh", "gpu-ploc".
 const char* toString(BvhBuilder builder);
 // The builder whose toString is `name`, or nothing.
 std::optional<BvhBuilder> findBvhBuilder(std::string_view name);

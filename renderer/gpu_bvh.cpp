@@ -7,6 +7,7 @@
 
 #include "lbvh.spv.h"
 #include "lbvh_prepare.spv.h"
+#include "ploc.spv.h"
 #include "prefix_scan.spv.h"
 #include "radix_sort.spv.h"
 
@@ -18,6 +19,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <functional>
 #include <string>
 
 namespace raypack {
@@ -26,7 +28,11 @@ static_assert(gpu::kLbvhMaxLeafPrimitives == kMaxLeafPrimitives, "one leaf bound
 
 namespace {
 
-constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseEmit + 1;
+constexpr uint32_t kPhaseCount = gpu::kLbvhPhasePlocReorder + 1;
+// gpu-ploc: levels listed per submission while looking for the tree's depth, and the deepest tree it
+// lays out (an agglomerative tree has no depth bound of its own; the tracers' stacks need one).
+constexpr uint32_t kPlocLevelBatch = 64;
+constexpr uint32_t kPlocMaxDepth = 4096;
 constexpr VkBufferUsageFlags kStorage =
     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
 
@@ -43,6 +49,12 @@ uint32_t moduleOf(uint32_t phase) {
     case gpu::kLbvhPhaseScatter: return 1;
     case gpu::kLbvhPhaseScanBlocks:
     case gpu::kLbvhPhaseAddBlockSums: return 2;
+    case gpu::kLbvhPhasePlocInit:
+    case gpu::kLbvhPhasePlocNearest:
+    case gpu::kLbvhPhasePlocFlags:
+    case gpu::kLbvhPhasePlocApply:
+    case gpu::kLbvhPhasePlocOffsets:
+    case gpu::kLbvhPhasePlocReorder: return 4;
     default: return 3;
     }
 }
@@ -58,9 +70,10 @@ struct ScanPlan {
     std::vector<Level> levels;  // levels[0] scans the digit counts
     uint64_t words = 0;
 };
-ScanPlan planScan(uint64_t counts) {
+// `counts` entries from word `base` on; the block sums follow them.
+ScanPlan planScan(uint64_t counts, uint64_t base = 0) {
     ScanPlan plan;
-    uint64_t offset = 0, count = counts, next = counts;
+    uint64_t offset = base, count = counts, next = base + counts;
     for (;;) {
         const uint64_t blocks = (count + gpu::kLbvhScanBlock - 1) / gpu::kLbvhScanBlock;
         plan.levels.push_back({uint32_t(offset), uint32_t(count), uint32_t(next)});
@@ -89,7 +102,7 @@ struct GpuBvhBuilder::State {
     VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
     VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
     VkDescriptorSet set = VK_NULL_HANDLE;
-    std::array<VkShaderModule, 4> modules{};
+    std::array<VkShaderModule, 5> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
     VkQueryPool queries = VK_NULL_HANDLE;
     uint32_t subgroupsPerGroup = 0;
@@ -202,6 +215,7 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
         s.modules[1] = vk::createShaderModule(context, radix_sort_spv, sizeof(radix_sort_spv), "radix_sort.comp");
         s.modules[2] = vk::createShaderModule(context, prefix_scan_spv, sizeof(prefix_scan_spv), "prefix_scan.comp");
         s.modules[3] = vk::createShaderModule(context, lbvh_spv, sizeof(lbvh_spv), "lbvh.comp");
+        s.modules[4] = vk::createShaderModule(context, ploc_spv, sizeof(ploc_spv), "ploc.comp");
         for (uint32_t phase = 0; phase < kPhaseCount; ++phase) s.pipelines[phase] = createPhasePipeline(s, phase);
 
         if (info.timestamps) {
@@ -340,8 +354,11 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const GpuBvhSizes sizes = gpuBvhSizes(n);
     const uint32_t inner = n < 2 ? 0u : n - 1u;
     const uint32_t sortBlocks = std::max(1u, (n + gpu::kLbvhSortBlock - 1) / gpu::kLbvhSortBlock);
+    const bool ploc = options.builder == BvhBuilder::GpuPloc;
     const ScanPlan scan = planScan(uint64_t(sortBlocks) * gpu::kLbvhRadixDigits);
-    const uint32_t levels = std::min(inner, gpu::kLbvhMaxDepth);
+    // gpu-ploc scans two flags per cluster, from n clusters down.
+    const ScanPlan keepScan = planScan(n, 0), mergeScan = planScan(n, keepScan.words);
+    const uint32_t levels = std::min(inner, ploc ? kPlocMaxDepth : gpu::kLbvhMaxDepth);
 
     // Scratch, sized from the triangle count and freed when the build returns.
     const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
@@ -367,10 +384,12 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     x.keysA = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the build's Morton codes");
     x.keysB = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the radix sort's keys");
     x.valuesB = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the radix sort's values");
-    x.scan = vk::createBuffer(s.ctx, scan.words * 4, kStorage, local, "the radix sort's digit counts");
+    x.scan = vk::createBuffer(s.ctx, std::max(scan.words, ploc ? mergeScan.words : 0) * 4, kStorage, local,
+                              "the build's prefix sums");
     x.inner = vk::createBuffer(s.ctx, uint64_t(inner) * 16, kStorage, local, "the build's inner nodes");
     x.levels = vk::createBuffer(s.ctx, uint64_t(levels + 1) * 8, kStorage, local, "the build's levels");
-    x.boxes = vk::createBuffer(s.ctx, uint64_t(inner) * 32, kStorage, local, "the build's boxes");
+    // gpu-ploc keeps a box per cluster id (triangles and inner nodes) while clustering.
+    x.boxes = vk::createBuffer(s.ctx, uint64_t(ploc ? sizes.nodes : inner) * 32, kStorage, local, "the build's boxes");
     x.costs = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's SAH costs");
     x.flags = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's node flags");
     x.queue = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's level queue");
@@ -429,26 +448,114 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     gpu::LbvhParams base{};
     base.counts = {n, options.leafSize, 0u, attributes};
     base.costs = {options.traversalCost, options.intersectionCost, 0.0f, 0.0f};
-    vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
-        const auto barrier = [&] {
+    // The entry counts of the first `count` listed levels.
+    const auto downloadLevelCounts = [&](uint32_t count) {
+        vk::Buffer staging = vk::createBuffer(
+            s.ctx, uint64_t(count) * 8, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+            VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "the levels' read-back");
+        std::vector<uint32_t> counts(count);
+        try {
+            vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
+                const VkBufferCopy region{0, 0, uint64_t(count) * 8};
+                vkCmdCopyBuffer(cmd, x.levels.buffer, staging.buffer, 1, &region);
+            });
+            for (uint32_t level = 0; level < count; ++level)
+                counts[level] = static_cast<const uint32_t*>(staging.mapped)[2 * level + 1];
+        } catch (...) {
+            vk::destroyBuffer(s.ctx, staging);
+            throw;
+        }
+        vk::destroyBuffer(s.ctx, staging);
+        return counts;
+    };
+    const auto readState = [&] {
+        std::array<uint32_t, gpu::kLbvhStateWords> words{};
+        std::memcpy(words.data(), x.readback.mapped, sizeof words);
+        return words;
+    };
+    // Records into `cmd`: dispatches, each followed by one barrier that makes its writes visible to
+    // the next dispatch, indirect dispatch or copy.
+    struct Recorder {
+        State& s;
+        VkCommandBuffer cmd;
+        VkBuffer indirect;
+        void barrier() const {
             vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
                               VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT |
                                   VK_PIPELINE_STAGE_TRANSFER_BIT,
                               VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT |
                                   VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
-        };
-        const auto bind = [&](uint32_t phase, const gpu::LbvhParams& params) {
+        }
+        void bind(uint32_t phase, const gpu::LbvhParams& params) const {
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelines[phase]);
             vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
-        };
-        const auto dispatch = [&](uint32_t phase, uint32_t groups, const gpu::LbvhParams& params) {
+        }
+        void dispatch(uint32_t phase, uint32_t groups, const gpu::LbvhParams& params) const {
             if (groups == 0) return;
             bind(phase, params);
             vkCmdDispatch(cmd, groups, 1, 1);
             barrier();
-        };
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1, &s.set, 0, nullptr);
+        }
+        // One level of the listed levels: its dispatch size is indirect[level].
+        void level(uint32_t phase, uint32_t level, gpu::LbvhParams params) const {
+            params.counts.z = level;
+            bind(phase, params);
+            vkCmdDispatchIndirect(cmd, indirect, VkDeviceSize(level) * 16);
+            barrier();
+        }
+        // The exclusive prefix sum of `plan` (prefix_scan.comp), block sums recursed.
+        void scan(const ScanPlan& plan, const gpu::LbvhParams& base) const {
+            const auto blocks = [](uint32_t count) { return (count + gpu::kLbvhScanBlock - 1) / gpu::kLbvhScanBlock; };
+            for (const ScanPlan::Level& l : plan.levels) {
+                gpu::LbvhParams p = base;
+                p.counts.z = l.count;
+                p.offsets = {l.offset, l.sums, 0u, 0u};
+                dispatch(gpu::kLbvhPhaseScanBlocks, blocks(l.count), p);
+            }
+            for (size_t k = plan.levels.size() - 1; k-- > 0;) {  // every level with more than one block
+                const ScanPlan::Level& l = plan.levels[k];
+                gpu::LbvhParams p = base;
+                p.counts.z = l.count;
+                p.offsets = {l.offset, l.sums, 0u, 0u};
+                dispatch(gpu::kLbvhPhaseAddBlockSums, blocks(l.count), p);
+            }
+        }
+        void begin() const {
+            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1, &s.set, 0, nullptr);
+        }
+    };
+    const auto submit = [&](const std::function<void(const Recorder&)>& record) {
+        vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
+            const Recorder r{s, cmd, x.indirect.buffer};
+            r.begin();
+            record(r);
+            const VkBufferCopy region{0, 0, gpu::kLbvhStateWords * 4};
+            vkCmdCopyBuffer(cmd, x.state.buffer, x.readback.buffer, 1, &region);
+        });
+    };
+    // The last steps of both builders: the levels top down (gpu-lbvh; gpu-ploc lists them itself),
+    // boxes and costs bottom up, the root, the nodes top down.
+    const auto finish = [&](const Recorder& r, uint32_t depth, bool listLevels) {
+        if (n >= 2) {
+            if (listLevels) {
+                r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
+                for (uint32_t level = 0; level + 1 < depth; ++level) {
+                    r.level(gpu::kLbvhPhaseEnumerate, level, base);
+                    gpu::LbvhParams p = base;
+                    p.counts.z = level;
+                    r.dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
+                }
+            }
+            for (uint32_t level = depth; level-- > 0;) r.level(gpu::kLbvhPhaseBottomUp, level, base);
+        }
+        r.dispatch(gpu::kLbvhPhaseRoot, 1, base);
+        for (uint32_t level = 0; level < depth; ++level) r.level(gpu::kLbvhPhaseEmit, level, base);
+        if (s.queries) vkCmdWriteTimestamp(r.cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, s.queries, 1);
+    };
+
+    submit([&](const Recorder& r) {
+        const VkCommandBuffer cmd = r.cmd;
         if (s.queries) {
             vkCmdResetQueryPool(cmd, s.queries, 0, 2);
             vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, s.queries, 0);
@@ -456,70 +563,94 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         // The state: zero, but the lower bounds start at the largest ordered value.
         vkCmdFillBuffer(cmd, x.state.buffer, 0, VK_WHOLE_SIZE, 0u);
         vkCmdFillBuffer(cmd, x.indirect.buffer, 0, VK_WHOLE_SIZE, 0u);
-        barrier();
+        vkCmdFillBuffer(cmd, x.flags.buffer, 0, VK_WHOLE_SIZE, 0u);
+        r.barrier();
         vkCmdFillBuffer(cmd, x.state.buffer, gpu::kLbvhStateBoxLo * 4, 12, 0xFFFFFFFFu);
         vkCmdFillBuffer(cmd, x.state.buffer, gpu::kLbvhStateCentroidLo * 4, 12, 0xFFFFFFFFu);
-        barrier();
+        r.barrier();
         // 1, 2: bounds and Morton codes.
-        dispatch(gpu::kLbvhPhaseBounds, groupsFor(n), base);
-        dispatch(gpu::kLbvhPhaseMorton, groupsFor(n), base);
+        r.dispatch(gpu::kLbvhPhaseBounds, groupsFor(n), base);
+        r.dispatch(gpu::kLbvhPhaseMorton, groupsFor(n), base);
         if (n >= 2) {
             // 3: four passes of 8 bits, A -> B -> A -> B -> A.
             for (uint32_t pass = 0; pass < 4; ++pass) {
                 gpu::LbvhParams sort = base;
                 sort.counts.z = pass * gpu::kLbvhRadixBits;
                 sort.offsets = {sortBlocks, 0u, pass % 2u, 0u};
-                dispatch(gpu::kLbvhPhaseHistogram, sortBlocks, sort);
-                for (const ScanPlan::Level& level : scan.levels) {
-                    gpu::LbvhParams p = base;
-                    p.counts.z = level.count;
-                    p.offsets = {level.offset, level.sums, 0u, 0u};
-                    dispatch(gpu::kLbvhPhaseScanBlocks, (level.count + gpu::kLbvhScanBlock - 1) / gpu::kLbvhScanBlock,
-                             p);
-                }
-                for (size_t l = scan.levels.size() - 1; l-- > 0;) {  // every level with more than one block
-                    const ScanPlan::Level& level = scan.levels[l];
-                    gpu::LbvhParams p = base;
-                    p.counts.z = level.count;
-                    p.offsets = {level.offset, level.sums, 0u, 0u};
-                    dispatch(gpu::kLbvhPhaseAddBlockSums, (level.count + gpu::kLbvhScanBlock - 1) / gpu::kLbvhScanBlock,
-                             p);
-                }
-                dispatch(gpu::kLbvhPhaseScatter, sortBlocks, sort);
+                r.dispatch(gpu::kLbvhPhaseHistogram, sortBlocks, sort);
+                r.scan(scan, base);
+                r.dispatch(gpu::kLbvhPhaseScatter, sortBlocks, sort);
             }
-            // 4: the hierarchy.
-            dispatch(gpu::kLbvhPhaseHierarchy, groupsFor(inner), base);
+            // 4: the hierarchy (gpu-ploc: its clusters start as the sorted triangles).
+            if (!ploc) r.dispatch(gpu::kLbvhPhaseHierarchy, groupsFor(inner), base);
         }
-        // 5: leaf order.
-        dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
-        const auto levelDispatch = [&](uint32_t phase, uint32_t level) {
-            gpu::LbvhParams p = base;
-            p.counts.z = level;
-            bind(phase, p);
-            vkCmdDispatchIndirect(cmd, x.indirect.buffer, VkDeviceSize(level) * 16);
-            barrier();
-        };
-        if (n >= 2) {
-            // 6: the levels, top down; 7: boxes and costs, bottom up.
-            dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
-            for (uint32_t level = 0; level + 1 < levels; ++level) {
-                levelDispatch(gpu::kLbvhPhaseEnumerate, level);
-                gpu::LbvhParams p = base;
-                p.counts.z = level;
-                dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
-            }
-            for (uint32_t level = levels; level-- > 0;) levelDispatch(gpu::kLbvhPhaseBottomUp, level);
-        }
-        // 8: the root, then the nodes level by level.
-        dispatch(gpu::kLbvhPhaseRoot, 1, base);
-        for (uint32_t level = 0; level < levels; ++level) levelDispatch(gpu::kLbvhPhaseEmit, level);
-        if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, s.queries, 1);
-        const VkBufferCopy region{0, 0, gpu::kLbvhStateWords * 4};
-        vkCmdCopyBuffer(cmd, x.state.buffer, x.readback.buffer, 1, &region);
+        // 5: leaf order (gpu-ploc: Morton order, for the clusters' boxes; again at the end).
+        r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
+        if (ploc)
+            r.dispatch(gpu::kLbvhPhasePlocInit, groupsFor(n), base);
+        else
+            finish(r, levels, true);
     });
+    if (ploc && n >= 2) {
+        // Clustering, one iteration per submission: the next one's sizes are the clusters left.
+        uint32_t clusters = n, made = 0;
+        bool readsB = false;
+        while (clusters > 1) {
+            const ScanPlan keep = planScan(clusters, 0), merge = planScan(clusters, keepScan.words);
+            gpu::LbvhParams p = base;
+            p.counts.z = clusters;
+            p.offsets = {0u, uint32_t(keepScan.words), readsB ? 1u : 0u, made};
+            submit([&](const Recorder& r) {
+                r.dispatch(gpu::kLbvhPhasePlocNearest, groupsFor(clusters), p);
+                r.dispatch(gpu::kLbvhPhasePlocFlags, groupsFor(clusters), p);
+                r.scan(keep, base);
+                r.scan(merge, base);
+                r.dispatch(gpu::kLbvhPhasePlocApply, groupsFor(clusters), p);
+            });
+            const auto words = readState();
+            if (words[gpu::kLbvhStateClusters] >= clusters)
+                throw Error("gpu-ploc: an iteration over " + std::to_string(clusters) + " clusters merged none");
+            clusters = words[gpu::kLbvhStateClusters];
+            made = words[gpu::kLbvhStateMerged];
+            readsB = !readsB;
+        }
+        RAYPACK_CHECK_MSG(made == n - 1, "gpu-ploc made n - 1 inner nodes");
+        // The levels, a batch of levels per submission until one comes out empty.
+        uint32_t depth = 0;
+        for (uint32_t first = 0; depth == 0; first += kPlocLevelBatch) {
+            if (first >= levels) throw Error("gpu-ploc: the tree is deeper than " + std::to_string(levels) + " levels");
+            submit([&](const Recorder& r) {
+                if (first == 0) r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
+                for (uint32_t level = first; level < std::min(first + kPlocLevelBatch, levels); ++level) {
+                    r.level(gpu::kLbvhPhaseEnumerate, level, base);
+                    gpu::LbvhParams p = base;
+                    p.counts.z = level;
+                    r.dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
+                }
+            });
+            if (readState()[gpu::kLbvhStateNextCount] == 0) {
+                // The batch reached an empty level: the depth is the first empty one.
+                const uint32_t listed = std::min(first + kPlocLevelBatch, levels) + 1;
+                const std::vector<uint32_t> counts = downloadLevelCounts(listed);
+                for (uint32_t level = 1; level < listed && depth == 0; ++level)
+                    if (counts[level] == 0) depth = level;
+                RAYPACK_CHECK_MSG(depth > 0, "gpu-ploc found its last level");
+            }
+        }
+        submit([&](const Recorder& r) {
+            for (uint32_t level = 0; level < depth; ++level) r.level(gpu::kLbvhPhasePlocOffsets, level, base);
+            r.dispatch(gpu::kLbvhPhasePlocReorder, groupsFor(n), base);
+            const VkBufferCopy region{0, 0, uint64_t(n) * 4};
+            vkCmdCopyBuffer(r.cmd, x.keysB.buffer, s.order.buffer, 1, &region);
+            r.barrier();
+            r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
+            finish(r, depth, false);
+        });
+    } else if (ploc) {
+        submit([&](const Recorder& r) { finish(r, 0, false); });
+    }
 
-    std::array<uint32_t, gpu::kLbvhStateWords> state{};
-    std::memcpy(state.data(), x.readback.mapped, sizeof state);
+    const std::array<uint32_t, gpu::kLbvhStateWords> state = readState();
     if (state[gpu::kLbvhStateStatus] & gpu::kLbvhStatusSubgroupLayout)
         throw Error("gpu-lbvh: the radix sort's subgroups on " + s.ctx.info.name + " are not consecutive runs of " +
                     std::to_string(s.ctx.info.subgroupSize) + " invocations as the device reports (use a CPU builder)");

@@ -21,8 +21,10 @@
 
 namespace raypack {
 
-// True for the builders that run on a Vulkan device (gpu-lbvh).
-constexpr bool isGpuBvhBuilder(BvhBuilder builder) { return builder == BvhBuilder::GpuLbvh; }
+// True for the builders that run on a Vulkan device (gpu-lbvh, gpu-ploc).
+constexpr bool isGpuBvhBuilder(BvhBuilder builder) {
+    return builder == BvhBuilder::GpuLbvh || builder == BvhBuilder::GpuPloc;
+}
 
 // Entries of each output array a device build of `triangles` triangles writes: 2n - 1 node slots
 // (Karras' inner node i's children at 1 + 2i and 2 + 2i; slots below a collapsed node stay unused)

@@ -167,6 +167,7 @@ void nextLevel() {
     const uvec2 level = levels[params.counts.z];
     const uint begin = level.x + level.y;
     setLevel(params.counts.z + 1u, begin, state[kLbvhStateQueueTail] - begin);
+    state[kLbvhStateNextCount] = state[kLbvhStateQueueTail] - begin;
 }
 
 // ---- Step 7: boxes and SAH costs, bottom up.

@@ -17,6 +17,9 @@
 //   7. bottom up, level by level from the deepest, each inner node's box and SAH cost
 //      S(node) = min(leaf: A·N·C_isect, inner: A·C_trav + S(left) + S(right)), and whether the node
 //      is better as one leaf (it must be when N <= leafSize, it may not when N > kMaxLeafPrimitives);
+//   (gpu-ploc replaces step 4 by Meister and Bittner 2018's locally-ordered clustering over the
+//   sorted triangles, shaders/ploc.comp, then lays its tree out in depth-first leaf order, so that
+//   steps 5-8 apply to it unchanged.)
 //   8. top down again, every node reached from the root that is not a leaf writes its two children
 //      into the node array; Karras' inner node i's children go to slots 1 + 2i and 2 + 2i, so
 //      siblings are adjacent as the kernels require. Slots below a collapsed node are never written
@@ -91,6 +94,13 @@ const uint kLbvhPhaseNextLevel = 10u;    // lbvh.comp: one invocation, the next 
 const uint kLbvhPhaseBottomUp = 11u;     // lbvh.comp: one level's boxes and costs
 const uint kLbvhPhaseRoot = 12u;         // lbvh.comp: one invocation, the root's node
 const uint kLbvhPhaseEmit = 13u;         // lbvh.comp: one level's children into the node array
+// gpu-ploc (shaders/ploc.comp) instead of step 4, then steps 6-8 as gpu-lbvh:
+const uint kLbvhPhasePlocInit = 14u;     // every sorted triangle a cluster, its box
+const uint kLbvhPhasePlocNearest = 15u;  // each cluster's nearest neighbour within the radius
+const uint kLbvhPhasePlocFlags = 16u;    // which clusters stay and which merge
+const uint kLbvhPhasePlocApply = 17u;    // the merged nodes and the next cluster array
+const uint kLbvhPhasePlocOffsets = 18u;  // one level: each node's first slot in the leaf order
+const uint kLbvhPhasePlocReorder = 19u;  // the triangles' order by those slots
 
 // Push constants of every phase, 48 bytes.
 struct LbvhParams {
@@ -98,7 +108,8 @@ struct LbvhParams {
     // element count; w: attribute bits (kLbvhHas*)
     uvec4 counts;
     // x: the sort's block count or the scan's input offset (in uints); y: the scan's block-sums
-    // offset; z, w: unused
+    // offset; z: the sort's (and gpu-ploc's) source half, 1 = B; w: gpu-ploc's inner nodes made
+    // before this iteration. gpu-ploc's flags and apply read its two scans at x and y.
     uvec4 offsets;
     // x: C_trav, y: C_isect, z, w: unused
     vec4 costs;
@@ -132,6 +143,9 @@ const uint kLbvhStateQueueTail = 14u;   // entries of kLbvhBindQueue pushed so f
 const uint kLbvhStateRootCost = 15u;    // float bits: S(root)
 const uint kLbvhStateRootArea = 16u;    // float bits: the root's half area, same units
 const uint kLbvhStateStatus = 19u;      // kLbvhStatus* bits: 0 after a good build
+const uint kLbvhStateClusters = 20u;    // gpu-ploc: clusters after the last iteration
+const uint kLbvhStateMerged = 21u;      // gpu-ploc: inner nodes made so far
+const uint kLbvhStateNextCount = 22u;   // entries of the level the last kLbvhPhaseNextLevel set up
 const uint kLbvhStateLeaves = 32u;      // kLbvhMaxDepth + 1 words: leaves at each depth
 const uint kLbvhStateWords = 96u;
 

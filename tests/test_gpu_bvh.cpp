@@ -25,12 +25,16 @@ namespace {
 
 using test::validatedContext;
 
-BvhBuildOptions lbvhOptions(uint32_t leafSize = 1) {
-    BvhBuildOptions options;
-    options.builder = BvhBuilder::GpuLbvh;
-    options.leafSize = leafSize;
-    return options;
-}
+// Every test runs for each device builder (GetParam()).
+class GpuBuilder : public ::testing::TestWithParam<BvhBuilder> {
+protected:
+    BvhBuildOptions lbvhOptions(uint32_t leafSize = 1) const {
+        BvhBuildOptions options;
+        options.builder = GetParam();
+        options.leafSize = leafSize;
+        return options;
+    }
+};
 
 Aabb triangleBox(const Scene& scene, uint32_t t) { return scene.triangleBounds(t); }
 
@@ -80,7 +84,7 @@ void expectValidTree(const Scene& scene, const Bvh& bvh, uint32_t leafSize) {
     EXPECT_LE(bvhMaxDepth(bvh), gpu::kLbvhMaxDepth);
 }
 
-TEST(GpuLbvh, BuildsValidTreesOfGeneratedScenesAtEveryLeafSize) {
+TEST_P(GpuBuilder, BuildsValidTreesOfGeneratedScenesAtEveryLeafSize) {
     const Scene scene = makeSphereFlake(20000);
     for (uint32_t leafSize : {1u, 2u, 4u, 8u}) {
         SCOPED_TRACE("leaf size " + std::to_string(leafSize));
@@ -90,7 +94,7 @@ TEST(GpuLbvh, BuildsValidTreesOfGeneratedScenesAtEveryLeafSize) {
     EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
 }
 
-TEST(GpuLbvh, DeviceStatisticsEqualACpuRecomputationOfTheDownloadedTree) {
+TEST_P(GpuBuilder, DeviceStatisticsEqualACpuRecomputationOfTheDownloadedTree) {
     const Scene scene = makeTerrain(30000);
     GpuBvhBuilder builder(validatedContext());
     builder.setScene(scene);
@@ -119,7 +123,7 @@ TEST(GpuLbvh, DeviceStatisticsEqualACpuRecomputationOfTheDownloadedTree) {
     EXPECT_LT(cpu.sahCost, 1.5 * buildBvh(scene, exact).stats.sahCost);
 }
 
-TEST(GpuLbvh, IsDeterministic) {
+TEST_P(GpuBuilder, IsDeterministic) {
     const Scene scene = makeSphereFlake(5000);
     const Bvh a = buildBvhOnDevice(validatedContext(), scene, lbvhOptions(4));
     const Bvh b = buildBvhOnDevice(validatedContext(), scene, lbvhOptions(4));
@@ -136,7 +140,7 @@ Scene sceneOfTriangles(std::vector<glm::vec3> positions) {
     return scene;
 }
 
-TEST(GpuLbvh, DegenerateInputs) {
+TEST_P(GpuBuilder, DegenerateInputs) {
     // 0, 1 and 2 triangles.
     for (size_t count : {0u, 1u, 2u, 3u}) {
         std::vector<glm::vec3> p;
@@ -185,7 +189,7 @@ TEST(GpuLbvh, DegenerateInputs) {
 // The tracer's own device build (GpuTracer::buildOnDevice: no host round trip) traces exactly what
 // the downloaded tree traces through upload(), and both match the CPU reference over that tree: on
 // Sibenik and on a textured glTF (the normals, UVs and textures gathered into leaf order).
-TEST(GpuLbvh, TracerBuildsInItsOwnBuffersAndMatchesTheReference) {
+TEST_P(GpuBuilder, TracerBuildsInItsOwnBuffersAndMatchesTheReference) {
     for (const char* relative : {"sibenik/sibenik_geom_75284.ply", "gltf/Duck/glTF/Duck.gltf"}) {
         SCOPED_TRACE(relative);
         const Scene scene = openScene(test::sharedScene(relative));
@@ -227,13 +231,18 @@ TEST(GpuLbvh, TracerBuildsInItsOwnBuffersAndMatchesTheReference) {
     test::expectNoValidationMessages();
 }
 
-TEST(GpuLbvh, RefusesWhatItCannotBuild) {
+TEST_P(GpuBuilder, RefusesWhatItCannotBuild) {
     Scene scene = sceneOfTriangles({{0, 0, 0}, {1, 0, 0}, {0, std::numeric_limits<float>::infinity(), 0}});
     EXPECT_THROW(buildBvhOnDevice(validatedContext(), scene, lbvhOptions()), Error);
     const Scene good = sceneOfTriangles({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}});
     EXPECT_THROW(buildBvhOnDevice(validatedContext(), good, lbvhOptions(0)), Error);
     EXPECT_THROW(buildBvh(good, lbvhOptions()), Error) << "buildBvh has no device";
 }
+
+INSTANTIATE_TEST_SUITE_P(Device, GpuBuilder, ::testing::Values(BvhBuilder::GpuLbvh, BvhBuilder::GpuPloc),
+                         [](const ::testing::TestParamInfo<BvhBuilder>& info) {
+                             return info.param == BvhBuilder::GpuLbvh ? std::string("lbvh") : std::string("ploc");
+                         });
 
 }  // namespace
 }  // namespace raypack

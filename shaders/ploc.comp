@@ -1,0 +1,215 @@
+#version 460
+// gpu-ploc (shaders/lbvh.h): Meister and Bittner 2018, "Parallel Locally-Ordered Clustering for
+// Bounding Volume Hierarchy Construction", over the triangles sorted by Morton code. Every sorted
+// triangle starts as a cluster; each iteration finds every cluster's nearest neighbour among the
+// kPlocRadius clusters on either side (the smallest union surface area), merges the mutual pairs
+// into new inner nodes (the lower position keeps the new cluster) and compacts the cluster array in
+// order, until one cluster is left: the root. The host records one iteration per submission and
+// reads the cluster count back.
+//
+// The inner nodes are written in gpu-lbvh's record format (lbvh.comp: left, right, then a range),
+// numbered so that the root (the last one made) is inner node 0, children that are triangles as
+// n - 1 + their position. A PLOC subtree's triangles are not contiguous in Morton order, so once the
+// levels are listed (lbvh.comp, step 6) kLbvhPhasePlocOffsets gives every node its first slot in
+// depth-first order, kLbvhPhasePlocReorder reorders the triangles by it, and gpu-lbvh's gather,
+// bottom-up and emission finish the tree.
+#extension GL_GOOGLE_include_directive : require
+
+#include "gpu_types.h"
+#include "lbvh.h"
+
+layout(local_size_x = kLbvhGroupSize) in;
+layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhasePlocInit;
+// Clusters compared on each side: Meister and Bittner's r; 16 is within a few percent of their best
+// SAH at a fraction of the search.
+const uint kPlocRadius = 16u;
+layout(push_constant) uniform Params { LbvhParams params; };
+
+layout(std430, set = 0, binding = kLbvhBindKeysA) buffer ClustersA { uint clustersA[]; };
+layout(std430, set = 0, binding = kLbvhBindValuesA) buffer Order { uint order[]; };
+layout(std430, set = 0, binding = kLbvhBindKeysB) buffer ClustersB { uint clustersB[]; };
+// The nearest neighbours while clustering, then each triangle's slot in the leaf order.
+layout(std430, set = 0, binding = kLbvhBindValuesB) buffer Neighbours { uint neighbours[]; };
+layout(std430, set = 0, binding = kLbvhBindScan) buffer Scan { uint scan[]; };
+layout(std430, set = 0, binding = kLbvhBindState) buffer State { uint state[]; };
+layout(std430, set = 0, binding = kLbvhBindInner) buffer Inner { uvec4 inner[]; };
+layout(std430, set = 0, binding = kLbvhBindLevels) readonly buffer Levels { uvec2 levels[]; };
+layout(std430, set = 0, binding = kLbvhBindBoxes) buffer Boxes { vec4 boxes[]; };  // by cluster id
+// Each inner node's first slot in the leaf order (kLbvhPhasePlocOffsets).
+layout(std430, set = 0, binding = kLbvhBindFlags) buffer Offsets { uint offsets[]; };
+layout(std430, set = 0, binding = kLbvhBindQueue) readonly buffer Queue { uint queue[]; };
+layout(std430, set = 0, binding = kLbvhBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
+
+// Cluster ids: sorted triangle k is id k, the j-th inner node made is id n + j. The inner node of
+// id p is record 2n - 2 - p (the root, made last, is record 0).
+uint n() { return params.counts.x; }
+uint recordOf(uint id) { return 2u * n() - 2u - id; }
+// The id as lbvh.comp's records name a child: an inner node by its record, a triangle as n - 1 + k.
+uint childName(uint id) { return id >= n() ? recordOf(id) : n() - 1u + id; }
+uint countOf(uint id) { return id >= n() ? inner[recordOf(id)].z : 1u; }
+
+// Areas of union boxes compared in units of the scene's largest extent (as lbvh.comp's sahArea).
+float unitOfScene() {
+    vec3 lo, hi;
+    for (uint a = 0u; a < 3u; ++a) {
+        lo[a] = lbvhFromOrderedBits(state[kLbvhStateBoxLo + a]);
+        hi[a] = lbvhFromOrderedBits(state[kLbvhStateBoxHi + a]);
+    }
+    const vec3 extent = 0.5f * hi - 0.5f * lo;
+    const float largest = max(max(extent.x, extent.y), extent.z);
+    return largest > 0.0f ? 1.0f / largest : 0.0f;
+}
+float area(vec3 lo, vec3 hi, float unit) {
+    const vec3 e = (0.5f * hi - 0.5f * lo) * unit;
+    return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+
+bool readsB() { return params.offsets.z != 0u; }
+uint clusterIn(uint i) { return readsB() ? clustersB[i] : clustersA[i]; }
+
+void init() {
+    const uint k = gl_GlobalInvocationID.x;
+    if (k >= n()) return;
+    const GpuTriangle t = triangles[k];
+    boxes[2u * k] = vec4(min(min(t.v0.xyz, t.v1.xyz), t.v2.xyz), 0.0f);
+    boxes[2u * k + 1u] = vec4(max(max(t.v0.xyz, t.v1.xyz), t.v2.xyz), 0.0f);
+    clustersA[k] = k;
+}
+
+// The boxes of this workgroup's clusters and kPlocRadius on either side.
+shared vec3 windowLo[kLbvhGroupSize + 2u * kPlocRadius];
+shared vec3 windowHi[kLbvhGroupSize + 2u * kPlocRadius];
+
+// Pairs of equal area are ordered by their distance in the array, then with the pair whose lower
+// position is even first: one order on pairs, the same from both sides, so the globally first pair
+// is mutual and every iteration merges at least once; and where everything ties (identical
+// triangles) positions 2k and 2k + 1 pair up and the clusters halve, instead of one merge an
+// iteration growing a chain.
+bool closerTie(uint i, uint j, uint current) {
+    if (current == i) return true;
+    const uint dj = j > i ? j - i : i - j, dc = current > i ? current - i : i - current;
+    if (dj != dc) return dj < dc;
+    const bool jEven = (min(i, j) & 1u) == 0u, currentEven = (min(i, current) & 1u) == 0u;
+    if (jEven != currentEven) return jEven;
+    return j < current;
+}
+
+void nearest() {
+    const uint m = params.counts.z;
+    const int first = int(gl_WorkGroupID.x * kLbvhGroupSize) - int(kPlocRadius);
+    for (uint w = gl_LocalInvocationIndex; w < kLbvhGroupSize + 2u * kPlocRadius; w += kLbvhGroupSize) {
+        const int i = first + int(w);
+        if (i >= 0 && i < int(m)) {
+            const uint id = clusterIn(uint(i));
+            windowLo[w] = boxes[2u * id].xyz;
+            windowHi[w] = boxes[2u * id + 1u].xyz;
+        }
+    }
+    barrier();
+    const uint i = gl_GlobalInvocationID.x;
+    if (i >= m) return;
+    const float unit = unitOfScene();
+    const uint self = gl_LocalInvocationIndex + kPlocRadius;
+    const vec3 lo = windowLo[self], hi = windowHi[self];
+    float best = 3.402823466e38f;
+    uint bestIndex = i;
+    const uint begin = i >= kPlocRadius ? i - kPlocRadius : 0u;
+    const uint end = min(m - 1u, i + kPlocRadius);
+    for (uint j = begin; j <= end; ++j) {
+        if (j == i) continue;
+        const uint w = j + kPlocRadius - gl_WorkGroupID.x * kLbvhGroupSize;
+        const float d = area(min(lo, windowLo[w]), max(hi, windowHi[w]), unit);
+        if (d < best || (d == best && closerTie(i, j, bestIndex))) {
+            best = d;
+            bestIndex = j;
+        }
+    }
+    neighbours[i] = bestIndex;
+}
+
+// The keep flags (offsets.x) and merge flags (offsets.y) of the clusters, for two scans.
+void flags() {
+    const uint i = gl_GlobalInvocationID.x;
+    if (i >= params.counts.z) return;
+    const uint j = neighbours[i];
+    const bool mutual = j != i && neighbours[j] == i;
+    scan[params.offsets.x + i] = mutual && i > j ? 0u : 1u;
+    scan[params.offsets.y + i] = mutual && i < j ? 1u : 0u;
+}
+
+void apply() {
+    const uint i = gl_GlobalInvocationID.x;
+    const uint m = params.counts.z;
+    if (i >= m) return;
+    const uint j = neighbours[i];
+    const bool mutual = j != i && neighbours[j] == i;
+    const bool keep = !(mutual && i > j), merge = mutual && i < j;
+    const uint keepSlot = scan[params.offsets.x + i], mergeRank = scan[params.offsets.y + i];
+    const uint made = params.offsets.w;  // inner nodes made before this iteration (the host's count)
+    uint id = clusterIn(i);
+    if (merge) {
+        const uint left = id, right = clusterIn(j);
+        id = n() + made + mergeRank;
+        boxes[2u * id] = min(boxes[2u * left], boxes[2u * right]);
+        boxes[2u * id + 1u] = max(boxes[2u * left + 1u], boxes[2u * right + 1u]);
+        inner[recordOf(id)] = uvec4(childName(left), childName(right), countOf(left) + countOf(right), 0u);
+    }
+    if (keep) {
+        if (readsB())
+            clustersA[keepSlot] = id;
+        else
+            clustersB[keepSlot] = id;
+    }
+    if (i == m - 1u) {
+        state[kLbvhStateClusters] = keepSlot + (keep ? 1u : 0u);
+        state[kLbvhStateMerged] = made + mergeRank + (merge ? 1u : 0u);
+    }
+}
+
+// Level params.counts.z of the listed levels: each node, whose first slot its parent wrote (the
+// root's is 0), gives its children theirs (the left child first), triangles their final slot, and
+// rewrites its record as lbvh.comp reads it: children named by final slots, then first and last.
+void levelOffsets() {
+    const uvec2 level = levels[params.counts.z];
+    if (gl_GlobalInvocationID.x >= level.y) return;
+    const uint node = queue[level.x + gl_GlobalInvocationID.x];
+    const uvec4 record = inner[node];
+    const uint first = offsets[node];
+    const uint leftCount = record.x < n() - 1u ? inner[record.x].z : 1u;
+    uint left = record.x, right = record.y;
+    if (record.x < n() - 1u) {
+        offsets[record.x] = first;
+    } else {
+        neighbours[record.x - (n() - 1u)] = first;
+        left = n() - 1u + first;
+    }
+    if (record.y < n() - 1u) {
+        offsets[record.y] = first + leftCount;
+    } else {
+        neighbours[record.y - (n() - 1u)] = first + leftCount;
+        right = n() - 1u + first + leftCount;
+    }
+    inner[node] = uvec4(left, right, first, first + record.z - 1u);
+}
+
+// The triangles in depth-first leaf order: the sorted triangle k goes to the slot the levels gave it.
+void reorder() {
+    const uint k = gl_GlobalInvocationID.x;
+    if (k >= n()) return;
+    clustersB[neighbours[k]] = order[k];
+}
+
+void main() {
+    if (kPhase == kLbvhPhasePlocInit)
+        init();
+    else if (kPhase == kLbvhPhasePlocNearest)
+        nearest();
+    else if (kPhase == kLbvhPhasePlocFlags)
+        flags();
+    else if (kPhase == kLbvhPhasePlocApply)
+        apply();
+    else if (kPhase == kLbvhPhasePlocOffsets)
+        levelOffsets();
+    else
+        reorder();
+}
