@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Issue 13 on the lent H200 machine: from a scene in host memory to its first traced frame with the
-# BVH built on the device in the tracer's own buffers (bench --builder gpu-lbvh: the GPU tracers take
+# BVH built on the device in the tracer's own buffers (bench --builder gpu-lbvh and gpu-ploc: the GPU tracers take
 # GpuTracer::buildOnDevice; records carry t_cu_s, t_b_s and t_scene_to_frame_s = T_CU + T_B + frame_s),
 # against the CPU-built path (sah-binned: T_B on 16 threads, T_CU the host layout upload), for the
 # terrains and the dragon subdivided to 13M at 1920x1080, single-ray kernel, in one call.
@@ -13,7 +13,7 @@ if [ ! -x .device/bin/raypack-cli ] && [ -f .device/round.tar.xz ]; then tar xJf
 source scripts/device-env.sh 2>/dev/null
 S=.device/scenes
 scenes=${SCENE_LIST:-"$S/conference/conference_geom.ply,gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"}
-for builder in gpu-lbvh sah-binned; do
+for builder in gpu-lbvh gpu-ploc sah-binned; do
   timeout 250 .device/bin/raypack-cli bench --scenes "$scenes" --device gpu --kernel single --no-driver-rt \
     --width 1920 --height 1080 --repeat 5 --builder "$builder" --out "$out/first-frame-$builder.json" \
     > /dev/null 2>> "$out/first-frame-progress.log" || echo "FAILED $builder" | tee -a "$out/first-frame.txt"
@@ -22,7 +22,7 @@ python3 - "$out" >> "$out/first-frame.txt" <<'PY'
 import json, sys
 out = sys.argv[1]
 rows = {}
-for builder in ("gpu-lbvh", "sah-binned"):
+for builder in ("gpu-lbvh", "gpu-ploc", "sah-binned"):
     try:
         records = json.load(open(f"{out}/first-frame-{builder}.json"))["records"]
     except Exception:
@@ -30,16 +30,17 @@ for builder in ("gpu-lbvh", "sah-binned"):
     for r in records:
         if r.get("tracer") == "gpu-single" and r.get("ray_kind") == "primary":
             rows.setdefault(r["scene"], {})[builder] = r
-print(f"{'scene':28s} {'tris':>9s} | {'lbvh T_CU':>9s} {'T_B':>7s} {'frame':>7s} {'to frame':>8s} | {'binned T_B':>10s} {'T_CU':>7s} {'to frame':>8s} | {'ratio':>6s}")
-for scene, by in rows.items():
-    l, b = by.get("gpu-lbvh"), by.get("sah-binned")
-    if not l or not b:
-        continue
-    lf = l["t_cu_s"] + l["t_b_s"] + l["frame_s"]
-    bf = b["t_b_s"] + b["t_cu_s"] + b["frame_s"]
-    print(f"{scene[-28:]:28s} {l['triangles']:9d} | {l['t_cu_s']:9.4f} {l['t_b_s']:7.4f} {l['frame_s']:7.4f} {lf:8.4f} |"
-          f" {b['t_b_s']:10.4f} {b['t_cu_s']:7.4f} {bf:8.4f} | {bf / lf:6.1f}")
+print(f"{'builder':9s} {'scene':28s} {'tris':>9s} | {'T_CU':>7s} {'T_B':>7s} {'frame':>7s} {'to frame':>8s} | {'binned T_B':>10s} {'T_CU':>7s} {'to frame':>8s} | {'ratio':>6s}")
+for builder in ("gpu-lbvh", "gpu-ploc"):
+    for scene, by in rows.items():
+        l, b = by.get(builder), by.get("sah-binned")
+        if not l or not b:
+            continue
+        lf = l["t_cu_s"] + l["t_b_s"] + l["frame_s"]
+        bf = b["t_b_s"] + b["t_cu_s"] + b["frame_s"]
+        print(f"{builder:9s} {scene[-28:]:28s} {l['triangles']:9d} | {l['t_cu_s']:7.4f} {l['t_b_s']:7.4f} {l['frame_s']:7.4f}"
+              f" {lf:8.4f} | {b['t_b_s']:10.4f} {b['t_cu_s']:7.4f} {bf:8.4f} | {bf / lf:6.1f}")
 print("seconds; to frame = T_CU + T_B + one frame's wall time (frame_s) of the first GPU cell (the scene in host memory to a traced frame,"
-      " kernels compiled before); ratio = sah-binned path / gpu-lbvh path")
+      " kernels compiled before); ratio = sah-binned path / device-built path")
 PY
 cat "$out/first-frame.txt"

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# Issue 13 on the lent H200 machine: the GPU builder gpu-lbvh against the driver's own BLAS build
+# Issue 13 on the lent H200 machine: the GPU builders gpu-lbvh and gpu-ploc against the driver's own BLAS build
 # and the CPU builders, in one call. For every scene of the report and scaling suites' largest
 # (Sibenik, Sponza, Conference, Armadillo, Dragon, terrain 1M and 10M, the dragon subdivided to
-# 13M): bench --device gpu --kernel single at 1920x1080 with --builder gpu-lbvh (three runs, for
-# T_B medians; the driver's ray tracing peer runs in each and times its BLAS build), then once with
+# 13M): bench --device gpu --kernel single at 1920x1080 with --builder gpu-lbvh and gpu-ploc (three
+# runs each, for T_B medians; the driver's ray tracing peer runs in the first and times its BLAS
+# build), then once with
 # sah-binned and sah-exact (SAH cost and single-ray trace speed of their trees). The summary table
 # (build rates, ratios to the driver, SAH and trace ratios to sah-exact) goes to $OUT/gpu-build.txt,
 # everything else into $OUT/results.tgz.
@@ -31,6 +32,9 @@ run() {  # NAME BUILDER [FLAGS...]
 run lbvh-1 gpu-lbvh --repeat 5
 run lbvh-2 gpu-lbvh --no-driver-rt --repeat 1
 run lbvh-3 gpu-lbvh --no-driver-rt --repeat 1
+run ploc-1 gpu-ploc --no-driver-rt --repeat 5
+run ploc-2 gpu-ploc --no-driver-rt --repeat 1
+run ploc-3 gpu-ploc --no-driver-rt --repeat 1
 run binned sah-binned --no-driver-rt --repeat 1
 run exact sah-exact --no-driver-rt --repeat 5
 python3 - "$out/runs" >> "$out/gpu-build.txt" <<'PY'
@@ -47,26 +51,27 @@ def by_scene(records, tracer, kind="primary"):
         if r.get("tracer") == tracer and r.get("ray_kind", "primary") == kind:
             out.setdefault(r["scene"], r)
     return out
-lbvh_runs = [by_scene(load(f"lbvh-{i}"), "gpu-single") for i in (1, 2, 3)]
 driver = by_scene(load("lbvh-1"), "driver-rt")
 binned, exact = by_scene(load("binned"), "gpu-single"), by_scene(load("exact"), "gpu-single")
-print(f"{'scene':22s} {'tris':>9s} {'lbvh T_B':>9s} {'device':>9s} {'Mtri/s':>8s} {'driver':>9s} {'Mtri/s':>8s}"
+print(f"{'builder':8s} {'scene':22s} {'tris':>9s} {'T_B':>9s} {'device':>9s} {'Mtri/s':>8s} {'driver':>9s} {'Mtri/s':>8s}"
       f" {'dev/drv':>7s} {'binned T_B':>10s} {'SAH/exact':>9s} {'trace/exact':>11s} {'scratch B/tri':>13s}")
-for scene, first in lbvh_runs[0].items():
-    rows = [r[scene] for r in lbvh_runs if scene in r]
-    tris = first["triangles"]
-    wall = statistics.median(r["t_b_s"] for r in rows)
-    device = statistics.median(r.get("t_b_device_s", 0) for r in rows)
-    d = driver.get(scene, {}).get("t_b_blas_s", float("nan"))
-    e, b = exact.get(scene), binned.get(scene)
-    sah = first["sah_cost"] / e["sah_cost"] if e else float("nan")
-    trace = first["perf_mrays_s"] / e["perf_mrays_s"] if e else float("nan")
-    print(f"{scene[-22:]:22s} {tris:9d} {wall:9.4f} {device:9.4f} {tris / device / 1e6:8.1f} {d:9.4f}"
-          f" {tris / d / 1e6:8.1f} {d / device:7.2f} {b['t_b_s'] if b else float('nan'):10.4f} {sah:9.3f}"
-          f" {trace:11.3f} {first.get('build_scratch_bytes', 0) / tris:13.1f}")
+for builder in ("lbvh", "ploc"):
+    runs_of = [by_scene(load(f"{builder}-{i}"), "gpu-single") for i in (1, 2, 3)]
+    for scene, first in runs_of[0].items():
+        rows = [r[scene] for r in runs_of if scene in r]
+        tris = first["triangles"]
+        wall = statistics.median(r["t_b_s"] for r in rows)
+        device = statistics.median(r.get("t_b_device_s", 0) for r in rows)
+        d = driver.get(scene, {}).get("t_b_blas_s", float("nan"))
+        e, b = exact.get(scene), binned.get(scene)
+        sah = first["sah_cost"] / e["sah_cost"] if e else float("nan")
+        trace = first["perf_mrays_s"] / e["perf_mrays_s"] if e else float("nan")
+        print(f"{builder:8s} {scene[-22:]:22s} {tris:9d} {wall:9.4f} {device:9.4f} {tris / device / 1e6:8.1f} {d:9.4f}"
+              f" {tris / d / 1e6:8.1f} {d / device:7.2f} {b['t_b_s'] if b else float('nan'):10.4f} {sah:9.3f}"
+              f" {trace:11.3f} {first.get('build_scratch_bytes', 0) / tris:13.1f}")
 print("T_B: host wall time of the device build (scratch allocation, submission, wait); device: its timestamps;"
       " driver: the driver's BLAS build by timestamps (driver-rt peer, run lbvh-1); dev/drv > 1: gpu-lbvh faster;"
-      " SAH and trace: gpu-lbvh tree / sah-exact tree, single-ray kernel primary Mrays/s; medians of 3 runs for lbvh")
+      " SAH and trace: gpu-lbvh tree / sah-exact tree, single-ray kernel primary Mrays/s; medians of 3 runs for gpu-lbvh and gpu-ploc (gpu-ploc's device time spans its submissions, one per clustering iteration, host waits included)")
 PY
 cat "$out/gpu-build.txt"
 tar czf "$out/results.tgz" -C "$out" runs
