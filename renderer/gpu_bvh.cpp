@@ -28,10 +28,13 @@ static_assert(gpu::kLbvhMaxLeafPrimitives == kMaxLeafPrimitives, "one leaf bound
 
 namespace {
 
-constexpr uint32_t kPhaseCount = gpu::kLbvhPhasePlocReorder + 1;
+constexpr uint32_t kPhaseCount = gpu::kLbvhPhasePlocSetup + 1;
 // gpu-ploc: levels listed per submission while looking for the tree's depth, and the deepest tree it
 // lays out (an agglomerative tree has no depth bound of its own; the tracers' stacks need one).
 constexpr uint32_t kPlocLevelBatch = 64;
+// gpu-ploc: clustering iterations per submission (those after the last merge cost a few empty
+// dispatches each).
+constexpr uint32_t kPlocIterationBatch = 16;
 constexpr uint32_t kPlocMaxDepth = 4096;
 constexpr VkBufferUsageFlags kStorage =
     VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
@@ -54,7 +57,8 @@ uint32_t moduleOf(uint32_t phase) {
     case gpu::kLbvhPhasePlocFlags:
     case gpu::kLbvhPhasePlocApply:
     case gpu::kLbvhPhasePlocOffsets:
-    case gpu::kLbvhPhasePlocReorder: return 4;
+    case gpu::kLbvhPhasePlocReorder:
+    case gpu::kLbvhPhasePlocSetup: return 4;
     default: return 3;
     }
 }
@@ -393,8 +397,10 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     x.costs = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's SAH costs");
     x.flags = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's node flags");
     x.queue = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's level queue");
-    x.indirect = vk::createBuffer(s.ctx, uint64_t(levels + 1) * 16, kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
-                                  local, "the build's dispatch arguments");
+    // gpu-ploc also sizes its clustering there: one entry for the clusters and one per scan level.
+    const uint64_t indirectEntries = std::max<uint64_t>(levels + 1, ploc ? 1 + keepScan.levels.size() : 0);
+    x.indirect = vk::createBuffer(s.ctx, indirectEntries * 16, kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, local,
+                                  "the build's dispatch arguments");
     x.state = vk::createBuffer(s.ctx, gpu::kLbvhStateWords * 4, kStorage, local, "the build's state");
     x.readback = vk::createBuffer(s.ctx, gpu::kLbvhStateWords * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                   VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
@@ -478,7 +484,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     struct Recorder {
         State& s;
         VkCommandBuffer cmd;
-        VkBuffer indirect;
+        VkBuffer indirectBuffer;
         void barrier() const {
             vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT,
                               VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT,
@@ -501,8 +507,28 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         void level(uint32_t phase, uint32_t level, gpu::LbvhParams params) const {
             params.counts.z = level;
             bind(phase, params);
-            vkCmdDispatchIndirect(cmd, indirect, VkDeviceSize(level) * 16);
+            vkCmdDispatchIndirect(cmd, indirectBuffer, VkDeviceSize(level) * 16);
             barrier();
+        }
+        // A dispatch whose size the device wrote at indirect[entry].
+        void indirect(uint32_t phase, uint32_t entry, const gpu::LbvhParams& params) const {
+            bind(phase, params);
+            vkCmdDispatchIndirect(cmd, indirectBuffer, VkDeviceSize(entry) * 16);
+            barrier();
+        }
+        // gpu-ploc: the scan of `plan`'s largest layout over this iteration's clusters, every level
+        // sized on the device (prefix_scan.comp's entryCount, kLbvhPhasePlocSetup's dispatches).
+        void clusterScan(const ScanPlan& plan, const gpu::LbvhParams& base) const {
+            for (uint32_t l = 0; l < plan.levels.size(); ++l) {
+                gpu::LbvhParams p = base;
+                p.offsets = {plan.levels[l].offset, plan.levels[l].sums, l + 1, 0u};
+                indirect(gpu::kLbvhPhaseScanBlocks, gpu::kPlocIndirectScan + l, p);
+            }
+            for (uint32_t l = uint32_t(plan.levels.size()) - 1; l-- > 0;) {
+                gpu::LbvhParams p = base;
+                p.offsets = {plan.levels[l].offset, plan.levels[l].sums, l + 1, 0u};
+                indirect(gpu::kLbvhPhaseAddBlockSums, gpu::kPlocIndirectScan + l, p);
+            }
         }
         // The exclusive prefix sum of `plan` (prefix_scan.comp), block sums recursed.
         void scan(const ScanPlan& plan, const gpu::LbvhParams& base) const {
@@ -586,33 +612,35 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         }
         // 5: leaf order (gpu-ploc: Morton order, for the clusters' boxes; again at the end).
         r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
-        if (ploc)
-            r.dispatch(gpu::kLbvhPhasePlocInit, groupsFor(n), base);
-        else
-            finish(r, levels, true);
+        if (!ploc) finish(r, levels, true);
     });
     if (ploc && n >= 2) {
-        // Clustering, one iteration per submission: the next one's sizes are the clusters left.
-        uint32_t clusters = n, made = 0;
-        bool readsB = false;
+        // Clustering: kPlocIterationBatch iterations per submission, each sized on the device by
+        // the clusters the last one left (kLbvhPhasePlocSetup); the host reads the count back
+        // between submissions.
+        uint32_t clusters = n, made = 0, iteration = 0;
+        const uint32_t scanLevels = uint32_t(keepScan.levels.size());
         while (clusters > 1) {
-            const ScanPlan keep = planScan(clusters, 0), merge = planScan(clusters, keepScan.words);
-            gpu::LbvhParams p = base;
-            p.counts.z = clusters;
-            p.offsets = {0u, uint32_t(keepScan.words), readsB ? 1u : 0u, made};
             submit([&](const Recorder& r) {
-                r.dispatch(gpu::kLbvhPhasePlocNearest, groupsFor(clusters), p);
-                r.dispatch(gpu::kLbvhPhasePlocFlags, groupsFor(clusters), p);
-                r.scan(keep, base);
-                r.scan(merge, base);
-                r.dispatch(gpu::kLbvhPhasePlocApply, groupsFor(clusters), p);
+                if (iteration == 0) r.dispatch(gpu::kLbvhPhasePlocInit, groupsFor(n), base);
+                for (uint32_t k = 0; k < kPlocIterationBatch; ++k, ++iteration) {
+                    gpu::LbvhParams p = base;
+                    p.counts.z = scanLevels;
+                    p.offsets = {keepScan.levels[0].offset, mergeScan.levels[0].offset, iteration % 2u, 0u};
+                    r.dispatch(gpu::kLbvhPhasePlocSetup, 1, p);
+                    r.indirect(gpu::kLbvhPhasePlocNearest, gpu::kPlocIndirectClusters, p);
+                    r.indirect(gpu::kLbvhPhasePlocFlags, gpu::kPlocIndirectClusters, p);
+                    r.clusterScan(keepScan, base);
+                    r.clusterScan(mergeScan, base);
+                    r.indirect(gpu::kLbvhPhasePlocApply, gpu::kPlocIndirectClusters, p);
+                }
             });
             const auto words = readState();
-            if (words[gpu::kLbvhStateClusters] >= clusters)
-                throw Error("gpu-ploc: an iteration over " + std::to_string(clusters) + " clusters merged none");
-            clusters = words[gpu::kLbvhStateClusters];
-            made = words[gpu::kLbvhStateMerged];
-            readsB = !readsB;
+            if (words[gpu::kLbvhStateNextClusters] >= clusters)
+                throw Error("gpu-ploc: " + std::to_string(kPlocIterationBatch) + " iterations over " +
+                            std::to_string(clusters) + " clusters merged none");
+            clusters = words[gpu::kLbvhStateNextClusters];
+            made = words[gpu::kLbvhStateNextMerged];
         }
         RAYPACK_CHECK_MSG(made == n - 1, "gpu-ploc made n - 1 inner nodes");
         // The levels, a batch of levels per submission until one comes out empty.

@@ -101,6 +101,7 @@ const uint kLbvhPhasePlocFlags = 16u;    // which clusters stay and which merge
 const uint kLbvhPhasePlocApply = 17u;    // the merged nodes and the next cluster array
 const uint kLbvhPhasePlocOffsets = 18u;  // one level: each node's first slot in the leaf order
 const uint kLbvhPhasePlocReorder = 19u;  // the triangles' order by those slots
+const uint kLbvhPhasePlocSetup = 20u;    // one invocation: an iteration's cluster count and dispatch sizes
 
 // Push constants of every phase, 48 bytes.
 struct LbvhParams {
@@ -108,8 +109,9 @@ struct LbvhParams {
     // element count; w: attribute bits (kLbvhHas*)
     uvec4 counts;
     // x: the sort's block count or the scan's input offset (in uints); y: the scan's block-sums
-    // offset; z: the sort's (and gpu-ploc's) source half, 1 = B; w: gpu-ploc's inner nodes made
-    // before this iteration. gpu-ploc's flags and apply read its two scans at x and y.
+    // offset; z: the sort's (and gpu-ploc's) source half, 1 = B, or for the scan 1 + the level L
+    // of a scan whose counts follow gpu-ploc's clusters (0: counts.z entries); w: unused.
+    // gpu-ploc's flags and apply read its two scans at x and y.
     uvec4 offsets;
     // x: C_trav, y: C_isect, z, w: unused
     vec4 costs;
@@ -133,20 +135,26 @@ const uint kLbvhMaxLeafPrimitives = 1024u;
 const uint kLbvhMaxDepth = 62u;
 
 // Words of kLbvhBindState.
-const uint kLbvhStateBoxLo = 0u;        // 3 words: the triangles' bounds, ordered uints (below)
-const uint kLbvhStateBoxHi = 3u;        // 3 words
-const uint kLbvhStateCentroidLo = 6u;   // 3 words: the centroids' bounds
-const uint kLbvhStateCentroidHi = 9u;   // 3 words
-const uint kLbvhStateInnerCount = 12u;  // inner nodes reached from the root
-const uint kLbvhStateMaxDepth = 13u;    // the deepest leaf (root 0)
-const uint kLbvhStateQueueTail = 14u;   // entries of kLbvhBindQueue pushed so far
-const uint kLbvhStateRootCost = 15u;    // float bits: S(root)
-const uint kLbvhStateRootArea = 16u;    // float bits: the root's half area, same units
-const uint kLbvhStateStatus = 19u;      // kLbvhStatus* bits: 0 after a good build
-const uint kLbvhStateClusters = 20u;    // gpu-ploc: clusters after the last iteration
-const uint kLbvhStateMerged = 21u;      // gpu-ploc: inner nodes made so far
-const uint kLbvhStateNextCount = 22u;   // entries of the level the last kLbvhPhaseNextLevel set up
-const uint kLbvhStateLeaves = 32u;      // kLbvhMaxDepth + 1 words: leaves at each depth
+const uint kLbvhStateBoxLo = 0u;          // 3 words: the triangles' bounds, ordered uints (below)
+const uint kLbvhStateBoxHi = 3u;          // 3 words
+const uint kLbvhStateCentroidLo = 6u;     // 3 words: the centroids' bounds
+const uint kLbvhStateCentroidHi = 9u;     // 3 words
+const uint kLbvhStateInnerCount = 12u;    // inner nodes reached from the root
+const uint kLbvhStateMaxDepth = 13u;      // the deepest leaf (root 0)
+const uint kLbvhStateQueueTail = 14u;     // entries of kLbvhBindQueue pushed so far
+const uint kLbvhStateRootCost = 15u;      // float bits: S(root)
+const uint kLbvhStateRootArea = 16u;      // float bits: the root's half area, same units
+const uint kLbvhStateStatus = 19u;        // kLbvhStatus* bits: 0 after a good build
+const uint kLbvhStateClusters = 20u;      // gpu-ploc: clusters in this iteration
+const uint kLbvhStateMerged = 21u;        // gpu-ploc: inner nodes made before this iteration
+const uint kLbvhStateNextCount = 22u;     // entries of the level the last kLbvhPhaseNextLevel set up
+const uint kLbvhStateNextClusters = 23u;  // gpu-ploc: clusters after this iteration
+const uint kLbvhStateNextMerged = 24u;    // gpu-ploc: inner nodes made after it
+// gpu-ploc's dispatch arguments in kLbvhBindIndirect while clustering: the clusters' at entry 0,
+// the scan's level L at entry 1 + L.
+const uint kPlocIndirectClusters = 0u;
+const uint kPlocIndirectScan = 1u;
+const uint kLbvhStateLeaves = 32u;  // kLbvhMaxDepth + 1 words: leaves at each depth
 const uint kLbvhStateWords = 96u;
 
 // A radix sort workgroup found its subgroups other than the host assumed (radix_sort.comp).

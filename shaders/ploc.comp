@@ -4,8 +4,10 @@
 // triangle starts as a cluster; each iteration finds every cluster's nearest neighbour among the
 // kPlocRadius clusters on either side (the smallest union surface area), merges the mutual pairs
 // into new inner nodes (the lower position keeps the new cluster) and compacts the cluster array in
-// order, until one cluster is left: the root. The host records one iteration per submission and
-// reads the cluster count back.
+// order, until one cluster is left: the root. The cluster count lives on the device: each iteration
+// starts with kLbvhPhasePlocSetup, which takes the count the last one left and sizes this one's
+// dispatches (indirect), so the host records many iterations per submission and reads the count
+// back only between submissions.
 //
 // The inner nodes are written in gpu-lbvh's record format (lbvh.comp: left, right, then a range),
 // numbered so that the root (the last one made) is inner node 0, children that are triangles as
@@ -39,6 +41,9 @@ layout(std430, set = 0, binding = kLbvhBindBoxes) buffer Boxes { vec4 boxes[]; }
 layout(std430, set = 0, binding = kLbvhBindFlags) buffer Offsets { uint offsets[]; };
 layout(std430, set = 0, binding = kLbvhBindQueue) readonly buffer Queue { uint queue[]; };
 layout(std430, set = 0, binding = kLbvhBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
+layout(std430, set = 0, binding = kLbvhBindIndirect) writeonly buffer Indirect { uvec4 indirect[]; };
+
+uint clusters() { return state[kLbvhStateClusters]; }
 
 // Cluster ids: sorted triangle k is id k, the j-th inner node made is id n + j. The inner node of
 // id p is record 2n - 2 - p (the root, made last, is record 0).
@@ -74,6 +79,25 @@ void init() {
     boxes[2u * k] = vec4(min(min(t.v0.xyz, t.v1.xyz), t.v2.xyz), 0.0f);
     boxes[2u * k + 1u] = vec4(max(max(t.v0.xyz, t.v1.xyz), t.v2.xyz), 0.0f);
     clustersA[k] = k;
+    if (k == 0u) {
+        state[kLbvhStateNextClusters] = n();
+        state[kLbvhStateNextMerged] = 0u;
+    }
+}
+
+// The iteration's clusters (what the last one left) and its dispatches: the clusters' and those of
+// the scan's params.counts.z levels; none once one cluster is left.
+void setup() {
+    const uint m = state[kLbvhStateNextClusters];
+    state[kLbvhStateClusters] = m;
+    state[kLbvhStateMerged] = state[kLbvhStateNextMerged];
+    const uint running = m > 1u ? 1u : 0u;
+    indirect[kPlocIndirectClusters] = uvec4(running * ((m + kLbvhGroupSize - 1u) / kLbvhGroupSize), 1u, 1u, 0u);
+    uint count = m;
+    for (uint level = 0u; level < params.counts.z; ++level) {
+        indirect[kPlocIndirectScan + level] = uvec4(running * ((count + kLbvhScanBlock - 1u) / kLbvhScanBlock), 1u, 1u, 0u);
+        count = (count + kLbvhScanBlock - 1u) / kLbvhScanBlock;
+    }
 }
 
 // The boxes of this workgroup's clusters and kPlocRadius on either side.
@@ -95,7 +119,7 @@ bool closerTie(uint i, uint j, uint current) {
 }
 
 void nearest() {
-    const uint m = params.counts.z;
+    const uint m = clusters();
     const int first = int(gl_WorkGroupID.x * kLbvhGroupSize) - int(kPlocRadius);
     for (uint w = gl_LocalInvocationIndex; w < kLbvhGroupSize + 2u * kPlocRadius; w += kLbvhGroupSize) {
         const int i = first + int(w);
@@ -130,7 +154,7 @@ void nearest() {
 // The keep flags (offsets.x) and merge flags (offsets.y) of the clusters, for two scans.
 void flags() {
     const uint i = gl_GlobalInvocationID.x;
-    if (i >= params.counts.z) return;
+    if (i >= clusters()) return;
     const uint j = neighbours[i];
     const bool mutual = j != i && neighbours[j] == i;
     scan[params.offsets.x + i] = mutual && i > j ? 0u : 1u;
@@ -139,13 +163,13 @@ void flags() {
 
 void apply() {
     const uint i = gl_GlobalInvocationID.x;
-    const uint m = params.counts.z;
+    const uint m = clusters();
     if (i >= m) return;
     const uint j = neighbours[i];
     const bool mutual = j != i && neighbours[j] == i;
     const bool keep = !(mutual && i > j), merge = mutual && i < j;
     const uint keepSlot = scan[params.offsets.x + i], mergeRank = scan[params.offsets.y + i];
-    const uint made = params.offsets.w;  // inner nodes made before this iteration (the host's count)
+    const uint made = state[kLbvhStateMerged];
     uint id = clusterIn(i);
     if (merge) {
         const uint left = id, right = clusterIn(j);
@@ -161,8 +185,8 @@ void apply() {
             clustersB[keepSlot] = id;
     }
     if (i == m - 1u) {
-        state[kLbvhStateClusters] = keepSlot + (keep ? 1u : 0u);
-        state[kLbvhStateMerged] = made + mergeRank + (merge ? 1u : 0u);
+        state[kLbvhStateNextClusters] = keepSlot + (keep ? 1u : 0u);
+        state[kLbvhStateNextMerged] = made + mergeRank + (merge ? 1u : 0u);
     }
 }
 
@@ -210,6 +234,8 @@ void main() {
         apply();
     else if (kPhase == kLbvhPhasePlocOffsets)
         levelOffsets();
-    else
+    else if (kPhase == kLbvhPhasePlocReorder)
         reorder();
+    else if (gl_GlobalInvocationID.x == 0u)
+        setup();
 }

@@ -4,7 +4,7 @@
 //   kLbvhPhaseScanBlocks    scan[in + i] becomes the sum of the block's entries before it, and
 //                           scan[sums + block] the block's total;
 //   kLbvhPhaseAddBlockSums  scan[in + i] += scan[sums + block], once the block sums are scanned.
-// params.counts.z: the entry count; params.offsets.x: in; params.offsets.y: sums (in uints).
+// entryCount(): the entry count; params.offsets.x: in; params.offsets.y: sums (in uints).
 #extension GL_GOOGLE_include_directive : require
 
 #include "lbvh.h"
@@ -14,12 +14,23 @@ layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhaseScanBlocks;
 layout(push_constant) uniform Params { LbvhParams params; };
 
 layout(std430, set = 0, binding = kLbvhBindScan) buffer Scan { uint scan[]; };
+layout(std430, set = 0, binding = kLbvhBindState) readonly buffer State { uint state[]; };
+
+// The entries of this scan: counts.z, or (gpu-ploc, offsets.z = 1 + L) level L of a scan over the
+// clusters of this iteration, which only the device knows: ceil(clusters / kLbvhScanBlock^L). A level
+// of one entry scans to 0, so the levels of the largest scan always all run.
+uint entryCount() {
+    if (params.offsets.z == 0u) return params.counts.z;
+    uint count = state[kLbvhStateClusters];
+    for (uint level = 1u; level < params.offsets.z; ++level) count = (count + kLbvhScanBlock - 1u) / kLbvhScanBlock;
+    return count;
+}
 
 shared uint partial[kLbvhGroupSize];
 
 void scanBlocks() {
     const uint local = gl_LocalInvocationIndex;
-    const uint count = params.counts.z;
+    const uint count = entryCount();
     const uint first = gl_WorkGroupID.x * kLbvhScanBlock + local * kLbvhScanItems;
     uint values[kLbvhScanItems];
     uint total = 0u;
@@ -45,7 +56,7 @@ void scanBlocks() {
 }
 
 void addBlockSums() {
-    const uint count = params.counts.z;
+    const uint count = entryCount();
     const uint add = scan[params.offsets.y + gl_WorkGroupID.x];
     const uint first = gl_WorkGroupID.x * kLbvhScanBlock + gl_LocalInvocationIndex * kLbvhScanItems;
     for (uint k = 0u; k < kLbvhScanItems; ++k)
