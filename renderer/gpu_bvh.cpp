@@ -36,8 +36,7 @@ constexpr uint32_t kPlocLevelBatch = 64;
 // dispatches each).
 constexpr uint32_t kPlocIterationBatch = 16;
 constexpr uint32_t kPlocMaxDepth = 4096;
-constexpr VkBufferUsageFlags kStorage =
-    VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+constexpr VkBufferUsageFlags kStorage = vk::StagedUpload::kUsage;
 
 uint32_t groupsFor(uint64_t invocations) {
     return uint32_t((invocations + gpu::kLbvhGroupSize - 1) / gpu::kLbvhGroupSize);
@@ -102,10 +101,7 @@ GpuBvhSizes gpuBvhSizes(size_t triangles) {
 struct GpuBvhBuilder::State {
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
-    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
-    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
-    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
-    VkDescriptorSet set = VK_NULL_HANDLE;
+    vk::StorageSetLayout layout;  // every build kernel's storage buffers and push constants
     std::array<VkShaderModule, 5> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
     VkQueryPool queries = VK_NULL_HANDLE;
@@ -137,9 +133,7 @@ void destroyBuilder(GpuBvhBuilder::State& s) {
                           &s.vertexColors, &s.dummy, &s.order})
         vk::destroyBuffer(s.ctx, *b);
     if (s.queries) vkDestroyQueryPool(device, s.queries, nullptr);
-    if (s.descriptorPool) vkDestroyDescriptorPool(device, s.descriptorPool, nullptr);
-    if (s.pipelineLayout) vkDestroyPipelineLayout(device, s.pipelineLayout, nullptr);
-    if (s.setLayout) vkDestroyDescriptorSetLayout(device, s.setLayout, nullptr);
+    vk::destroyStorageSetLayout(s.ctx, s.layout);
     if (s.pool) vkDestroyCommandPool(device, s.pool, nullptr);
 }
 
@@ -161,7 +155,7 @@ VkPipeline createPhasePipeline(GpuBvhBuilder::State& s, uint32_t phase) {
     info.stage.module = s.modules[moduleOf(phase)];
     info.stage.pName = "main";
     info.stage.pSpecializationInfo = &specialization;
-    info.layout = s.pipelineLayout;
+    info.layout = s.layout.pipelineLayout;
     VkPipeline pipeline = VK_NULL_HANDLE;
     const VkResult result = vkCreateComputePipelines(s.ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
     if (result < 0)
@@ -186,34 +180,7 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
                     info.name + " has " + std::to_string(info.maxSharedMemoryBytes));
     try {
         s.pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, "vkCreateCommandPool");
-        std::array<VkDescriptorSetLayoutBinding, gpu::kLbvhBindingCount> bindings{};
-        for (uint32_t b = 0; b < gpu::kLbvhBindingCount; ++b)
-            bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
-        VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-        setInfo.bindingCount = gpu::kLbvhBindingCount;
-        setInfo.pBindings = bindings.data();
-        vk::check(vkCreateDescriptorSetLayout(context.device, &setInfo, nullptr, &s.setLayout),
-                  "vkCreateDescriptorSetLayout");
-        VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::LbvhParams)};
-        VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-        layoutInfo.setLayoutCount = 1;
-        layoutInfo.pSetLayouts = &s.setLayout;
-        layoutInfo.pushConstantRangeCount = 1;
-        layoutInfo.pPushConstantRanges = &push;
-        vk::check(vkCreatePipelineLayout(context.device, &layoutInfo, nullptr, &s.pipelineLayout),
-                  "vkCreatePipelineLayout");
-        VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::kLbvhBindingCount};
-        VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-        poolInfo.maxSets = 1;
-        poolInfo.poolSizeCount = 1;
-        poolInfo.pPoolSizes = &poolSize;
-        vk::check(vkCreateDescriptorPool(context.device, &poolInfo, nullptr, &s.descriptorPool),
-                  "vkCreateDescriptorPool");
-        VkDescriptorSetAllocateInfo allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-        allocate.descriptorPool = s.descriptorPool;
-        allocate.descriptorSetCount = 1;
-        allocate.pSetLayouts = &s.setLayout;
-        vk::check(vkAllocateDescriptorSets(context.device, &allocate, &s.set), "vkAllocateDescriptorSets");
+        s.layout = vk::createStorageSetLayout(context, gpu::kLbvhBindingCount, sizeof(gpu::LbvhParams));
 
         s.modules[0] = vk::createShaderModule(context, lbvh_prepare_spv, sizeof(lbvh_prepare_spv), "lbvh_prepare.comp");
         s.modules[1] = vk::createShaderModule(context, radix_sort_spv, sizeof(radix_sort_spv), "radix_sort.comp");
@@ -288,30 +255,10 @@ double GpuBvhBuilder::setScene(const Scene& scene) {
     // closed mesh instead of the 48 of the tracers' triangles), copied into mapped staging memory by
     // parallel workers and to the device in one submission; the gather kernel makes the tracers'
     // layout from them on the device.
-    struct Staged {
-        vk::Buffer* device;
-        vk::Buffer staging;
-    };
-    std::vector<Staged> staged;
-    struct Guard {
-        const vk::VulkanContext& ctx;
-        std::vector<Staged>& staged;
-        ~Guard() {
-            for (Staged& b : staged) vk::destroyBuffer(ctx, b.staging);
-        }
-    } guard{s.ctx, staged};
+    vk::StagedUpload staging(s.ctx, s.pool);
     const auto stage = [&](vk::Buffer& buffer, const void* data, size_t bytes, const char* what) {
-        if (s.ctx.info.maxStorageBufferBytes > 0 && bytes > s.ctx.info.maxStorageBufferBytes)
-            throw Error("gpu-lbvh: the " + std::string(what) + " of " + scene.source + " need " +
-                        std::to_string(bytes) + " bytes, more than " + s.ctx.info.name +
-                        " binds in one storage buffer (use a CPU builder)");
-        buffer = vk::createBuffer(s.ctx, bytes, kStorage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
-        if (bytes == 0) return;
-        staged.push_back(
-            {&buffer, vk::createBuffer(s.ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                                       "a staging buffer")});
-        auto* target = static_cast<unsigned char*>(staged.back().staging.mapped);
+        auto* target = static_cast<unsigned char*>(staging.add(buffer, bytes, what));
+        if (!target) return;
         const auto* source = static_cast<const unsigned char*>(data);
         constexpr size_t kChunk = size_t(1) << 20;
         tbb::parallel_for(size_t(0), (bytes + kChunk - 1) / kChunk, [&](size_t chunk) {
@@ -333,13 +280,7 @@ double GpuBvhBuilder::setScene(const Scene& scene) {
     if (s.uvs) stage(s.vertexUvs, scene.uvs.data(), scene.uvs.size() * sizeof(glm::vec2), "UVs");
     if (s.colors)
         stage(s.vertexColors, scene.vertexColors.data(), scene.vertexColors.size() * sizeof(uint32_t), "colours");
-    if (!staged.empty())
-        vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
-            for (const Staged& b : staged) {
-                const VkBufferCopy region{0, 0, b.staging.size};
-                vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
-            }
-        });
+    staging.submit();
     s.scene = &scene;
     s.triangleCount = n;
     s.hasScene = true;
@@ -437,18 +378,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         buffers[gpu::kLbvhBindUvs] = uvs ? outputs.uvs : s.dummy.buffer;
         buffers[gpu::kLbvhBindVertexColors] = colors ? s.vertexColors.buffer : s.dummy.buffer;
         buffers[gpu::kLbvhBindColors] = colors ? outputs.colors : s.dummy.buffer;
-        std::array<VkDescriptorBufferInfo, gpu::kLbvhBindingCount> infos{};
-        std::array<VkWriteDescriptorSet, gpu::kLbvhBindingCount> writes{};
-        for (uint32_t b = 0; b < gpu::kLbvhBindingCount; ++b) {
-            infos[b] = {buffers[b], 0, VK_WHOLE_SIZE};
-            writes[b] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-            writes[b].dstSet = s.set;
-            writes[b].dstBinding = b;
-            writes[b].descriptorCount = 1;
-            writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-            writes[b].pBufferInfo = &infos[b];
-        }
-        vkUpdateDescriptorSets(s.ctx.device, gpu::kLbvhBindingCount, writes.data(), 0, nullptr);
+        vk::writeStorageSet(s.ctx, s.layout.set, buffers);
     }
 
     gpu::LbvhParams base{};
@@ -495,7 +425,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         }
         void bind(uint32_t phase, const gpu::LbvhParams& params) const {
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelines[phase]);
-            vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
+            vkCmdPushConstants(cmd, s.layout.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
         }
         void dispatch(uint32_t phase, uint32_t groups, const gpu::LbvhParams& params) const {
             if (groups == 0) return;
@@ -548,7 +478,8 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             }
         }
         void begin() const {
-            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1, &s.set, 0, nullptr);
+            vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.layout.pipelineLayout, 0, 1, &s.layout.set,
+                                    0, nullptr);
         }
     };
     const auto submit = [&](const std::function<void(const Recorder&)>& record) {

@@ -89,10 +89,7 @@ struct GpuTracer::State {
     UploadTimings lastUpload;
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
-    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
-    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
-    VkDescriptorPool descriptorPool = VK_NULL_HANDLE;
-    VkDescriptorSet descriptorSet = VK_NULL_HANDLE;
+    vk::StorageSetLayout layout;  // trace.comp's storage buffers and push constants
     VkShaderModule module = VK_NULL_HANDLE;
     VkPipelineCache pipelineCache = VK_NULL_HANDLE;
     std::map<PipelineKey, VkPipeline> pipelines;
@@ -132,34 +129,7 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
     try {
         s.pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, "vkCreateCommandPool");
 
-        std::array<VkDescriptorSetLayoutBinding, gpu::kBindingCount> bindings{};
-        for (uint32_t b = 0; b < gpu::kBindingCount; ++b)
-            bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
-        VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-        setInfo.bindingCount = gpu::kBindingCount;
-        setInfo.pBindings = bindings.data();
-        vk::check(vkCreateDescriptorSetLayout(device, &setInfo, nullptr, &s.setLayout), "vkCreateDescriptorSetLayout");
-
-        VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(gpu::GpuFrameParams)};
-        VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
-        layoutInfo.setLayoutCount = 1;
-        layoutInfo.pSetLayouts = &s.setLayout;
-        layoutInfo.pushConstantRangeCount = 1;
-        layoutInfo.pPushConstantRanges = &push;
-        vk::check(vkCreatePipelineLayout(device, &layoutInfo, nullptr, &s.pipelineLayout), "vkCreatePipelineLayout");
-
-        VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, gpu::kBindingCount};
-        VkDescriptorPoolCreateInfo descriptorPoolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
-        descriptorPoolInfo.maxSets = 1;
-        descriptorPoolInfo.poolSizeCount = 1;
-        descriptorPoolInfo.pPoolSizes = &poolSize;
-        vk::check(vkCreateDescriptorPool(device, &descriptorPoolInfo, nullptr, &s.descriptorPool),
-                  "vkCreateDescriptorPool");
-        VkDescriptorSetAllocateInfo allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
-        allocate.descriptorPool = s.descriptorPool;
-        allocate.descriptorSetCount = 1;
-        allocate.pSetLayouts = &s.setLayout;
-        vk::check(vkAllocateDescriptorSets(device, &allocate, &s.descriptorSet), "vkAllocateDescriptorSets");
+        s.layout = vk::createStorageSetLayout(context, gpu::kBindingCount, sizeof(gpu::GpuFrameParams));
 
         s.module = vk::createShaderModule(context, trace_spv, sizeof(trace_spv), "trace.comp");
         VkPipelineCacheCreateInfo cacheInfo{VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO};
@@ -210,9 +180,7 @@ void destroyState(GpuTracer::State& s) {
     if (s.queries) vkDestroyQueryPool(device, s.queries, nullptr);
     if (s.pipelineCache) vkDestroyPipelineCache(device, s.pipelineCache, nullptr);
     if (s.module) vkDestroyShaderModule(device, s.module, nullptr);
-    if (s.descriptorPool) vkDestroyDescriptorPool(device, s.descriptorPool, nullptr);
-    if (s.pipelineLayout) vkDestroyPipelineLayout(device, s.pipelineLayout, nullptr);
-    if (s.setLayout) vkDestroyDescriptorSetLayout(device, s.setLayout, nullptr);
+    if (device) vk::destroyStorageSetLayout(s.ctx, s.layout);
     if (s.pool) vkDestroyCommandPool(device, s.pool, nullptr);
     s.pool = VK_NULL_HANDLE;
 }
@@ -222,62 +190,13 @@ namespace {
 
 void writeDescriptors(GpuTracer::State& s);
 
-// Device-local buffers filled through mapped staging buffers of the same size: add() creates both
-// and returns the staging memory to write, submit() copies every one in one submission. Staging
-// buffers are freed on every path out.
-struct StagedUpload {
-    const vk::VulkanContext& ctx;
-    VkCommandPool pool;
-    struct Staged {
-        vk::Buffer* device;
-        vk::Buffer staging;
-    };
-    std::vector<Staged> staged;
-
-    StagedUpload(const vk::VulkanContext& context, VkCommandPool commandPool) : ctx(context), pool(commandPool) {}
-    ~StagedUpload() {
-        for (Staged& b : staged) vk::destroyBuffer(ctx, b.staging);
-    }
-    StagedUpload(const StagedUpload&) = delete;
-    StagedUpload& operator=(const StagedUpload&) = delete;
-
-    void* add(vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) {
-        const size_t bytes = count * entryBytes;
-        checkBindable(bytes, what);
-        // Every bound array gets a buffer, an empty one too (an empty scene's triangles).
-        buffer = vk::createBuffer(ctx, bytes, kSceneUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
-        if (bytes == 0) return nullptr;
-        staged.push_back(
-            {&buffer, vk::createBuffer(ctx, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
-                                       VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                                       "a staging buffer")});
-        return staged.back().staging.mapped;
-    }
-    // A device-local buffer the device fills itself (a device build's output).
-    void deviceOnly(vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) const {
-        checkBindable(count * entryBytes, what);
-        buffer = vk::createBuffer(ctx, count * entryBytes, kSceneUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
-    }
-    // A storage buffer binds at most maxStorageBufferRange bytes (the texels of large textures are
-    // the likeliest to exceed it).
-    void checkBindable(size_t bytes, const char* what) const {
-        if (ctx.info.maxStorageBufferBytes > 0 && bytes > ctx.info.maxStorageBufferBytes)
-            throw Error("GPU: the " + std::string(what) + " need " + std::to_string(bytes) + " bytes, more than " +
-                        ctx.info.name + " binds in one storage buffer (" +
-                        std::to_string(ctx.info.maxStorageBufferBytes) + ")");
-    }
-    void submit() {
-        if (staged.empty()) return;
-        vk::submitAndWait(ctx, pool, [&](VkCommandBuffer cmd) {
-            for (const Staged& b : staged) {
-                const VkBufferCopy region{0, 0, b.staging.size};
-                vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
-            }
-        });
-    }
-    static constexpr VkBufferUsageFlags kSceneUsage =
-        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
-};
+// A device-local buffer the device fills itself (a device build's output), of `count` entries.
+void createDeviceArray(const vk::VulkanContext& ctx, vk::Buffer& buffer, size_t count, size_t entryBytes,
+                       const char* what) {
+    vk::checkBindable(ctx, count * entryBytes, what);
+    buffer =
+        vk::createBuffer(ctx, count * entryBytes, vk::StagedUpload::kUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+}
 
 // The stack entries a tree of depth `maxDepth` needs (a leaf at depth D has at most D pending
 // siblings; one more for the root leaf); throws when the packet stack does not fit shared memory.
@@ -301,7 +220,7 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     // layout is written straight into the staging memory by parallel workers (writeGpuLayout: no
     // host-side copy of the layout, no zero-filled temporaries), then one submission copies every
     // array.
-    StagedUpload staging(s.ctx, s.pool);
+    vk::StagedUpload staging(s.ctx, s.pool);
     // UVs come with textures (Scene::uvs): the UVs, the texture table and the texels together.
     s.hasNormals = counts.normals;
     s.hasMaterials = counts.materials > 0;
@@ -315,25 +234,25 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
         written.texels = 0;
     }
     GpuLayoutTargets targets;
-    targets.nodes = static_cast<gpu::GpuNode*>(staging.add(s.nodes, counts.nodes, sizeof(gpu::GpuNode), "BVH nodes"));
+    targets.nodes = static_cast<gpu::GpuNode*>(staging.add(s.nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes"));
     targets.triangles = static_cast<gpu::GpuTriangle*>(
-        staging.add(s.triangles, counts.triangles, sizeof(gpu::GpuTriangle), "triangles"));
+        staging.add(s.triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles"));
     if (s.hasNormals)
         targets.normals = static_cast<gpu::GpuTriangleNormals*>(
-            staging.add(s.normals, counts.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals"));
+            staging.add(s.normals, counts.triangles * sizeof(gpu::GpuTriangleNormals), "vertex normals"));
     if (s.hasMaterials)
         targets.materials = static_cast<gpu::GpuMaterial*>(
-            staging.add(s.materials, counts.materials, sizeof(gpu::GpuMaterial), "materials"));
+            staging.add(s.materials, counts.materials * sizeof(gpu::GpuMaterial), "materials"));
     if (s.hasUvs) {
-        targets.uvs =
-            static_cast<gpu::GpuTriangleUvs*>(staging.add(s.uvs, counts.triangles, sizeof(gpu::GpuTriangleUvs), "UVs"));
+        targets.uvs = static_cast<gpu::GpuTriangleUvs*>(
+            staging.add(s.uvs, counts.triangles * sizeof(gpu::GpuTriangleUvs), "UVs"));
         targets.textures = static_cast<gpu::GpuTexture*>(
-            staging.add(s.textures, counts.textures, sizeof(gpu::GpuTexture), "the texture table"));
-        targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels, sizeof(uint32_t), "texels"));
+            staging.add(s.textures, counts.textures * sizeof(gpu::GpuTexture), "the texture table"));
+        targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels * sizeof(uint32_t), "texels"));
     }
     if (s.hasColors)
         targets.colors = static_cast<gpu::GpuTriangleColors*>(
-            staging.add(s.colors, counts.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours"));
+            staging.add(s.colors, counts.triangles * sizeof(gpu::GpuTriangleColors), "vertex colours"));
     const auto converted = Clock::now();
     writeGpuLayout(scene, bvh, written, targets);
     const auto transferStart = Clock::now();
@@ -373,15 +292,15 @@ GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBui
         s.hasUvs = counts.uvs && counts.texels > 0;
         s.hasColors = counts.colors;
         if (!s.hasUvs) counts.textures = counts.texels = 0;
-        StagedUpload staging(s.ctx, s.pool);
+        vk::StagedUpload staging(s.ctx, s.pool);
         GpuLayoutTargets targets;
         if (s.hasMaterials)
             targets.materials = static_cast<gpu::GpuMaterial*>(
-                staging.add(s.materials, counts.materials, sizeof(gpu::GpuMaterial), "materials"));
+                staging.add(s.materials, counts.materials * sizeof(gpu::GpuMaterial), "materials"));
         if (s.hasUvs) {
             targets.textures = static_cast<gpu::GpuTexture*>(
-                staging.add(s.textures, counts.textures, sizeof(gpu::GpuTexture), "the texture table"));
-            targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels, sizeof(uint32_t), "texels"));
+                staging.add(s.textures, counts.textures * sizeof(gpu::GpuTexture), "the texture table"));
+            targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels * sizeof(uint32_t), "texels"));
         }
         writeGpuMaterials(scene, counts, targets);
         staging.submit();
@@ -391,20 +310,19 @@ GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBui
     }
     // The tree's arrays, which the build fills on the device.
     const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
-    StagedUpload outputs(s.ctx, s.pool);
-    outputs.deviceOnly(s.nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes");
-    outputs.deviceOnly(s.triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles");
+    createDeviceArray(s.ctx, s.nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes");
+    createDeviceArray(s.ctx, s.triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles");
     GpuBvhOutputs targets{s.nodes.buffer, s.triangles.buffer};
     if (s.hasNormals) {
-        outputs.deviceOnly(s.normals, sizes.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals");
+        createDeviceArray(s.ctx, s.normals, sizes.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals");
         targets.normals = s.normals.buffer;
     }
     if (s.hasUvs) {
-        outputs.deviceOnly(s.uvs, sizes.triangles, sizeof(gpu::GpuTriangleUvs), "UVs");
+        createDeviceArray(s.ctx, s.uvs, sizes.triangles, sizeof(gpu::GpuTriangleUvs), "UVs");
         targets.uvs = s.uvs.buffer;
     }
     if (s.hasColors) {
-        outputs.deviceOnly(s.colors, sizes.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours");
+        createDeviceArray(s.ctx, s.colors, sizes.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours");
         targets.colors = s.colors.buffer;
     }
     result.stats = s.builder->build(options, targets).stats;
@@ -448,33 +366,21 @@ uint32_t stackEntriesFor(const GpuTracer::State& s, uint32_t maxDepth) {
 }
 
 void writeDescriptors(GpuTracer::State& s) {
-    std::array<const vk::Buffer*, gpu::kBindingCount> buffers{};
-    buffers[gpu::kBindNodes] = &s.nodes;
-    buffers[gpu::kBindTriangles] = &s.triangles;
-    buffers[gpu::kBindNormals] = s.hasNormals ? &s.normals : &s.dummy;
-    buffers[gpu::kBindMaterials] = s.hasMaterials ? &s.materials : &s.dummy;
-    buffers[gpu::kBindPrimaryHits] = &s.primaryHits;
-    buffers[gpu::kBindOutput] = &s.output;
-    buffers[gpu::kBindHits] = &s.hits;
-    buffers[gpu::kBindCounters] = &s.counters;
-    buffers[gpu::kBindStatus] = &s.status;
-    buffers[gpu::kBindUvs] = s.hasUvs ? &s.uvs : &s.dummy;
-    buffers[gpu::kBindColors] = s.hasColors ? &s.colors : &s.dummy;
-    buffers[gpu::kBindTextures] = s.hasUvs ? &s.textures : &s.dummy;
-    buffers[gpu::kBindTexels] = s.hasUvs ? &s.texels : &s.dummy;
-    std::array<VkDescriptorBufferInfo, gpu::kBindingCount> infos{};
-    std::array<VkWriteDescriptorSet, gpu::kBindingCount> writes{};
-    for (uint32_t b = 0; b < gpu::kBindingCount; ++b) {
-        RAYPACK_CHECK_MSG(buffers[b], "every binding of trace.comp has a buffer");
-        infos[b] = {buffers[b]->buffer, 0, VK_WHOLE_SIZE};
-        writes[b] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
-        writes[b].dstSet = s.descriptorSet;
-        writes[b].dstBinding = b;
-        writes[b].descriptorCount = 1;
-        writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-        writes[b].pBufferInfo = &infos[b];
-    }
-    vkUpdateDescriptorSets(s.ctx.device, gpu::kBindingCount, writes.data(), 0, nullptr);
+    std::array<VkBuffer, gpu::kBindingCount> buffers{};
+    buffers[gpu::kBindNodes] = s.nodes.buffer;
+    buffers[gpu::kBindTriangles] = s.triangles.buffer;
+    buffers[gpu::kBindNormals] = (s.hasNormals ? s.normals : s.dummy).buffer;
+    buffers[gpu::kBindMaterials] = (s.hasMaterials ? s.materials : s.dummy).buffer;
+    buffers[gpu::kBindPrimaryHits] = s.primaryHits.buffer;
+    buffers[gpu::kBindOutput] = s.output.buffer;
+    buffers[gpu::kBindHits] = s.hits.buffer;
+    buffers[gpu::kBindCounters] = s.counters.buffer;
+    buffers[gpu::kBindStatus] = s.status.buffer;
+    buffers[gpu::kBindUvs] = (s.hasUvs ? s.uvs : s.dummy).buffer;
+    buffers[gpu::kBindColors] = (s.hasColors ? s.colors : s.dummy).buffer;
+    buffers[gpu::kBindTextures] = (s.hasUvs ? s.textures : s.dummy).buffer;
+    buffers[gpu::kBindTexels] = (s.hasUvs ? s.texels : s.dummy).buffer;
+    vk::writeStorageSet(s.ctx, s.layout.set, buffers);
 }
 
 // (Re-)creates the per-pixel buffers for a width x height frame.
@@ -549,7 +455,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     info.stage.module = s.module;
     info.stage.pName = "main";
     info.stage.pSpecializationInfo = &specialization;
-    info.layout = s.pipelineLayout;
+    info.layout = s.layout.pipelineLayout;
     if (s.ctx.pipelineStatistics) info.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
     VkPipeline pipeline = VK_NULL_HANDLE;
     const VkResult result = vkCreateComputePipelines(s.ctx.device, s.pipelineCache, 1, &info, nullptr, &pipeline);
@@ -660,8 +566,9 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
                       VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1, &s.descriptorSet, 0, nullptr);
-    vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.layout.pipelineLayout, 0, 1, &s.layout.set, 0,
+                            nullptr);
+    vkCmdPushConstants(cmd, s.layout.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
@@ -673,9 +580,9 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     const Clock::time_point primaryStart = hostClock ? hostClock->split() : Clock::time_point{};
     // A split re-opened the command buffer: bind again what the dispatches use.
     auto bindState = [&] {
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelineLayout, 0, 1, &s.descriptorSet, 0,
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.layout.pipelineLayout, 0, 1, &s.layout.set, 0,
                                 nullptr);
-        vkCmdPushConstants(cmd, s.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
+        vkCmdPushConstants(cmd, s.layout.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
     };
     if (hostClock) bindState();

@@ -85,7 +85,7 @@ void expectValidTree(const Scene& scene, const Bvh& bvh, uint32_t leafSize) {
 }
 
 TEST_P(GpuBuilder, BuildsValidTreesOfGeneratedScenesAtEveryLeafSize) {
-    const Scene scene = makeSphereFlake(20000);
+    const Scene scene = makeSphereFlake(8000);
     for (uint32_t leafSize : {1u, 2u, 4u, 8u}) {
         SCOPED_TRACE("leaf size " + std::to_string(leafSize));
         const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, lbvhOptions(leafSize));
@@ -95,7 +95,7 @@ TEST_P(GpuBuilder, BuildsValidTreesOfGeneratedScenesAtEveryLeafSize) {
 }
 
 TEST_P(GpuBuilder, DeviceStatisticsEqualACpuRecomputationOfTheDownloadedTree) {
-    const Scene scene = makeTerrain(30000);
+    const Scene scene = makeTerrain(12000);
     GpuBvhBuilder builder(validatedContext());
     builder.setScene(scene);
     const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());

@@ -569,6 +569,97 @@ void uploadToBuffer(const VulkanContext& ctx, VkCommandPool pool, const Buffer& 
     destroyBuffer(ctx, staging);
 }
 
+StorageSetLayout createStorageSetLayout(const VulkanContext& ctx, uint32_t bindingCount, uint32_t pushConstantBytes) {
+    StorageSetLayout layout;
+    try {
+        std::vector<VkDescriptorSetLayoutBinding> bindings(bindingCount);
+        for (uint32_t b = 0; b < bindingCount; ++b)
+            bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+        VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+        setInfo.bindingCount = bindingCount;
+        setInfo.pBindings = bindings.data();
+        check(vkCreateDescriptorSetLayout(ctx.device, &setInfo, nullptr, &layout.setLayout),
+              "vkCreateDescriptorSetLayout");
+        VkPushConstantRange push{VK_SHADER_STAGE_COMPUTE_BIT, 0, pushConstantBytes};
+        VkPipelineLayoutCreateInfo layoutInfo{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+        layoutInfo.setLayoutCount = 1;
+        layoutInfo.pSetLayouts = &layout.setLayout;
+        layoutInfo.pushConstantRangeCount = 1;
+        layoutInfo.pPushConstantRanges = &push;
+        check(vkCreatePipelineLayout(ctx.device, &layoutInfo, nullptr, &layout.pipelineLayout),
+              "vkCreatePipelineLayout");
+        VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, bindingCount};
+        VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+        poolInfo.maxSets = 1;
+        poolInfo.poolSizeCount = 1;
+        poolInfo.pPoolSizes = &poolSize;
+        check(vkCreateDescriptorPool(ctx.device, &poolInfo, nullptr, &layout.pool), "vkCreateDescriptorPool");
+        VkDescriptorSetAllocateInfo allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+        allocate.descriptorPool = layout.pool;
+        allocate.descriptorSetCount = 1;
+        allocate.pSetLayouts = &layout.setLayout;
+        check(vkAllocateDescriptorSets(ctx.device, &allocate, &layout.set), "vkAllocateDescriptorSets");
+    } catch (...) {
+        destroyStorageSetLayout(ctx, layout);
+        throw;
+    }
+    return layout;
+}
+
+void destroyStorageSetLayout(const VulkanContext& ctx, StorageSetLayout& layout) {
+    if (layout.pool) vkDestroyDescriptorPool(ctx.device, layout.pool, nullptr);
+    if (layout.pipelineLayout) vkDestroyPipelineLayout(ctx.device, layout.pipelineLayout, nullptr);
+    if (layout.setLayout) vkDestroyDescriptorSetLayout(ctx.device, layout.setLayout, nullptr);
+    layout = {};
+}
+
+void writeStorageSet(const VulkanContext& ctx, VkDescriptorSet set, std::span<const VkBuffer> buffers) {
+    std::vector<VkDescriptorBufferInfo> infos(buffers.size());
+    std::vector<VkWriteDescriptorSet> writes(buffers.size());
+    for (uint32_t b = 0; b < buffers.size(); ++b) {
+        RAYPACK_CHECK_MSG(buffers[b] != VK_NULL_HANDLE, "every storage binding has a buffer");
+        infos[b] = {buffers[b], 0, VK_WHOLE_SIZE};
+        writes[b] = {VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+        writes[b].dstSet = set;
+        writes[b].dstBinding = b;
+        writes[b].descriptorCount = 1;
+        writes[b].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+        writes[b].pBufferInfo = &infos[b];
+    }
+    vkUpdateDescriptorSets(ctx.device, uint32_t(writes.size()), writes.data(), 0, nullptr);
+}
+
+void checkBindable(const VulkanContext& ctx, size_t bytes, const char* what) {
+    if (ctx.info.maxStorageBufferBytes > 0 && bytes > ctx.info.maxStorageBufferBytes)
+        throw Error("GPU: the " + std::string(what) + " need " + std::to_string(bytes) + " bytes, more than " +
+                    ctx.info.name + " binds in one storage buffer (" + std::to_string(ctx.info.maxStorageBufferBytes) +
+                    ")");
+}
+
+StagedUpload::~StagedUpload() {
+    for (Staged& b : staged_) destroyBuffer(context_, b.staging);
+}
+
+void* StagedUpload::add(Buffer& device, size_t bytes, const char* what) {
+    checkBindable(context_, bytes, what);
+    device = createBuffer(context_, bytes, kUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+    if (bytes == 0) return nullptr;
+    staged_.push_back({&device, createBuffer(context_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
+                                             VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                             "a staging buffer")});
+    return staged_.back().staging.mapped;
+}
+
+void StagedUpload::submit() {
+    if (staged_.empty()) return;
+    submitAndWait(context_, pool_, [&](VkCommandBuffer cmd) {
+        for (const Staged& b : staged_) {
+            const VkBufferCopy region{0, 0, b.staging.size};
+            vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
+        }
+    });
+}
+
 VkShaderModule createShaderModule(const VulkanContext& ctx, const uint32_t* code, size_t codeBytes, const char* name) {
     VkShaderModuleCreateInfo info{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
     info.codeSize = codeBytes;

@@ -9,6 +9,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -125,6 +126,51 @@ void submitAndWait(const VulkanContext& context, VkCommandPool pool,
 // Copies `bytes` from host memory into a device-local buffer through a staging buffer.
 void uploadToBuffer(const VulkanContext& context, VkCommandPool pool, const Buffer& destination, const void* data,
                     VkDeviceSize bytes);
+
+// ---- Compute layouts: one descriptor set of storage buffers at bindings 0..count-1, a push-constant
+// range, and the one set allocated (the tracer's and the GPU builder's kernels all bind so).
+struct StorageSetLayout {
+    VkDescriptorSetLayout setLayout = VK_NULL_HANDLE;
+    VkPipelineLayout pipelineLayout = VK_NULL_HANDLE;
+    VkDescriptorPool pool = VK_NULL_HANDLE;
+    VkDescriptorSet set = VK_NULL_HANDLE;
+};
+// Throws raypack::Error naming the call that failed; what was created is destroyed first.
+StorageSetLayout createStorageSetLayout(const VulkanContext& context, uint32_t bindingCount,
+                                        uint32_t pushConstantBytes);
+void destroyStorageSetLayout(const VulkanContext& context, StorageSetLayout& layout);
+// Points binding b of `set` at the whole of buffers[b].
+void writeStorageSet(const VulkanContext& context, VkDescriptorSet set, std::span<const VkBuffer> buffers);
+
+// Device-local buffers filled through mapped staging buffers of the same size: add() creates both
+// and returns the staging memory to write (null for an empty array, which still gets its device
+// buffer), submit() copies every one in one submission. Staging buffers are freed on every path out.
+class StagedUpload {
+public:
+    StagedUpload(const VulkanContext& context, VkCommandPool pool) : context_(context), pool_(pool) {}
+    ~StagedUpload();
+    StagedUpload(const StagedUpload&) = delete;
+    StagedUpload& operator=(const StagedUpload&) = delete;
+    // Throws raypack::Error when `bytes` exceed what one storage buffer binds on the device (naming
+    // `what`) or the device is out of memory.
+    void* add(Buffer& device, size_t bytes, const char* what);
+    void submit();
+    // Storage, transfer source and destination: what the tracers' and the builder's arrays use.
+    static constexpr VkBufferUsageFlags kUsage =
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+
+private:
+    struct Staged {
+        Buffer* device;
+        Buffer staging;
+    };
+    const VulkanContext& context_;
+    VkCommandPool pool_;
+    std::vector<Staged> staged_;
+};
+// Throws raypack::Error when `bytes` exceed maxStorageBufferRange (the texels of large textures are
+// the likeliest to), naming `what` and the device.
+void checkBindable(const VulkanContext& context, size_t bytes, const char* what);
 
 VkShaderModule createShaderModule(const VulkanContext& context, const uint32_t* code, size_t codeBytes,
                                   const char* name);
