@@ -198,6 +198,13 @@ void createDeviceArray(const vk::VulkanContext& ctx, vk::Buffer& buffer, size_t 
         vk::createBuffer(ctx, count * entryBytes, vk::StagedUpload::kUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
 }
 
+// What both uploads share: the scene's attribute flags, and staging for the tables that do not depend
+// on the tree (materials, texture table, texels). Returns `counts` as the layout is written: UVs come
+// with textures (Scene::uvs), and without texels the kernels never read UVs, so neither the UVs nor
+// the texture tables are converted or uploaded then.
+GpuLayoutCounts stageSceneTables(GpuTracer::State& s, vk::StagedUpload& staging, GpuLayoutCounts counts,
+                                 GpuLayoutTargets& targets);
+
 // The stack entries a tree of depth `maxDepth` needs (a leaf at depth D has at most D pending
 // siblings; one more for the root leaf); throws when the packet stack does not fit shared memory.
 uint32_t stackEntriesFor(const GpuTracer::State& s, uint32_t maxDepth);
@@ -221,35 +228,17 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     // host-side copy of the layout, no zero-filled temporaries), then one submission copies every
     // array.
     vk::StagedUpload staging(s.ctx, s.pool);
-    // UVs come with textures (Scene::uvs): the UVs, the texture table and the texels together.
-    s.hasNormals = counts.normals;
-    s.hasMaterials = counts.materials > 0;
-    s.hasUvs = counts.uvs && counts.texels > 0;
-    s.hasColors = counts.colors;
-    GpuLayoutCounts written = counts;
-    if (!s.hasUvs) {
-        // Without texels the kernels never read UVs: neither is converted nor uploaded.
-        written.uvs = false;
-        written.textures = 0;
-        written.texels = 0;
-    }
     GpuLayoutTargets targets;
+    const GpuLayoutCounts written = stageSceneTables(s, staging, counts, targets);
     targets.nodes = static_cast<gpu::GpuNode*>(staging.add(s.nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes"));
     targets.triangles = static_cast<gpu::GpuTriangle*>(
         staging.add(s.triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles"));
     if (s.hasNormals)
         targets.normals = static_cast<gpu::GpuTriangleNormals*>(
             staging.add(s.normals, counts.triangles * sizeof(gpu::GpuTriangleNormals), "vertex normals"));
-    if (s.hasMaterials)
-        targets.materials = static_cast<gpu::GpuMaterial*>(
-            staging.add(s.materials, counts.materials * sizeof(gpu::GpuMaterial), "materials"));
-    if (s.hasUvs) {
+    if (s.hasUvs)
         targets.uvs = static_cast<gpu::GpuTriangleUvs*>(
             staging.add(s.uvs, counts.triangles * sizeof(gpu::GpuTriangleUvs), "UVs"));
-        targets.textures = static_cast<gpu::GpuTexture*>(
-            staging.add(s.textures, counts.textures * sizeof(gpu::GpuTexture), "the texture table"));
-        targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels * sizeof(uint32_t), "texels"));
-    }
     if (s.hasColors)
         targets.colors = static_cast<gpu::GpuTriangleColors*>(
             staging.add(s.colors, counts.triangles * sizeof(gpu::GpuTriangleColors), "vertex colours"));
@@ -286,23 +275,9 @@ GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBui
         s.deviceBuiltScene = nullptr;
         Bvh none;  // counts of the scene alone: no tree yet
         none.nodes.resize(1);
-        GpuLayoutCounts counts = gpuLayoutCounts(scene, none);
-        s.hasNormals = counts.normals;
-        s.hasMaterials = counts.materials > 0;
-        s.hasUvs = counts.uvs && counts.texels > 0;
-        s.hasColors = counts.colors;
-        if (!s.hasUvs) counts.textures = counts.texels = 0;
         vk::StagedUpload staging(s.ctx, s.pool);
         GpuLayoutTargets targets;
-        if (s.hasMaterials)
-            targets.materials = static_cast<gpu::GpuMaterial*>(
-                staging.add(s.materials, counts.materials * sizeof(gpu::GpuMaterial), "materials"));
-        if (s.hasUvs) {
-            targets.textures = static_cast<gpu::GpuTexture*>(
-                staging.add(s.textures, counts.textures * sizeof(gpu::GpuTexture), "the texture table"));
-            targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels * sizeof(uint32_t), "texels"));
-        }
-        writeGpuMaterials(scene, counts, targets);
+        writeGpuMaterials(scene, stageSceneTables(s, staging, gpuLayoutCounts(scene, none), targets), targets);
         staging.submit();
         s.builder->setScene(scene);
         s.deviceBuiltScene = &scene;
@@ -353,6 +328,28 @@ uint64_t GpuTracer::sceneBytes() const {
 }
 
 namespace {
+
+GpuLayoutCounts stageSceneTables(GpuTracer::State& s, vk::StagedUpload& staging, GpuLayoutCounts counts,
+                                 GpuLayoutTargets& targets) {
+    s.hasNormals = counts.normals;
+    s.hasMaterials = counts.materials > 0;
+    s.hasUvs = counts.uvs && counts.texels > 0;
+    s.hasColors = counts.colors;
+    if (!s.hasUvs) {
+        counts.uvs = false;
+        counts.textures = 0;
+        counts.texels = 0;
+    }
+    if (s.hasMaterials)
+        targets.materials = static_cast<gpu::GpuMaterial*>(
+            staging.add(s.materials, counts.materials * sizeof(gpu::GpuMaterial), "materials"));
+    if (s.hasUvs) {
+        targets.textures = static_cast<gpu::GpuTexture*>(
+            staging.add(s.textures, counts.textures * sizeof(gpu::GpuTexture), "the texture table"));
+        targets.texels = static_cast<uint32_t*>(staging.add(s.texels, counts.texels * sizeof(uint32_t), "texels"));
+    }
+    return counts;
+}
 
 uint32_t stackEntriesFor(const GpuTracer::State& s, uint32_t maxDepth) {
     const uint32_t entries = maxDepth + 1;
