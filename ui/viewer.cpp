@@ -1019,7 +1019,13 @@ void presentShown(Session& s, const FrameTarget& target) {
     }
     const Image* host = compare ? compare : s.shown == ShownSource::Host ? &s.shownHost : nullptr;
     const ImageRegion region{uint32_t(s.imageOffsetX), settings.width, settings.height, settings.background};
-    if (host && host->width == region.width && host->height == region.height) {
+    // The window can shrink between the frame's trace and its presentation (a resize while moving):
+    // an image that no longer fits the acquired swapchain image is not shown; the next frame traces
+    // at the new size.
+    const bool fits = region.x + region.width <= target.extent.width && region.height <= target.extent.height;
+    if (!fits) {
+        clearImage(s.window, target, settings.background.x, settings.background.y, settings.background.z);
+    } else if (host && host->width == region.width && host->height == region.height) {
         const VkDeviceSize bytes = VkDeviceSize(host->width) * host->height * 4;
         ensureHostBuffer(s.context, s.shownImage, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, "image shown");
         copyTexels(static_cast<uint32_t*>(s.shownImage.mapped), host->rgba.data(), host->rgba.size(), target.bgra);
