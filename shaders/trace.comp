@@ -51,6 +51,9 @@ layout(constant_id = kSpecShadowOrder) const uint kShadowOrder = kShadowOrderNea
 // rays pass kHybridVisitRatio / 100 times the visits those rays wanted.
 layout(constant_id = kSpecHybridMinRays) const uint kHybridMinRays = 8;
 layout(constant_id = kSpecHybridVisitRatio) const uint kHybridVisitRatio = 0;
+// Persistent threads for the single-ray kernel (RenderSettings::persistentFetchBelow; mainPersistent):
+// 0 off; else a subgroup fetches rays for its idle lanes whenever fewer than this many still trace.
+layout(constant_id = kSpecPersistentFetchBelow) const uint kPersistentFetchBelow = 0;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
@@ -62,7 +65,12 @@ layout(std430, set = 0, binding = kBindPrimaryHits) buffer PrimaryHits { GpuPrim
 layout(std430, set = 0, binding = kBindOutput) writeonly buffer Output { uint outputRgba[]; };
 layout(std430, set = 0, binding = kBindHits) writeonly buffer Hits { HitRecord hitRecords[]; };
 layout(std430, set = 0, binding = kBindCounters) buffer Counters { RayCounters counters[]; };
-layout(std430, set = 0, binding = kBindStatus) buffer Status { uint status; };
+// The status word, then the persistent kernel's next ray of the primary and of the shadow pass
+// (all zeroed at the start of each frame).
+layout(std430, set = 0, binding = kBindStatus) buffer Status {
+    uint status;
+    uint nextRay[2];
+};
 // Present only when the scene has UVs and textures (kFrameHasUvs), vertex colours (kFrameHasColors).
 layout(std430, set = 0, binding = kBindUvs) readonly buffer Uvs { GpuTriangleUvs uvs[]; };
 layout(std430, set = 0, binding = kBindColors) readonly buffer Colors { GpuTriangleColors colors[]; };
@@ -363,22 +371,23 @@ bool secondChildFirst(RayQuery q, GpuNode left, GpuNode right, float entryLeft, 
     return entryRight < entryLeft;
 }
 
-// The single-ray while-while traversal (Aila and Laine 2009): each ray its own stack, nearer child
-// first, the farther one pushed.
-void traceSingle(inout RayQuery q) {
-    uvec2 stack[kRayStackEntries];
-    uint stackSize = 0u;
-    const GpuNode root = nodes[0];
-    float entry;
-    bool done = !(q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry));
-    uvec2 current = nodeEntry(root);
-    uint steps = 0u;  // inner nodes visited plus triangles tested, bounded by kMaxTraversalSteps
-    while (!done) {
-        while (!done && current.y == 0u) {
+// A ray's own stack (the single-ray kernel; the hybrid kernel after its split), at module scope so
+// that singleRayLoop uses it without an array parameter, which GLSL would copy in and out.
+uvec2 rayStack[kRayStackEntries];
+uint rayStackSize = 0u;
+
+// The single-ray while-while loop (Aila and Laine 2009) from `current` and rayStack: nearer child
+// first, the farther one pushed. Returns true when the ray is done. With `mayYield` (persistent
+// threads) it also returns, false, after a leaf at which fewer than kPersistentFetchBelow lanes of
+// the subgroup are still in the loop, so that the idle ones fetch new rays; the state stays for
+// the next call. `steps` (inner nodes visited plus triangles tested) is bounded by
+// kMaxTraversalSteps.
+bool singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps, bool mayYield) {
+    while (true) {
+        while (current.y == 0u) {
             if (++steps > kMaxTraversalSteps) {
                 atomicOr(status, kStatusTraversalTruncated);
-                done = true;
-                break;
+                return true;
             }
             const GpuNode left = nodes[current.x];
             const GpuNode right = nodes[current.x + 1u];
@@ -389,33 +398,50 @@ void traceSingle(inout RayQuery q) {
             if (hitLeft && hitRight) {
                 const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
                 current = nodeEntry(rightFirst ? right : left);
-                if (stackSize == kRayStackEntries) {
+                if (rayStackSize == kRayStackEntries) {
                     atomicOr(status, kStatusStackOverflow);
-                    done = true;
-                    break;
+                    return true;
                 }
-                stack[stackSize++] = nodeEntry(rightFirst ? left : right);
+                rayStack[rayStackSize++] = nodeEntry(rightFirst ? left : right);
             } else if (hitLeft || hitRight) {
                 current = nodeEntry(hitLeft ? left : right);
-            } else if (stackSize == 0u) {
-                done = true;
+            } else if (rayStackSize == 0u) {
+                return true;
             } else {
-                current = stack[--stackSize];
+                current = rayStack[--rayStackSize];
             }
         }
-        while (!done && current.y != 0u) {
+        while (current.y != 0u) {
             steps += 1u + current.y;
             if (steps > kMaxTraversalSteps) {
                 atomicOr(status, kStatusTraversalTruncated);
-                done = true;
-                break;
+                return true;
             }
             if (kStatistics) q.nodes += 1u;
             intersectLeaf(q, current.x, current.y);
-            if (!q.isActive || stackSize == 0u) done = true;
-            else current = stack[--stackSize];
+            if (!q.isActive || rayStackSize == 0u) return true;
+            current = rayStack[--rayStackSize];
         }
+        if (mayYield && subgroupBallotBitCount(subgroupBallot(true)) < kPersistentFetchBelow) return false;
     }
+    return true;
+}
+
+// Starts a single-ray traversal: an empty stack and the root, when the ray is active and hits the
+// root's box. Returns false when there is nothing to traverse.
+bool startSingle(RayQuery q, out uvec2 current) {
+    rayStackSize = 0u;
+    const GpuNode root = nodes[0];
+    current = nodeEntry(root);
+    float entry;
+    return q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+}
+
+// The single-ray traversal (Aila and Laine 2009): each ray its own stack.
+void traceSingle(inout RayQuery q) {
+    uvec2 current;
+    uint steps = 0u;
+    if (startSingle(q, current)) singleRayLoop(q, current, steps, false);
 }
 
 // The hybrid kernel's vote: packetVote's counts plus `wanting`, the active rays that want the node
@@ -479,8 +505,7 @@ HybridVote hybridVote(bool leftHit, bool rightHit, bool rightFirst, bool wants, 
 void traceHybrid(inout RayQuery q) {
     // Each ray's own stack after the split: the packet's pending entries plus its own pushes (the
     // host sizes it as the two stacks together).
-    uvec2 stack[kRayStackEntries];
-    uint raySize = 0u;
+    rayStackSize = 0u;
     const GpuNode root = nodes[0];
     float entry;
     bool wantCurrent = q.isActive && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
@@ -544,7 +569,7 @@ void traceHybrid(inout RayQuery q) {
                 done = !q.isActive;
                 if (!done) {
                     for (uint s = 0u; s < stackSize; ++s)
-                        if (s >= 32u || (wantedBits & (1u << s)) != 0u) stack[raySize++] = popEntry(s);
+                        if (s >= 32u || (wantedBits & (1u << s)) != 0u) rayStack[rayStackSize++] = popEntry(s);
                     // This ray's own step at the voted node, as traceSingle's: the nearer child
                     // hit first, the farther pushed. A ray that did not want the node skips it.
                     const bool l = hitLeft && wantCurrent;
@@ -552,18 +577,18 @@ void traceHybrid(inout RayQuery q) {
                     if (l && r) {
                         const bool nearRight = entryRight < entryLeft;
                         current = nodeEntry(nearRight ? right : left);
-                        if (raySize == kRayStackEntries) {
+                        if (rayStackSize == kRayStackEntries) {
                             atomicOr(status, kStatusStackOverflow);
                             done = true;
                         } else {
-                            stack[raySize++] = nodeEntry(nearRight ? left : right);
+                            rayStack[rayStackSize++] = nodeEntry(nearRight ? left : right);
                         }
                     } else if (l || r) {
                         current = nodeEntry(l ? left : right);
-                    } else if (raySize == 0u) {
+                    } else if (rayStackSize == 0u) {
                         done = true;
                     } else {
-                        current = stack[--raySize];
+                        current = rayStack[--rayStackSize];
                     }
                 }
                 break;
@@ -623,49 +648,7 @@ void traceHybrid(inout RayQuery q) {
     if (!split) return;
 
     // Each ray alone: traceSingle's while-while loop from the seeded state.
-    while (!done) {
-        while (!done && current.y == 0u) {
-            if (++steps > kMaxTraversalSteps) {
-                atomicOr(status, kStatusTraversalTruncated);
-                done = true;
-                break;
-            }
-            const GpuNode left = nodes[current.x];
-            const GpuNode right = nodes[current.x + 1u];
-            if (kStatistics) q.nodes += 1u;
-            float entryLeft, entryRight;
-            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
-            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
-            if (hitLeft && hitRight) {
-                const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
-                current = nodeEntry(rightFirst ? right : left);
-                if (raySize == kRayStackEntries) {
-                    atomicOr(status, kStatusStackOverflow);
-                    done = true;
-                    break;
-                }
-                stack[raySize++] = nodeEntry(rightFirst ? left : right);
-            } else if (hitLeft || hitRight) {
-                current = nodeEntry(hitLeft ? left : right);
-            } else if (raySize == 0u) {
-                done = true;
-            } else {
-                current = stack[--raySize];
-            }
-        }
-        while (!done && current.y != 0u) {
-            steps += 1u + current.y;
-            if (steps > kMaxTraversalSteps) {
-                atomicOr(status, kStatusTraversalTruncated);
-                done = true;
-                break;
-            }
-            if (kStatistics) q.nodes += 1u;
-            intersectLeaf(q, current.x, current.y);
-            if (!q.isActive || raySize == 0u) done = true;
-            else current = stack[--raySize];
-        }
-    }
+    if (!done) singleRayLoop(q, current, steps, false);
 }
 
 void trace(inout RayQuery q) {
@@ -674,26 +657,51 @@ void trace(inout RayQuery q) {
     else traceSingle(q);
 }
 
-void main() {
+// The ray of `pixel` in this pass: the camera ray (primary passes), or the shadow ray from the light
+// to the pixel's kept hit (report 2.3). A ray of a pixel outside the image (padding, report 3.4),
+// whose primary ray missed, or whose shadow ray is degenerate is inactive: it follows a packet's
+// control flow without voting (report 3.5) and traces nothing.
+RayQuery pixelQuery(uvec2 pixel, bool inside) {
     const uint width = params.frame.x;
     const uint height = params.frame.y;
-    // Images not a multiple of the packet are padded; padding rays follow the packet but trace
-    // nothing and write nothing (report 3.4).
-    const uvec2 pixel = gl_GlobalInvocationID.xy;
-    const bool inside = pixel.x < width && pixel.y < height;
-    const uint index = inside ? pixel.y * width + pixel.x : 0u;
     const vec3 eye = cameraEye(params.camera);
-    const vec3 dir = primaryRayDirection(params.camera, min(pixel.x, width - 1u), min(pixel.y, height - 1u));
+    if (kPass == kPassPrimary || kPass == kPassPrimaryShade) {
+        const vec3 dir = primaryRayDirection(params.camera, min(pixel.x, width - 1u), min(pixel.y, height - 1u));
+        return makeQuery(eye, dir, kInfinity, false, kNoHit, inside);
+    }
+    const uint index = inside ? pixel.y * width + pixel.x : 0u;
+    const vec4 kept = inside ? primaryHits[index].data : vec4(kInfinity, uintBitsToFloat(kNoHit), 0.0f, 0.0f);
+    const uint leafTri = floatBitsToUint(kept.y);
+    ShadowRay s;
+    s.org = params.light.xyz;
+    s.dir = vec3(1.0f);
+    s.tmax = 0.0f;
+    s.skipPrim = kNoHit;
+    bool traceShadow = false;
+    if (leafTri != kNoHit) {
+        const vec3 dir = primaryRayDirection(params.camera, pixel.x, pixel.y);
+        s = makeShadowRay(params.light.xyz, hitPosition(eye, dir, kept.x), floatBitsToUint(triangles[leafTri].v0.w));
+        traceShadow = !isDegenerateShadowRay(s);
+    }
+    return makeQuery(s.org, traceShadow ? s.dir : vec3(1.0f), s.tmax, true, s.skipPrim, traceShadow);
+}
+
+// What follows the trace of `pixel`'s ray `q`: the primary pass keeps the hit for the shadow pass
+// (kPassPrimary) or shades without shadows; the shadow pass shades with the shadow's answer.
+// Writes the output, the hit records and the counters the frame asks for.
+void finishPixel(uvec2 pixel, bool inside, RayQuery q) {
+    if (!inside) return;
+    const uint width = params.frame.x;
+    const uint index = pixel.y * width + pixel.x;
+    const vec3 eye = cameraEye(params.camera);
+    const vec3 dir = primaryRayDirection(params.camera, pixel.x, pixel.y);
 
     float t = kInfinity;
     uint leafTri = kNoHit;
     vec2 bary = vec2(0.0f);
     RayCounters counts = RayCounters(0u, 0u, 0u, 0u);
     uint shadow = kShadowNone;
-
     if (kPass == kPassPrimary || kPass == kPassPrimaryShade) {
-        RayQuery q = makeQuery(eye, dir, kInfinity, false, kNoHit, inside);
-        trace(q);
         t = q.tmax;
         leafTri = q.leafTri;
         bary = q.bary;
@@ -705,41 +713,21 @@ void main() {
         counts.primaryNodes = q.nodes;
         counts.primaryTests = q.tests;
         if (kPass == kPassPrimary) {
-            if (inside) {
-                primaryHits[index].data = vec4(t, uintBitsToFloat(leafTri), bary.x, bary.y);
-                if (kStatistics) counters[index] = counts;
-            }
+            primaryHits[index].data = vec4(t, uintBitsToFloat(leafTri), bary.x, bary.y);
+            if (kStatistics) counters[index] = counts;
             return;
         }
     } else {
-        // Shadow packet (report 2.3): from the light to each hit point, the stack restarted. Rays
-        // whose primary ray missed follow the packet's control flow without voting (report 3.5).
-        const vec4 kept = inside ? primaryHits[index].data : vec4(kInfinity, uintBitsToFloat(kNoHit), 0.0f, 0.0f);
+        const vec4 kept = primaryHits[index].data;
         t = kept.x;
         leafTri = floatBitsToUint(kept.y);
         bary = kept.zw;
-        if (kStatistics && inside) counts = counters[index];
-        const bool hit = leafTri != kNoHit;
-        const vec3 light = params.light.xyz;
-        ShadowRay s;
-        s.org = light;
-        s.dir = vec3(1.0f);
-        s.tmax = 0.0f;
-        s.skipPrim = kNoHit;
-        bool traceShadow = false;
-        if (hit) {
-            const uint file = floatBitsToUint(triangles[leafTri].v0.w);
-            s = makeShadowRay(light, hitPosition(eye, dir, t), file);
-            traceShadow = !isDegenerateShadowRay(s);
-            shadow = kShadowLit;
-        }
-        RayQuery q = makeQuery(s.org, traceShadow ? s.dir : vec3(1.0f), s.tmax, true, s.skipPrim, traceShadow);
-        trace(q);
-        if (traceShadow && q.leafTri != kNoHit) shadow = kShadowOccluded;
+        if (kStatistics) counts = counters[index];
+        // A ray that traced nothing (degenerate) keeps leafTri kNoHit: lit.
+        if (leafTri != kNoHit) shadow = q.leafTri != kNoHit ? kShadowOccluded : kShadowLit;
         counts.shadowNodes = q.nodes;
         counts.shadowTests = q.tests;
     }
-    if (!inside) return;
 
     // Shading (shaders/shading.h, the CPU reference's text).
     vec3 color = params.background.xyz;
@@ -791,4 +779,78 @@ void main() {
         hitRecords[index] = makeHitRecord(eye, dir, t, prim, shadow);
     }
     if (kStatistics) counters[index] = counts;
+}
+
+// The pixel of ray number `ray` in the persistent kernel's order: packet-shaped tiles row by row,
+// rays within a tile row by row, so that consecutive rays are neighbours as in a workgroup.
+uvec2 persistentPixel(uint ray) {
+    const uint packetRays = gl_WorkGroupSize.x * gl_WorkGroupSize.y;
+    const uint tile = ray / packetRays;
+    const uint lane = ray % packetRays;
+    const uint packetsPerRow = params.frame.w;
+    return uvec2((tile % packetsPerRow) * gl_WorkGroupSize.x + lane % gl_WorkGroupSize.x,
+                 (tile / packetsPerRow) * gl_WorkGroupSize.y + lane / gl_WorkGroupSize.x);
+}
+
+// Persistent threads with dynamic ray fetch (Aila and Laine 2009) for the single-ray kernel: the
+// host dispatches about as many invocations as the device holds resident; each subgroup takes rays
+// from the pass's global counter (nextRay), one atomic per fetch, for those of its lanes that are
+// idle, whenever fewer than kPersistentFetchBelow of its lanes are still tracing (singleRayLoop
+// yields to let them). Every step is correct for any set of converged lanes: each fetch hands out
+// its own range of rays, and a lane leaves once it is idle and the counter has passed the last ray.
+void mainPersistent() {
+    const uint packetRays = gl_WorkGroupSize.x * gl_WorkGroupSize.y;
+    const uint packetRows = (params.frame.y + gl_WorkGroupSize.y - 1u) / gl_WorkGroupSize.y;
+    const uint totalRays = params.frame.w * packetRows * packetRays;
+    const uint counter = kPass == kPassShadowShade ? 1u : 0u;
+    bool tracing = false;    // this lane holds a ray in mid-traversal
+    bool exhausted = false;  // the counter has handed out every ray
+    uvec2 pixel = uvec2(0u);
+    RayQuery q;
+    uvec2 current = uvec2(0u);
+    uint steps = 0u;
+    while (true) {
+        // The converged lanes decide together: all of them take part in the fetch.
+        const bool wantsRay = !tracing && !exhausted;
+        const uvec4 idle = subgroupBallot(wantsRay);
+        const uint idleLanes = subgroupBallotBitCount(idle);
+        if (idleLanes != 0u && subgroupBallotBitCount(subgroupBallot(tracing)) < kPersistentFetchBelow) {
+            uint first = 0u;
+            if (subgroupElect()) first = atomicAdd(nextRay[counter], idleLanes);
+            first = subgroupBroadcastFirst(first);
+            // Past the last ray: every later fetch (of any subgroup) gets none either.
+            if (first + idleLanes >= totalRays) exhausted = true;
+            const uint ray = first + subgroupBallotExclusiveBitCount(idle);
+            if (wantsRay && ray < totalRays) {
+                pixel = persistentPixel(ray);
+                const bool inside = pixel.x < params.frame.x && pixel.y < params.frame.y;
+                q = pixelQuery(pixel, inside);
+                steps = 0u;
+                tracing = startSingle(q, current);
+                if (!tracing) finishPixel(pixel, inside, q);
+            }
+        }
+        if (!tracing) {
+            if (exhausted) break;
+            continue;
+        }
+        if (singleRayLoop(q, current, steps, true)) {
+            tracing = false;
+            finishPixel(pixel, true, q);
+        }
+    }
+}
+
+void main() {
+    if (kKernel == kKernelSingle && kPersistentFetchBelow != 0u) {
+        mainPersistent();
+        return;
+    }
+    // Images not a multiple of the packet are padded; padding rays follow the packet but trace
+    // nothing and write nothing (report 3.4).
+    const uvec2 pixel = gl_GlobalInvocationID.xy;
+    const bool inside = pixel.x < params.frame.x && pixel.y < params.frame.y;
+    RayQuery q = pixelQuery(pixel, inside);
+    trace(q);
+    finishPixel(pixel, inside, q);
 }
