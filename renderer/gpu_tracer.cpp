@@ -10,7 +10,6 @@
 
 #include "trace.spv.h"
 
-#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -44,10 +43,9 @@ struct PipelineKey {
     ShadowOrder shadowOrder;
     uint32_t hybridMinRays = 0;     // the hybrid kernel's split rules (0 for the other kernels)
     uint32_t hybridVisitRatio = 0;  // in 1/100
-    uint32_t persistentFetchBelow = 0;  // the single-ray kernel's persistent threads (0: off)
     auto tie() const {
         return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
-                        hybridMinRays, hybridVisitRatio, persistentFetchBelow);
+                        hybridMinRays, hybridVisitRatio);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -82,23 +80,7 @@ PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool s
         key.hybridMinRays = settings.hybrid.minRays;
         key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
     }
-    if (settings.kernel == KernelKind::Single) key.persistentFetchBelow = settings.persistentFetchBelow;
     return key;
-}
-
-// Invocations assumed resident on a device that does not say (DeviceInfo::residentInvocations):
-// 128 Ki, about what a large GPU holds; a smaller device runs the workgroups beyond its capacity
-// after the first ones, which then find the counter empty and end.
-constexpr uint64_t kAssumedResidentInvocations = uint64_t(1) << 17;
-
-// The persistent-threads dispatch (settings.persistentFetchBelow != 0): one row of workgroups of
-// the packet's shape, as many as the device holds resident, never more than the image's packets.
-uint32_t persistentWorkgroups(const vk::DeviceInfo& device, const RenderSettings& settings) {
-    const uint64_t resident = device.residentInvocations ? device.residentInvocations : kAssumedResidentInvocations;
-    const uint64_t packets = uint64_t((settings.width + settings.packet.width - 1) / settings.packet.width) *
-                             ((settings.height + settings.packet.height - 1) / settings.packet.height);
-    const uint64_t groups = std::max<uint64_t>(1, resident / settings.packet.rays());
-    return uint32_t(std::min({groups, packets, uint64_t(device.maxWorkgroupCount[0])}));
 }
 
 }  // namespace
@@ -457,7 +439,6 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
                                                                 : gpu::kShadowOrderNearest;
     data.hybridMinRays = key.hybridMinRays;
     data.hybridVisitRatio = key.hybridVisitRatio;
-    data.persistentFetchBelow = key.persistentFetchBelow;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
     std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
     for (size_t i = 0; i < entries.size(); ++i) {
@@ -505,22 +486,9 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
     if (!(settings.hybrid.visitRatio >= 0.0f && settings.hybrid.visitRatio <= kMaxHybridVisitRatio))
         throw Error("GPU: the hybrid kernel's visit ratio " + std::to_string(settings.hybrid.visitRatio) +
                     " is not 0 (off) or a ratio up to " + std::to_string(int(kMaxHybridVisitRatio)));
-    if (settings.persistentFetchBelow != 0 && settings.kernel != KernelKind::Single)
-        throw Error(std::string("GPU: persistent threads are a mode of the single-ray kernel, not of the ") +
-                    toString(settings.kernel) + " kernel");
     const uint64_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint64_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    // Measured 2026-12-02 (Sibenik 640x360): with rays fetched through atomicAdd, 93-202 pixels of
-    // 230,400 came out wrong, different ones each run, whether one lane per subgroup or every lane
-    // made the atomic; the same loop with rays assigned without atomics gave 0. Mesa 22.3's
-    // llvmpipe hands out wrong old values from atomics in divergent code (docs/gpu.md).
-    if (settings.persistentFetchBelow != 0 && d.name.find("llvmpipe") != std::string::npos)
-        throw Error("GPU: persistent threads (--persistent) need a GPU driver: " + d.name +
-                    " returns wrong values from the atomics that fetch rays (docs/gpu.md)");
-    if (settings.persistentFetchBelow != 0 && groupsX * groupsY >= (uint64_t(1) << 32) / shape.rays())
-        throw Error("GPU: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
-                    " has too many rays for the persistent kernel's 32-bit ray counter");
-    if (settings.persistentFetchBelow == 0 && (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1]))
+    if (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1])
         throw Error("GPU: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
                     " in packets of " + name + " needs " + std::to_string(groupsX) + "x" + std::to_string(groupsY) +
                     " workgroups, more than " + d.name + " dispatches");
@@ -599,10 +567,8 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
                             nullptr);
     vkCmdPushConstants(cmd, s.layout.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
     const PacketShape shape = settings.packet;
-    const bool persistent = settings.kernel == KernelKind::Single && settings.persistentFetchBelow != 0;
-    const uint32_t groupsX =
-        persistent ? persistentWorkgroups(s.ctx.info, settings) : (settings.width + shape.width - 1) / shape.width;
-    const uint32_t groupsY = persistent ? 1u : (settings.height + shape.height - 1) / shape.height;
+    const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
+    const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
     PipelineKey key = pipelineKeyFor(settings, 0u, statistics, s.stackEntries);
 
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;

@@ -70,11 +70,6 @@ struct RenderSettings {
     KernelKind kernel = KernelKind::Packet;
     PacketShape packet;  // the packet and hybrid kernels' packet (one workgroup)
     HybridParams hybrid;
-    // Persistent threads for the single-ray kernel (issue 14, docs/gpu.md; Aila and Laine 2009):
-    // 0 off (one invocation per pixel); N >= 1: a dispatch sized to what the device holds resident,
-    // whose subgroups fetch rays from a global counter, new rays for their idle lanes whenever fewer
-    // than N lanes still trace (1: only once all are done; the subgroup size: as soon as one is).
-    uint32_t persistentFetchBelow = 0;
     bool collectCounters = false;  // per-ray N_TR / N_IT (statistics variant of the kernel)
     ViewMode view = ViewMode::Shaded;
     // The count shown as full red in the heat maps; 0: the view's default (256 nodes, 128 tests;

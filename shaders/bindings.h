@@ -24,7 +24,7 @@ const uint kBindPrimaryHits = 4u;  // GpuPrimaryHit[] per pixel, primary pass ->
 const uint kBindOutput = 5u;       // RGBA8 (or BGRA8) per pixel
 const uint kBindHits = 6u;         // HitRecord[] per pixel (kFrameWriteHits)
 const uint kBindCounters = 7u;     // RayCounters[] per pixel
-const uint kBindStatus = 8u;       // the status word (kStatus* bits), then the persistent kernel's two ray counters
+const uint kBindStatus = 8u;       // the status word (kStatus* bits)
 const uint kBindUvs = 9u;          // GpuTriangleUvs[] (kFrameHasUvs)
 const uint kBindColors = 10u;      // GpuTriangleColors[] (kFrameHasColors)
 const uint kBindTextures = 11u;    // GpuTexture[] (kFrameHasUvs)
@@ -45,8 +45,7 @@ const uint kSpecFastIntersect = 9u;        // bool: IntersectMode::Fast (shaders
 const uint kSpecShadowOrder = 10u;         // kShadowOrder*: a shadow ray's first child (single-ray kernel)
 const uint kSpecHybridMinRays = 11u;       // hybrid kernel: split when fewer rays want the node (K)
 const uint kSpecHybridVisitRatio = 12u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
-const uint kSpecPersistentFetchBelow = 13u;  // single-ray kernel: persistent threads (0: off), see RenderSettings
-const uint kSpecCount = 14u;
+const uint kSpecCount = 13u;
 
 // Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).
 const uint kShadowOrderNearest = 0u;
@@ -78,9 +77,8 @@ struct TraceSpecialization {
     uint shadowOrder;
     uint hybridMinRays;
     uint hybridVisitRatio;
-    uint persistentFetchBelow;
 };
-RP_CHECK_SIZE(TraceSpecialization, 56);
+RP_CHECK_SIZE(TraceSpecialization, 52);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -94,7 +92,6 @@ RP_CHECK_OFFSET(TraceSpecialization, fastIntersect, 36);
 RP_CHECK_OFFSET(TraceSpecialization, shadowOrder, 40);
 RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 44);
 RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 48);
-RP_CHECK_OFFSET(TraceSpecialization, persistentFetchBelow, 52);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -119,7 +116,6 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecShadowOrder, shadowOrder),
     RP_SPEC_ENTRY(kSpecHybridMinRays, hybridMinRays),
     RP_SPEC_ENTRY(kSpecHybridVisitRatio, hybridVisitRatio),
-    RP_SPEC_ENTRY(kSpecPersistentFetchBelow, persistentFetchBelow),
 };
 #undef RP_SPEC_ENTRY
 

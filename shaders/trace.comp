@@ -51,9 +51,6 @@ layout(constant_id = kSpecShadowOrder) const uint kShadowOrder = kShadowOrderNea
 // rays pass kHybridVisitRatio / 100 times the visits those rays wanted.
 layout(constant_id = kSpecHybridMinRays) const uint kHybridMinRays = 8;
 layout(constant_id = kSpecHybridVisitRatio) const uint kHybridVisitRatio = 0;
-// Persistent threads for the single-ray kernel (RenderSettings::persistentFetchBelow; mainPersistent):
-// 0 off; else a subgroup fetches rays for its idle lanes whenever fewer than this many still trace.
-layout(constant_id = kSpecPersistentFetchBelow) const uint kPersistentFetchBelow = 0;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
@@ -65,12 +62,7 @@ layout(std430, set = 0, binding = kBindPrimaryHits) buffer PrimaryHits { GpuPrim
 layout(std430, set = 0, binding = kBindOutput) writeonly buffer Output { uint outputRgba[]; };
 layout(std430, set = 0, binding = kBindHits) writeonly buffer Hits { HitRecord hitRecords[]; };
 layout(std430, set = 0, binding = kBindCounters) buffer Counters { RayCounters counters[]; };
-// The status word, then the persistent kernel's next ray of the primary and of the shadow pass
-// (all zeroed at the start of each frame).
-layout(std430, set = 0, binding = kBindStatus) buffer Status {
-    uint status;
-    uint nextRay[2];
-};
+layout(std430, set = 0, binding = kBindStatus) buffer Status { uint status; };
 // Present only when the scene has UVs and textures (kFrameHasUvs), vertex colours (kFrameHasColors).
 layout(std430, set = 0, binding = kBindUvs) readonly buffer Uvs { GpuTriangleUvs uvs[]; };
 layout(std430, set = 0, binding = kBindColors) readonly buffer Colors { GpuTriangleColors colors[]; };
@@ -376,18 +368,15 @@ bool secondChildFirst(RayQuery q, GpuNode left, GpuNode right, float entryLeft, 
 uvec2 rayStack[kRayStackEntries];
 uint rayStackSize = 0u;
 
-// The single-ray while-while loop (Aila and Laine 2009) from `current` and rayStack: nearer child
-// first, the farther one pushed. Returns true when the ray is done. With `mayYield` (persistent
-// threads) it also returns, false, after a leaf at which fewer than kPersistentFetchBelow lanes of
-// the subgroup are still in the loop, so that the idle ones fetch new rays; the state stays for
-// the next call. `steps` (inner nodes visited plus triangles tested) is bounded by
-// kMaxTraversalSteps.
-bool singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps, bool mayYield) {
+// The single-ray while-while loop (Aila and Laine 2009) from `current` and rayStack until the ray is
+// done: nearer child first, the farther one pushed. `steps` (inner nodes visited plus triangles
+// tested) is bounded by kMaxTraversalSteps.
+void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
     while (true) {
         while (current.y == 0u) {
             if (++steps > kMaxTraversalSteps) {
                 atomicOr(status, kStatusTraversalTruncated);
-                return true;
+                return;
             }
             const GpuNode left = nodes[current.x];
             const GpuNode right = nodes[current.x + 1u];
@@ -400,13 +389,13 @@ bool singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps, bool
                 current = nodeEntry(rightFirst ? right : left);
                 if (rayStackSize == kRayStackEntries) {
                     atomicOr(status, kStatusStackOverflow);
-                    return true;
+                    return;
                 }
                 rayStack[rayStackSize++] = nodeEntry(rightFirst ? left : right);
             } else if (hitLeft || hitRight) {
                 current = nodeEntry(hitLeft ? left : right);
             } else if (rayStackSize == 0u) {
-                return true;
+                return;
             } else {
                 current = rayStack[--rayStackSize];
             }
@@ -415,16 +404,14 @@ bool singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps, bool
             steps += 1u + current.y;
             if (steps > kMaxTraversalSteps) {
                 atomicOr(status, kStatusTraversalTruncated);
-                return true;
+                return;
             }
             if (kStatistics) q.nodes += 1u;
             intersectLeaf(q, current.x, current.y);
-            if (!q.isActive || rayStackSize == 0u) return true;
+            if (!q.isActive || rayStackSize == 0u) return;
             current = rayStack[--rayStackSize];
         }
-        if (mayYield && subgroupBallotBitCount(subgroupBallot(true)) < kPersistentFetchBelow) return false;
     }
-    return true;
 }
 
 // Starts a single-ray traversal: an empty stack and the root, when the ray is active and hits the
@@ -441,7 +428,7 @@ bool startSingle(RayQuery q, out uvec2 current) {
 void traceSingle(inout RayQuery q) {
     uvec2 current;
     uint steps = 0u;
-    if (startSingle(q, current)) singleRayLoop(q, current, steps, false);
+    if (startSingle(q, current)) singleRayLoop(q, current, steps);
 }
 
 // The hybrid kernel's vote: packetVote's counts plus `wanting`, the active rays that want the node
@@ -648,7 +635,7 @@ void traceHybrid(inout RayQuery q) {
     if (!split) return;
 
     // Each ray alone: traceSingle's while-while loop from the seeded state.
-    if (!done) singleRayLoop(q, current, steps, false);
+    if (!done) singleRayLoop(q, current, steps);
 }
 
 void trace(inout RayQuery q) {
@@ -781,71 +768,7 @@ void finishPixel(uvec2 pixel, bool inside, RayQuery q) {
     if (kStatistics) counters[index] = counts;
 }
 
-// The pixel of ray number `ray` in the persistent kernel's order: packet-shaped tiles row by row,
-// rays within a tile row by row, so that consecutive rays are neighbours as in a workgroup.
-uvec2 persistentPixel(uint ray) {
-    const uint packetRays = gl_WorkGroupSize.x * gl_WorkGroupSize.y;
-    const uint tile = ray / packetRays;
-    const uint lane = ray % packetRays;
-    const uint packetsPerRow = params.frame.w;
-    return uvec2((tile % packetsPerRow) * gl_WorkGroupSize.x + lane % gl_WorkGroupSize.x,
-                 (tile / packetsPerRow) * gl_WorkGroupSize.y + lane / gl_WorkGroupSize.x);
-}
-
-// Persistent threads with dynamic ray fetch (Aila and Laine 2009) for the single-ray kernel: the
-// host dispatches about as many invocations as the device holds resident; each subgroup takes rays
-// from the pass's global counter (nextRay), one atomic per fetch, for those of its lanes that are
-// idle, whenever fewer than kPersistentFetchBelow of its lanes are still tracing (singleRayLoop
-// yields to let them). Every step is correct for any set of converged lanes: each fetch hands out
-// its own range of rays, and a lane leaves once it is idle and the counter has passed the last ray.
-void mainPersistent() {
-    const uint packetRays = gl_WorkGroupSize.x * gl_WorkGroupSize.y;
-    const uint packetRows = (params.frame.y + gl_WorkGroupSize.y - 1u) / gl_WorkGroupSize.y;
-    const uint totalRays = params.frame.w * packetRows * packetRays;
-    const uint counter = kPass == kPassShadowShade ? 1u : 0u;
-    bool tracing = false;    // this lane holds a ray in mid-traversal
-    bool exhausted = false;  // the counter has handed out every ray
-    uvec2 pixel = uvec2(0u);
-    RayQuery q;
-    uvec2 current = uvec2(0u);
-    uint steps = 0u;
-    while (true) {
-        // The converged lanes decide together: all of them take part in the fetch.
-        const bool wantsRay = !tracing && !exhausted;
-        const uvec4 idle = subgroupBallot(wantsRay);
-        const uint idleLanes = subgroupBallotBitCount(idle);
-        if (idleLanes != 0u && subgroupBallotBitCount(subgroupBallot(tracing)) < kPersistentFetchBelow) {
-            uint first = 0u;
-            if (subgroupElect()) first = atomicAdd(nextRay[counter], idleLanes);
-            first = subgroupBroadcastFirst(first);
-            // Past the last ray: every later fetch (of any subgroup) gets none either.
-            if (first + idleLanes >= totalRays) exhausted = true;
-            const uint ray = first + subgroupBallotExclusiveBitCount(idle);
-            if (wantsRay && ray < totalRays) {
-                pixel = persistentPixel(ray);
-                const bool inside = pixel.x < params.frame.x && pixel.y < params.frame.y;
-                q = pixelQuery(pixel, inside);
-                steps = 0u;
-                tracing = startSingle(q, current);
-                if (!tracing) finishPixel(pixel, inside, q);
-            }
-        }
-        if (!tracing) {
-            if (exhausted) break;
-            continue;
-        }
-        if (singleRayLoop(q, current, steps, true)) {
-            tracing = false;
-            finishPixel(pixel, true, q);
-        }
-    }
-}
-
 void main() {
-    if (kKernel == kKernelSingle && kPersistentFetchBelow != 0u) {
-        mainPersistent();
-        return;
-    }
     // Images not a multiple of the packet are padded; padding rays follow the packet but trace
     // nothing and write nothing (report 3.4).
     const uvec2 pixel = gl_GlobalInvocationID.xy;

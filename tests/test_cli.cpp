@@ -182,15 +182,6 @@ TEST(Cli, DiffCountsDifferencesAndHasDocumentedExitCodes) {
     expectCleanError(runCli("diff " + quoted(a)), "B");
 }
 
-// --persistent (docs/gpu.md): the GPU single-ray kernel only, and not on lavapipe, whose atomics
-// hand out rays wrongly; the trade suites take no --persistent.
-TEST(Cli, PersistentAppliesToTheGpuSingleRayKernelOnly) {
-    expectCleanError(runCli("render gen:terrain:1k --device gpu --kernel packet --persistent 8 --width 8 --height 8"),
-                     "--persistent");
-    expectCleanError(runCli("render gen:terrain:1k --device cpu --persistent 8 --width 8 --height 8"), "--persistent");
-    expectCleanError(runCli("bench --suite trade-quick --persistent 8"), "--persistent");
-}
-
 // The hybrid kernel's flags (docs/gpu.md): GPU only, with --kernel hybrid only, ratios in range.
 TEST(Cli, HybridFlagsApplyToTheHybridKernelOnly) {
     expectCleanError(runCli("render gen:terrain:1k --kernel hybrid --width 8 --height 8"), "--device gpu");
@@ -356,7 +347,6 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     s.background = glm::vec3(0.2f, 0.3f, 0.4f);
     s.kernel = KernelKind::Single;
     s.packet = {5, 6};
-    s.persistentFetchBelow = 12;
     s.collectCounters = true;
     s.view = ViewMode::HeatIntersections;
     setup.bvh.builder = BvhBuilder::SahBinned;
@@ -384,7 +374,6 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     EXPECT_EQ(b.background, s.background);
     EXPECT_EQ(b.kernel, s.kernel);
     EXPECT_EQ(b.packet, s.packet);
-    EXPECT_EQ(b.persistentFetchBelow, s.persistentFetchBelow);
     EXPECT_EQ(b.collectCounters, s.collectCounters);
     EXPECT_EQ(b.view, s.view);
     EXPECT_EQ(back.bvh.builder, setup.bvh.builder);

@@ -133,46 +133,6 @@ TEST_F(GpuShapes, ShadowOrdersGiveTheSameShadowsWithOtherWork) {
     expectNoValidationMessages();
 }
 
-// Persistent threads (RenderSettings::persistentFetchBelow) trace what one invocation per pixel
-// traces: the same image, hits and counters for every fetch threshold, primary and shadow rays, and
-// at an image size that is a multiple of no packet. lavapipe refuses them with an error that says
-// why (its atomics in divergent code return wrong values; measured in gpu_tracer.cpp); the other
-// kernels refuse them everywhere.
-TEST_F(GpuShapes, PersistentThreadsTraceTheSameFrameOrAreRefused) {
-    RenderSettings settings = smallSettings(197, 151);
-    settings.kernel = KernelKind::Single;
-    const FrameRequest request{true, true, true};
-    const Frame plain = tracer_->render(settings, request);
-    const bool lavapipe = validatedContext().info.name.find("llvmpipe") != std::string::npos;
-    for (const uint32_t below : {1u, 8u, 32u}) {
-        settings.persistentFetchBelow = below;
-        if (lavapipe) {
-            try {
-                tracer_->render(settings, request);
-                ADD_FAILURE() << "lavapipe traced with persistent threads";
-            } catch (const Error& e) {
-                EXPECT_NE(std::string(e.what()).find("persistent threads"), std::string::npos) << e.what();
-            }
-            continue;
-        }
-        const Frame persistent = tracer_->render(settings, request);
-        EXPECT_EQ(differingPixels(plain, persistent), 0u) << "fetch below " << below;
-        ASSERT_EQ(plain.hits.size(), persistent.hits.size());
-        EXPECT_EQ(0, std::memcmp(plain.hits.data(), persistent.hits.data(), plain.hits.size() * sizeof(HitRecord)))
-            << "fetch below " << below;
-        ASSERT_EQ(plain.counters.size(), persistent.counters.size());
-        EXPECT_EQ(0, std::memcmp(plain.counters.data(), persistent.counters.data(),
-                                 plain.counters.size() * sizeof(RayCounters)))
-            << "fetch below " << below;
-    }
-    settings.persistentFetchBelow = 8;
-    for (const KernelKind kernel : {KernelKind::Packet, KernelKind::Hybrid}) {
-        settings.kernel = kernel;
-        EXPECT_THROW(tracer_->render(settings, request), Error) << toString(kernel);
-    }
-    expectNoValidationMessages();
-}
-
 // Host-timed passes (the viewer's choice on CPU devices) split the frame into several submissions:
 // the image and hits stay the same, and each pass gets a time that fits inside the frame's.
 TEST_F(GpuShapes, HostTimedPassesKeepTheFrameAndTimeEachPass) {

@@ -38,7 +38,6 @@ struct BenchFlags {
     std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
     std::string hybridVisitRatios = "0";
     std::string shadowOrder = "nearest";
-    uint32_t persistent = 0;
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
     bool noEmbree = false;
@@ -278,8 +277,6 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         throw Error("bench --suite " + suite.name +
                     ": the suite builds every builder and leaf size itself; "
                     "--builder, --leaf-size and --bins do not apply");
-    if (suite.trade && f.persistent != 0)
-        throw Error("bench --suite " + suite.name + ": --persistent applies to the report and scaling suites");
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
     const ShadowOrder shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
@@ -355,7 +352,6 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
               {"hybrid_min_rays", f.hybridMinRays},
               {"hybrid_visit_ratios", f.hybridVisitRatios},
               {"shadow_order", f.shadowOrder},
-              {"persistent_fetch_below", f.persistent},
               {"packets",
                [&] {
                    json list = json::array();
@@ -427,7 +423,6 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         settings.intersect = modes.front();
         settings.camera = benchScene.camera ? *benchScene.camera : frameScene(loaded.scene.bounds());
         settings.shadowOrder = shadowOrder;
-        settings.persistentFetchBelow = f.persistent;
         json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
         scene["intersect"] = toString(settings.intersect);
 
@@ -600,12 +595,6 @@ CommandRunner addBenchCommand(CLI::App& app) {
                      "The child a shadow ray of the GPU single-ray kernel enters first: nearest, tree "
                      "or larger (docs/gpu.md); the other tracers ignore it")
         ->check(CLI::IsMember({"nearest", "tree", "larger"}))
-        ->capture_default_str();
-    command
-        ->add_option("--persistent", f.persistent,
-                     "The GPU single-ray kernel's persistent threads: fetch rays for a subgroup's idle "
-                     "lanes whenever fewer than N of its lanes still trace; 0: off (docs/gpu.md); the "
-                     "other tracers ignore it")
         ->capture_default_str();
     addBvhFlags(*command, f.bvh);
     return [flags, command] { return runBench(*flags, *command); };

@@ -40,7 +40,6 @@ struct RenderFlags {
     std::string view = "shaded";
     std::string intersect = "robust";
     std::string shadowOrder = "nearest";
-    uint32_t persistent = 0;
     std::string out, hits, json, from;
     uint32_t repeat = 1;
     uint32_t spp = 1;
@@ -52,7 +51,7 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio, *persistent;
+        *hybridMinRays, *hybridVisitRatio;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -89,7 +88,6 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.view)) s.view = requireViewMode("--view", f.view);
     if (given(o.intersect)) s.intersect = requireIntersectMode("--intersect", f.intersect);
     if (given(o.shadowOrder)) s.shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
-    if (given(o.persistent)) s.persistentFetchBelow = f.persistent;
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
     if (given(o.bins)) setup.bvh.binCount = f.bvh.binCount;
@@ -240,13 +238,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
                                      "area); the shadows are the same, the work differs (docs/gpu.md)")
                         ->check(CLI::IsMember({"nearest", "tree", "larger"}))
                         ->capture_default_str();
-    o.persistent = command
-                       ->add_option("--persistent", f.persistent,
-                                    "GPU --kernel single: persistent threads (Aila and Laine 2009) that "
-                                    "fetch new rays for a subgroup's idle lanes whenever fewer than N of its "
-                                    "lanes still trace (1: once all are done); 0: off, one invocation per "
-                                    "pixel (docs/gpu.md)")
-                       ->capture_default_str();
     command->add_option("--out", f.out,
                         "Write the image to this file: PNG for .png, JPEG (quality 95) for .jpg or "
                         ".jpeg; any other extension is refused before rendering");
@@ -309,8 +300,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
             throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
         if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--shadow-order applies to --device gpu --kernel single only");
-        if (settings.persistentFetchBelow != 0 && (cpu || settings.kernel != KernelKind::Single))
-            throw Error("--persistent applies to --device gpu --kernel single only");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
         // the render.
         if (!f.out.empty()) {

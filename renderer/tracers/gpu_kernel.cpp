@@ -70,9 +70,6 @@ public:
 private:
     RenderSettings withKernel(RenderSettings settings) const {
         settings.kernel = kernel_;
-        // Persistent threads are a mode of the single-ray kernel; the other kernels ignore it, as
-        // they ignore the shadow order.
-        if (kernel_ != KernelKind::Single) settings.persistentFetchBelow = 0;
         return settings;
     }
     std::unique_ptr<GpuTracer> tracer_;

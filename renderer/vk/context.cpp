@@ -125,23 +125,10 @@ VkInstance createInstance(const VulkanContextOptions& options, bool withDebugUti
     return instance;
 }
 
-bool offersExtension(VkPhysicalDevice physical, const char* name) {
-    uint32_t count = 0;
-    vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
-    std::vector<VkExtensionProperties> offered(count);
-    vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, offered.data());
-    return std::any_of(offered.begin(), offered.end(),
-                       [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, name) == 0; });
-}
-
 DeviceInfo queryDevice(VkPhysicalDevice physical, uint32_t index) {
     VkPhysicalDeviceSubgroupProperties subgroup{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES};
     VkPhysicalDeviceDriverProperties driver{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
     subgroup.pNext = &driver;
-    // NVIDIA's multiprocessor count and resident warps per multiprocessor, where it says them.
-    VkPhysicalDeviceShaderSMBuiltinsPropertiesNV sm{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_SM_BUILTINS_PROPERTIES_NV};
-    const bool smKnown = offersExtension(physical, VK_NV_SHADER_SM_BUILTINS_EXTENSION_NAME);
-    if (smKnown) driver.pNext = &sm;
     VkPhysicalDeviceProperties2 props{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
     props.pNext = &subgroup;
     vkGetPhysicalDeviceProperties2(physical, &props);
@@ -162,7 +149,6 @@ DeviceInfo queryDevice(VkPhysicalDevice physical, uint32_t index) {
         info.maxWorkgroupCount[i] = limits.maxComputeWorkGroupCount[i];
     }
     info.timestampPeriodNs = limits.timestampPeriod;
-    if (smKnown) info.residentInvocations = uint64_t(sm.shaderSMCount) * sm.shaderWarpsPerSM * subgroup.subgroupSize;
     return info;
 }
 
@@ -212,6 +198,19 @@ std::string rejectReason(VkInstance instance, VkPhysicalDevice physical, const V
     *queueFamily = uint32_t(best);
     *universal = bestUniversal;
     return "";
+}
+
+}  // namespace
+
+namespace {
+
+bool offersExtension(VkPhysicalDevice physical, const char* name) {
+    uint32_t count = 0;
+    vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, nullptr);
+    std::vector<VkExtensionProperties> offered(count);
+    vkEnumerateDeviceExtensionProperties(physical, nullptr, &count, offered.data());
+    return std::any_of(offered.begin(), offered.end(),
+                       [&](const VkExtensionProperties& e) { return std::strcmp(e.extensionName, name) == 0; });
 }
 
 }  // namespace

@@ -57,10 +57,6 @@ struct DeviceInfo {
     uint32_t maxWorkgroupCount[3] = {0, 0, 0};  // maxComputeWorkGroupCount
     float timestampPeriodNs = 0.0f;             // nanoseconds per timestamp tick
     bool timestamps = false;                    // the queue family writes timestamps
-    // Invocations the device can hold resident at once (multiprocessors x warps per multiprocessor
-    // x subgroup size), where it says (VK_NV_shader_sm_builtins); 0 where it does not. Sizes the
-    // persistent-threads dispatch (GpuTracer).
-    uint64_t residentInvocations = 0;
 };
 
 const char* toString(VkPhysicalDeviceType type);
