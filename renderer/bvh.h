@@ -93,8 +93,10 @@ struct BvhStats {
     // submission and scratch allocation that buildSeconds includes; 0 for the CPU builders.
     double deviceBuildSeconds = 0.0;
     uint64_t buildScratchBytes = 0;  // a device build's temporary device memory (freed after it)
-    double sahCost = 0.0;            // SAH cost of the whole tree, relative to the root's area
-    size_t bytes = 0;                // nodes + primitive indices
+    // A device build's host time creating buffers (the tree's arrays and the scratch), in buildSeconds.
+    double buildAllocationSeconds = 0.0;
+    double sahCost = 0.0;  // SAH cost of the whole tree, relative to the root's area
+    size_t bytes = 0;      // nodes + primitive indices
     // Entries of Bvh::primIndices (references) and distinct primitives they name. Equal for the
     // partitioning builders; SahSplit references a triangle once per leaf it overlaps.
     uint64_t references = 0;

@@ -213,7 +213,7 @@ bool GpuBvhBuilder::hasNormals() const { return state_->normals; }
 bool GpuBvhBuilder::hasUvs() const { return state_->uvs; }
 bool GpuBvhBuilder::hasColors() const { return state_->colors; }
 
-double GpuBvhBuilder::setScene(const Scene& scene) {
+GpuBvhBuilder::SceneUpload GpuBvhBuilder::setScene(const Scene& scene) {
     State& s = *state_;
     const auto start = SteadyClock::now();
     const size_t n = scene.triangleCount();
@@ -239,10 +239,18 @@ double GpuBvhBuilder::setScene(const Scene& scene) {
         [](size_t a, size_t b) { return std::min(a, b); });
     if (bad < scene.positions.size())
         throw Error("gpu-lbvh: " + scene.source + ": vertex " + std::to_string(bad) + " is not finite");
-    for (const glm::uvec3& t : scene.triangles)
-        for (int c = 0; c < 3; ++c)
-            if (t[c] >= scene.positions.size())
-                throw Error("gpu-lbvh: " + scene.source + ": vertex index out of range");
+    const size_t vertices = scene.positions.size();
+    const bool indicesInRange = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, n, 65536), true,
+        [&](const tbb::blocked_range<size_t>& range, bool ok) {
+            for (size_t i = range.begin(); i < range.end() && ok; ++i) {
+                const glm::uvec3& t = scene.triangles[i];
+                ok = t.x < vertices && t.y < vertices && t.z < vertices;
+            }
+            return ok;
+        },
+        [](bool a, bool b) { return a && b; });
+    if (!indicesInRange) throw Error("gpu-lbvh: " + scene.source + ": vertex index out of range");
 
     vkQueueWaitIdle(s.ctx.queue);
     for (vk::Buffer* b :
@@ -284,7 +292,12 @@ double GpuBvhBuilder::setScene(const Scene& scene) {
     s.scene = &scene;
     s.triangleCount = n;
     s.hasScene = true;
-    return secondsSince(start);
+    SceneUpload timings;
+    timings.seconds = secondsSince(start);
+    timings.allocationSeconds = staging.allocationSeconds();
+    timings.transferSeconds = staging.transferSeconds();
+    timings.conversionSeconds = timings.seconds - timings.allocationSeconds - timings.transferSeconds;
+    return timings;
 }
 
 GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs) {
@@ -323,6 +336,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             return total;
         }
     } x{s.ctx};
+    const auto allocationStart = SteadyClock::now();
     vk::destroyBuffer(s.ctx, s.order);
     s.orderCount = 0;
     s.order = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the build's triangle order");
@@ -346,6 +360,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     x.readback = vk::createBuffer(s.ctx, gpu::kLbvhStateWords * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                   VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
                                   "the build's statistics");
+    const double allocationSeconds = secondsSince(allocationStart);
 
     const uint32_t attributes =
         (s.normals && outputs.normals ? gpu::kLbvhHasNormals : 0u) | (s.uvs && outputs.uvs ? gpu::kLbvhHasUvs : 0u) |
@@ -639,8 +654,10 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             result.deviceSeconds = double(stamps[1] - stamps[0]) * double(s.ctx.info.timestampPeriodNs) * 1e-9;
     }
     result.scratchBytes = x.bytes();
+    result.allocationSeconds = allocationSeconds;
     stats.deviceBuildSeconds = result.deviceSeconds;
     stats.buildScratchBytes = result.scratchBytes;
+    stats.buildAllocationSeconds = allocationSeconds;
     s.orderCount = n;
     stats.buildSeconds = secondsSince(start);
     return result;

@@ -57,9 +57,16 @@ public:
     // Uploads the scene's positions, vertex indices and triangle materials (with its vertex normals,
     // UVs and colours where it has them) as they are in host memory; every build reads them until the
     // next setScene, and its gather makes the tracers' leaf-order triangles from them. Returns the
-    // host's wall time. Throws raypack::Error for a vertex that is not finite, an index out of range
-    // or when the device is out of memory.
-    double setScene(const Scene& scene);
+    // host's wall time, split into creating the buffers, checking and copying the arrays into them
+    // (conversion) and the transfer (vk::StagedUpload). Throws raypack::Error for a vertex that is
+    // not finite, an index out of range or when the device is out of memory.
+    struct SceneUpload {
+        double seconds = 0;
+        double allocationSeconds = 0;
+        double conversionSeconds = 0;
+        double transferSeconds = 0;
+    };
+    SceneUpload setScene(const Scene& scene);
     // Whether `scene` is the one uploaded (the same object with the same triangle count).
     bool holds(const Scene& scene) const;
     // Whether the uploaded scene has each attribute (the outputs it needs).
@@ -68,9 +75,10 @@ public:
     bool hasColors() const;
 
     struct Result {
-        BvhStats stats;             // of the built tree; buildSeconds is the host's wall time
-        double deviceSeconds = 0;   // the build's commands by the device's timestamps (0 without)
-        uint64_t scratchBytes = 0;  // temporary device memory of the build, freed before it returns
+        BvhStats stats;                // of the built tree; buildSeconds is the host's wall time
+        double deviceSeconds = 0;      // the build's commands by the device's timestamps (0 without)
+        uint64_t scratchBytes = 0;     // temporary device memory of the build, freed before it returns
+        double allocationSeconds = 0;  // the host's time creating the scratch buffers
     };
     // Builds with `options` (builder gpu-lbvh; leafSize, traversalCost and intersectionCost are
     // honoured, the bin and split settings do not apply) into `outputs`, and waits for it. Throws

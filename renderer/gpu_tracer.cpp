@@ -279,11 +279,16 @@ GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBui
         GpuLayoutTargets targets;
         writeGpuMaterials(scene, stageSceneTables(s, staging, gpuLayoutCounts(scene, none), targets), targets);
         staging.submit();
-        s.builder->setScene(scene);
+        const GpuBvhBuilder::SceneUpload arrays = s.builder->setScene(scene);
         s.deviceBuiltScene = &scene;
         result.uploadSeconds = secondsSince(start);
+        result.upload.allocationSeconds = staging.allocationSeconds() + arrays.allocationSeconds;
+        result.upload.transferSeconds = staging.transferSeconds() + arrays.transferSeconds;
+        result.upload.conversionSeconds =
+            result.uploadSeconds - result.upload.allocationSeconds - result.upload.transferSeconds;
     }
     // The tree's arrays, which the build fills on the device.
+    const auto allocationStart = Clock::now();
     const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
     createDeviceArray(s.ctx, s.nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes");
     createDeviceArray(s.ctx, s.triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles");
@@ -300,9 +305,14 @@ GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBui
         createDeviceArray(s.ctx, s.colors, sizes.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours");
         targets.colors = s.colors.buffer;
     }
+    const double arraysSeconds = secondsSince(allocationStart);
     result.stats = s.builder->build(options, targets).stats;
+    // Creating the tree's arrays is part of building it (T_B); it was counted nowhere before
+    // 2026-12-02 (t_scene_to_frame_s left it out).
+    result.stats.buildSeconds += arraysSeconds;
+    result.stats.buildAllocationSeconds += arraysSeconds;
     s.stackEntries = stackEntriesFor(s, result.stats.maxLeafDepth);
-    s.lastUpload = {};
+    s.lastUpload = result.upload;
     s.sceneBounds = scene.bounds();
     s.hasScene = true;
     if (s.width > 0) writeDescriptors(s);

@@ -43,6 +43,15 @@ public:
     // Throws raypack::Error when the device is out of memory or the tree is too deep for the
     // stack the device's shared memory can hold.
     double upload(const Scene& scene, const Bvh& bvh);
+    // Where the last upload's T_CU went (issue 13): creating the device and staging buffers, writing
+    // the layout into the staging memory (writeGpuLayout, page faults of fresh memory included; or
+    // straight into mapped device memory, vk::StagedUpload), and the copies to the device. After a
+    // device build, its scene upload's split (0 when the scene was kept).
+    struct UploadTimings {
+        double allocationSeconds = 0.0;
+        double conversionSeconds = 0.0;
+        double transferSeconds = 0.0;
+    };
     // Builds the BVH on this device with a device builder (options.builder gpu-lbvh,
     // renderer/gpu_bvh.h) straight into the tracer's buffers, replacing the previous scene: no tree
     // on the host and no round trip (issue 13). The materials, textures and the builder's vertex arrays and
@@ -51,18 +60,11 @@ public:
     struct DeviceBuild {
         BvhStats stats;            // of the built tree (device-side statistics), T_B included
         double uploadSeconds = 0;  // T_CU of this call: the scene's upload, 0 when it was kept
+        UploadTimings upload;      // uploadSeconds split (allocation, conversion, transfer)
         double seconds = 0;        // the whole call: upload, allocation, build
     };
     DeviceBuild buildOnDevice(const Scene& scene, const BvhBuildOptions& options);
     bool hasScene() const;
-    // Where the last upload's T_CU went (issue 13): creating the device and staging buffers, writing
-    // the layout into the staging memory (writeGpuLayout, page faults of fresh memory included),
-    // and the copies to the device.
-    struct UploadTimings {
-        double allocationSeconds = 0.0;
-        double conversionSeconds = 0.0;
-        double transferSeconds = 0.0;
-    };
     UploadTimings lastUploadTimings() const;
 
     // The compiler's statistics of the pipeline that traces `settings`' primary (or shadow) pass

@@ -5,7 +5,8 @@
 # against the CPU-built path (sah-binned: T_B on 16 threads, T_CU the host layout upload), for the
 # terrains and the dragon subdivided to 13M at 1920x1080, single-ray kernel, in one call.
 # Prepare here: scripts/device-pack.sh build. On the device (carry [".gl", ".device"]):
-#   bash scripts/device-first-frame.sh      -> $OUT/first-frame.txt, $OUT/first-frame-*.json
+#   [UPLOAD_MODES="direct staged"] [SCENE_LIST=...] bash scripts/device-first-frame.sh
+#       -> $OUT/first-frame.txt, $OUT/first-frame-BUILDER-MODE.json
 set -uo pipefail
 out=${OUT:-${OUT_DIR:-out}}
 mkdir -p "$out"
@@ -13,18 +14,26 @@ if [ ! -x .device/bin/raypack-cli ] && [ -f .device/round.tar.xz ]; then tar xJf
 source scripts/device-env.sh 2>/dev/null
 S=.device/scenes
 scenes=${SCENE_LIST:-"$S/conference/conference_geom.ply,gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"}
-for builder in gpu-lbvh gpu-ploc sah-binned; do
-  timeout 250 .device/bin/raypack-cli bench --scenes "$scenes" --device gpu --kernel single --no-driver-rt \
-    --width 1920 --height 1080 --repeat 5 --builder "$builder" --out "$out/first-frame-$builder.json" \
-    > /dev/null 2>> "$out/first-frame-progress.log" || echo "FAILED $builder" | tee -a "$out/first-frame.txt"
+# UPLOAD_MODES: the vk::StagedUpload modes to run, each the whole set (RAYPACK_UPLOAD=direct: into
+# mapped device memory where the device maps all of it; staged: through staging buffers).
+modes=${UPLOAD_MODES:-direct}
+for mode in $modes; do
+  for builder in gpu-lbvh gpu-ploc sah-binned; do
+    RAYPACK_UPLOAD=$mode timeout 250 .device/bin/raypack-cli bench --scenes "$scenes" --device gpu --kernel single \
+      --no-driver-rt --width 1920 --height 1080 --repeat 5 --builder "$builder" \
+      --out "$out/first-frame-$builder-$mode.json" > /dev/null 2>> "$out/first-frame-progress.log" ||
+      echo "FAILED $builder $mode" | tee -a "$out/first-frame.txt"
+  done
 done
-python3 - "$out" >> "$out/first-frame.txt" <<'PY'
+for mode in $modes; do
+echo "upload mode $mode" >> "$out/first-frame.txt"
+python3 - "$out" "$mode" >> "$out/first-frame.txt" <<'PY'
 import json, sys
-out = sys.argv[1]
+out, mode = sys.argv[1], sys.argv[2]
 rows = {}
 for builder in ("gpu-lbvh", "gpu-ploc", "sah-binned"):
     try:
-        records = json.load(open(f"{out}/first-frame-{builder}.json"))["records"]
+        records = json.load(open(f"{out}/first-frame-{builder}-{mode}.json"))["records"]
     except Exception:
         continue
     for r in records:
@@ -42,5 +51,12 @@ for builder in ("gpu-lbvh", "gpu-ploc"):
               f" {lf:8.4f} | {b['t_b_s']:10.4f} {b['t_cu_s']:7.4f} {bf:8.4f} | {bf / lf:6.1f}")
 print("seconds; to frame = T_CU + T_B + one frame's wall time (frame_s) of the first GPU cell (the scene in host memory to a traced frame,"
       " kernels compiled before); ratio = sah-binned path / device-built path")
+print("T_CU split (allocation / conversion / transfer) and T_B's allocation, seconds:")
+for scene, by in rows.items():
+    for builder, r in by.items():
+        print(f"  {builder:10s} {scene[-28:]:28s} T_CU {r['t_cu_s']:.4f} = {r.get('t_cu_allocation_s') or 0:.4f} / "
+              f"{r.get('t_cu_conversion_s') or 0:.4f} / {r.get('t_cu_transfer_s') or 0:.4f}; "
+              f"T_B {r['t_b_s']:.4f} (allocation {r.get('t_b_allocation_s') or 0:.4f}, device {r.get('t_b_device_s') or 0:.4f})")
 PY
+done
 cat "$out/first-frame.txt"

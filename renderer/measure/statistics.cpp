@@ -20,6 +20,7 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const Bvh
         {"t_b_s", bvh.buildSeconds},
         {"t_b_device_s", bvh.deviceBuildSeconds},
         {"build_scratch_bytes", bvh.buildScratchBytes},
+        {"t_b_allocation_s", bvh.buildAllocationSeconds},
         {"nodes", bvh.nodeCount},
         {"sah_cost", bvh.sahCost},
         {"bvh_bytes", uint64_t(bvh.bytes)},

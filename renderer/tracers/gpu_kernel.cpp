@@ -45,6 +45,9 @@ public:
         p.preparation.seconds = built.uploadSeconds;
         p.preparation.bytes = tracer_->sceneBytes();
         p.preparation.isUpload = true;
+        p.preparation.allocationSeconds = built.upload.allocationSeconds;
+        p.preparation.conversionSeconds = built.upload.conversionSeconds;
+        p.preparation.transferSeconds = built.upload.transferSeconds;
         p.stats = built.stats;
         return p;
     }

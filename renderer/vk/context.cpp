@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cctype>
+#include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <sstream>
 
@@ -640,24 +642,55 @@ StagedUpload::~StagedUpload() {
     for (Staged& b : staged_) destroyBuffer(context_, b.staging);
 }
 
+bool mappableDeviceMemory(const VulkanContext& ctx) {
+    const VkPhysicalDeviceMemoryProperties& m = ctx.memoryProperties;
+    const VkMemoryPropertyFlags mapped = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                                         VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+    const uint32_t local = findMemoryType(ctx, ~0u, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    const uint32_t visible = findMemoryType(ctx, ~0u, mapped);
+    return local != UINT32_MAX && visible != UINT32_MAX &&
+           m.memoryTypes[local].heapIndex == m.memoryTypes[visible].heapIndex;
+}
+
+StagedUpload::StagedUpload(const VulkanContext& context, VkCommandPool pool)
+    : context_(context), pool_(pool), direct_(mappableDeviceMemory(context)) {
+    if (const char* mode = std::getenv("RAYPACK_UPLOAD"); mode && std::strcmp(mode, "staged") == 0) direct_ = false;
+}
+
 void* StagedUpload::add(Buffer& device, size_t bytes, const char* what) {
+    const auto start = std::chrono::steady_clock::now();
     checkBindable(context_, bytes, what);
+    if (direct_ && bytes > 0) {
+        try {
+            device = createBuffer(context_, bytes, kUsage,
+                                  VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
+                                      VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                  what);
+            allocationSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            return device.mapped;
+        } catch (const Error&) {
+            // The mappable part of the heap is used up: stage the rest.
+        }
+    }
     device = createBuffer(context_, bytes, kUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
     if (bytes == 0) return nullptr;
     staged_.push_back({&device, createBuffer(context_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                              VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
                                              "a staging buffer")});
+    allocationSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return staged_.back().staging.mapped;
 }
 
 void StagedUpload::submit() {
-    if (staged_.empty()) return;
-    submitAndWait(context_, pool_, [&](VkCommandBuffer cmd) {
-        for (const Staged& b : staged_) {
-            const VkBufferCopy region{0, 0, b.staging.size};
-            vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
-        }
-    });
+    const auto start = std::chrono::steady_clock::now();
+    if (!staged_.empty())
+        submitAndWait(context_, pool_, [&](VkCommandBuffer cmd) {
+            for (const Staged& b : staged_) {
+                const VkBufferCopy region{0, 0, b.staging.size};
+                vkCmdCopyBuffer(cmd, b.staging.buffer, b.device->buffer, 1, &region);
+            }
+        });
+    transferSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
 VkShaderModule createShaderModule(const VulkanContext& ctx, const uint32_t* code, size_t codeBytes, const char* name) {

@@ -147,7 +147,11 @@ void writeStorageSet(const VulkanContext& context, VkDescriptorSet set, std::spa
 // buffer), submit() copies every one in one submission. Staging buffers are freed on every path out.
 class StagedUpload {
 public:
-    StagedUpload(const VulkanContext& context, VkCommandPool pool) : context_(context), pool_(pool) {}
+    // Where the device's memory is mappable in full (one heap holds both the device-local type and a
+    // device-local, host-visible, host-coherent one: resizable BAR on a discrete GPU, every CPU
+    // device), `add` hands out the device buffer's own mapping and `submit` copies nothing; else (or
+    // with RAYPACK_UPLOAD=staged in the environment, for measuring the two) a staging buffer.
+    StagedUpload(const VulkanContext& context, VkCommandPool pool);
     ~StagedUpload();
     StagedUpload(const StagedUpload&) = delete;
     StagedUpload& operator=(const StagedUpload&) = delete;
@@ -155,6 +159,10 @@ public:
     // `what`) or the device is out of memory.
     void* add(Buffer& device, size_t bytes, const char* what);
     void submit();
+    // Host seconds spent creating buffers in `add`, and in `submit` (copies and the wait).
+    double allocationSeconds() const { return allocationSeconds_; }
+    double transferSeconds() const { return transferSeconds_; }
+    bool direct() const { return direct_; }
     // Storage, transfer source and destination: what the tracers' and the builder's arrays use.
     static constexpr VkBufferUsageFlags kUsage =
         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
@@ -167,7 +175,13 @@ private:
     const VulkanContext& context_;
     VkCommandPool pool_;
     std::vector<Staged> staged_;
+    bool direct_ = false;
+    double allocationSeconds_ = 0.0;
+    double transferSeconds_ = 0.0;
 };
+// Whether a heap holds both the first device-local memory type and a device-local, host-visible,
+// host-coherent one, i.e. device memory can be mapped in full (StagedUpload).
+bool mappableDeviceMemory(const VulkanContext& context);
 // Throws raypack::Error when `bytes` exceed maxStorageBufferRange (the texels of large textures are
 // the likeliest to), naming `what` and the device.
 void checkBindable(const VulkanContext& context, size_t bytes, const char* what);
