@@ -587,6 +587,26 @@ TEST(Panel, TheSceneLineSaysFailedNotLoadingAfterAFailedLoad) {
     EXPECT_EQ(ui::sceneLine(info), "Scene: gen:default (1234 triangles); loading /x/next.glb");
 }
 
+// The shadow Mrays/s divides the timed frame's shadow rays by its T_K: where the counters come from a
+// smaller counting frame (GPU devices), its share of shadow rays scales to the timed frame's pixels.
+// Before, the 80x50 counting frame's 3,994 shadow rays were divided by a 640x400 frame's T_K (the
+// panel showed 0.0 Mrays/s on lavapipe).
+TEST(Panel, ShadowRaysOfTheTimedFrameScaleFromASmallerCountingFrame) {
+    ui::LiveStatistics stats;
+    bool estimated = true;
+    EXPECT_EQ(ui::timedShadowRays(stats, &estimated), 0.0);
+    stats.countersValid = true;
+    stats.primaryRays = 640 * 400;
+    stats.counters.primaryRays = 80 * 50;
+    stats.counters.shadowRays = 3994;
+    EXPECT_DOUBLE_EQ(ui::timedShadowRays(stats, &estimated), 3994.0 * 64.0);
+    EXPECT_TRUE(estimated);
+    stats.counters.primaryRays = 640 * 400;
+    stats.counters.shadowRays = 250000;
+    EXPECT_DOUBLE_EQ(ui::timedShadowRays(stats, &estimated), 250000.0);
+    EXPECT_FALSE(estimated);
+}
+
 TEST(Panel, TheTitleShowsFramesPerSecondUnderAFixedId) {
     ui::LiveStatistics stats;
     EXPECT_EQ(ui::panelTitle(stats), "raypack###raypack-panel");

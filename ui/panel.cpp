@@ -85,9 +85,11 @@ void drawStatisticsSection(PanelState& state, const PanelInfo& info, PanelAction
             st.primaryKernelSeconds > 0 ? double(st.primaryRays) / st.primaryKernelSeconds / 1e6 : 0.0;
         ImGui::Text("T_K primary %.2f ms   %.1f Mrays/s", st.primaryKernelSeconds * 1e3, primaryMrays);
         if (s.shadows) {
-            if (st.countersValid && st.shadowKernelSeconds > 0)
-                ImGui::Text("T_K shadow  %.2f ms   %.1f Mrays/s", st.shadowKernelSeconds * 1e3,
-                            double(st.counters.shadowRays) / st.shadowKernelSeconds / 1e6);
+            bool estimated = false;
+            const double shadowRays = ui::timedShadowRays(st, &estimated);
+            if (shadowRays > 0 && st.shadowKernelSeconds > 0)
+                ImGui::Text("T_K shadow  %.2f ms   %.1f Mrays/s%s", st.shadowKernelSeconds * 1e3,
+                            shadowRays / st.shadowKernelSeconds / 1e6, estimated ? " (est.)" : "");
             else
                 ImGui::Text("T_K shadow  %.2f ms", st.shadowKernelSeconds * 1e3);
         }
@@ -399,6 +401,15 @@ std::string sceneLine(const PanelInfo& info) {
     else if (!info.failedScene.empty())
         line += "; " + info.failedScene + " failed to load";
     return line;
+}
+
+double timedShadowRays(const LiveStatistics& stats, bool* estimated) {
+    *estimated = false;
+    const CounterSummary& c = stats.counters;
+    if (!stats.countersValid || c.primaryRays == 0) return 0.0;
+    if (c.primaryRays == stats.primaryRays) return double(c.shadowRays);
+    *estimated = true;
+    return double(stats.primaryRays) * double(c.shadowRays) / double(c.primaryRays);
 }
 
 std::string panelTitle(const LiveStatistics& stats) {

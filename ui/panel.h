@@ -149,6 +149,11 @@ PanelActions drawPanel(PanelState& state, const PanelInfo& info);
 // or what failed; "Scene: none ..." before any scene loaded, "failed", never "(loading)", after a
 // failed load.
 std::string sceneLine(const PanelInfo& info);
+// The shadow rays of the timed frame, for the panel's shadow Mrays/s: the counting frame's shadow
+// N_Q where that frame is the one timed (same N_Q of primary rays), else its share of pixels that
+// cast a shadow ray applied to the timed frame's pixels (a GPU device counts at a reduced size);
+// `estimated` tells which. 0 without counters.
+double timedShadowRays(const LiveStatistics& stats, bool* estimated);
 // The panel's title, also visible when it is collapsed: "raypack  12.5 fps" (ImGui ID kept apart).
 std::string panelTitle(const LiveStatistics& stats);
 
