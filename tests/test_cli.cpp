@@ -182,6 +182,31 @@ TEST(Cli, DiffCountsDifferencesAndHasDocumentedExitCodes) {
     expectCleanError(runCli("diff " + quoted(a)), "B");
 }
 
+// render --device gpu with a device builder and a camera builds in the GPU tracer's own buffers
+// (no host tree): its hits are the CPU reference's over the same builder's downloaded tree, and
+// Table 1 carries the device's statistics. Without a camera the start view needs the tree on the
+// host, and the tree is downloaded as before.
+TEST(Cli, RenderWithADeviceBuilderBuildsInTheTracer) {
+    const std::string camera = " --eye 0.5,3,-4 --at 0,0,0 --width 64 --height 48 --builder gpu-lbvh";
+    const fs::path gpuHits = scratch() / "own-build-gpu.hits", cpuHits = scratch() / "own-build-cpu.hits";
+    const CliResult own = runCli("render gen:terrain:10k --device gpu --kernel single" + camera + " --hits " +
+                                 quoted(gpuHits));
+    ASSERT_EQ(own.exitCode, 0) << own.output;
+    EXPECT_NE(own.output.find("built in the tracer's own buffers"), std::string::npos) << own.output;
+    EXPECT_NE(own.output.find("built on the device in"), std::string::npos) << own.output;
+    const CliResult reference = runCli("render gen:terrain:10k --device cpu" + camera + " --hits " + quoted(cpuHits));
+    ASSERT_EQ(reference.exitCode, 0) << reference.output;
+    const HitsFile a = readHits(gpuHits.string()), b = readHits(cpuHits.string());
+    ASSERT_EQ(a.records.size(), b.records.size());
+    size_t same = 0;
+    for (size_t i = 0; i < a.records.size(); ++i)
+        same += a.records[i].prim == b.records[i].prim && a.records[i].shadow == b.records[i].shadow;
+    EXPECT_GE(double(same), 0.9999 * double(a.records.size())) << same << " of " << a.records.size();
+    const CliResult framed = runCli("render gen:terrain:10k --device gpu --width 32 --height 24 --builder gpu-lbvh");
+    ASSERT_EQ(framed.exitCode, 0) << framed.output;
+    EXPECT_EQ(framed.output.find("built in the tracer's own buffers"), std::string::npos) << framed.output;
+}
+
 // The hybrid kernel's flags (docs/gpu.md): GPU only, with --kernel hybrid only, ratios in range.
 TEST(Cli, HybridFlagsApplyToTheHybridKernelOnly) {
     expectCleanError(runCli("render gen:terrain:1k --kernel hybrid --width 8 --height 8"), "--device gpu");

@@ -6,6 +6,7 @@
 #include "renderer/camera.h"
 #include "renderer/cpu_packet_tracer.h"
 #include "renderer/error.h"
+#include "renderer/gpu_bvh.h"
 #include "renderer/hits_io.h"
 #include "renderer/image.h"
 #include "renderer/measure/protocol.h"
@@ -40,6 +41,7 @@ struct RenderFlags {
     std::string view = "shaded";
     std::string intersect = "robust";
     std::string shadowOrder = "nearest";
+    uint32_t bvhWidth = 2;
     std::string out, hits, json, from;
     uint32_t repeat = 1;
     uint32_t spp = 1;
@@ -51,7 +53,7 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio;
+        *hybridMinRays, *hybridVisitRatio, *bvhWidth;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -88,6 +90,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.view)) s.view = requireViewMode("--view", f.view);
     if (given(o.intersect)) s.intersect = requireIntersectMode("--intersect", f.intersect);
     if (given(o.shadowOrder)) s.shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
+    if (given(o.bvhWidth)) s.bvhWidth = f.bvhWidth;
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
     if (given(o.bins)) setup.bvh.binCount = f.bvh.binCount;
@@ -238,6 +241,12 @@ CommandRunner addRenderCommand(CLI::App& app) {
                                      "area); the shadows are the same, the work differs (docs/gpu.md)")
                         ->check(CLI::IsMember({"nearest", "tree", "larger"}))
                         ->capture_default_str();
+    o.bvhWidth = command
+                     ->add_option("--bvh-width", f.bvhWidth,
+                                  "GPU --kernel single: trace the binary BVH (2) or the 4-wide tree made from "
+                                  "it at upload (4; the tracer gpu-wide, docs/gpu.md)")
+                     ->check(CLI::IsMember({2u, 4u}))
+                     ->capture_default_str();
     command->add_option("--out", f.out,
                         "Write the image to this file: PNG for .png, JPEG (quality 95) for .jpg or "
                         ".jpeg; any other extension is refused before rendering");
@@ -300,6 +309,10 @@ CommandRunner addRenderCommand(CLI::App& app) {
             throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
         if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--shadow-order applies to --device gpu --kernel single only");
+        if (settings.bvhWidth != 2 && (cpu || settings.kernel != KernelKind::Single))
+            throw Error("--bvh-width 4 applies to --device gpu --kernel single only");
+        if (settings.bvhWidth != 2 && settings.shadowOrder != ShadowOrder::Nearest)
+            throw Error("--bvh-width 4 takes the nearest child first; --shadow-order applies to the binary tree");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
         // the render.
         if (!f.out.empty()) {
@@ -315,9 +328,15 @@ CommandRunner addRenderCommand(CLI::App& app) {
         checkFrameMemory(settings, f.device == "gpu");
 
         const LoadedScene loaded = loadSceneTimed(setup.scene);
-        const Bvh bvh = buildSceneBvh(loaded.scene, setup.bvh, f.gpu);
+        const bool gpu = f.device == "gpu";
+        // A device builder on --device gpu builds in the GPU tracer's own buffers (issue 13: no tree
+        // on the host, no second Vulkan device, no download and upload again). The start view
+        // traces the tree on the host, so without a camera the tree is built and downloaded first.
+        const bool buildInTracer = gpu && isGpuBvhBuilder(setup.bvh.builder) && cameraGiven && settings.bvhWidth == 2;
+        std::optional<Bvh> bvh;
+        if (!buildInTracer) bvh = buildSceneBvh(loaded.scene, setup.bvh, f.gpu);
         if (!cameraGiven) {
-            const Camera framed = startCamera(loaded.scene, bvh);
+            const Camera framed = startCamera(loaded.scene, *bvh);
             settings.camera.eye = framed.eye;
             settings.camera.at = framed.at;
             if (!given(options->up)) settings.camera.up = framed.up;
@@ -330,10 +349,10 @@ CommandRunner addRenderCommand(CLI::App& app) {
             throw Error("--hits: a hits file has one record per pixel of the image, which --scale " +
                         std::to_string(setup.resolutionScale) + " does not trace");
         // The tracer: the device and kernel the flags chose (renderer/tracers/registry.h).
-        const bool gpu = f.device == "gpu";
         const bool packets = settings.kernel == KernelKind::Packet;
         const char* gpuTracer = packets                                 ? "gpu-packet"
                                 : settings.kernel == KernelKind::Hybrid ? "gpu-hybrid"
+                                : settings.bvhWidth == 4                ? "gpu-wide"
                                                                         : "gpu-single";
         std::optional<VulkanSession> session;
         TracerEnvironment environment;
@@ -343,7 +362,19 @@ CommandRunner addRenderCommand(CLI::App& app) {
         }
         const std::unique_ptr<Tracer> tracer =
             makeTracer(gpu ? gpuTracer : (packets ? "cpu-packet" : "cpu-reference"), environment);
-        const Preparation preparation = tracer->prepare(loaded.scene, bvh);
+        Preparation preparation;
+        BvhStats bvhStats;
+        if (buildInTracer) {
+            const std::optional<Tracer::DeviceBuildPreparation> built =
+                tracer->prepareWithDeviceBuild(loaded.scene, setup.bvh);
+            RAYPACK_CHECK_MSG(built, "the GPU tracers build with the device builders");
+            preparation = built->preparation;
+            bvhStats = built->stats;
+            std::printf("BVH        built in the tracer's own buffers on the device (no host tree)\n");
+        } else {
+            preparation = tracer->prepare(loaded.scene, *bvh);
+            bvhStats = bvh->stats;
+        }
         // Progressive display (renderer/progressive.h): a reduced resolution, scaled up after.
         const uint32_t outWidth = settings.width, outHeight = settings.height;
         settings.width = scaledExtent(outWidth, setup.resolutionScale);
@@ -378,11 +409,12 @@ CommandRunner addRenderCommand(CLI::App& app) {
 
         if (gpu || packets)
             std::printf("kernel     %s, packet %s\n", toString(settings.kernel), toString(settings.packet).c_str());
+        if (gpu && settings.bvhWidth == 4) std::printf("tree       4-wide, made from the binary BVH at upload\n");
         if (settings.kernel == KernelKind::Hybrid)
             std::printf("hybrid     split below %u rays, visit ratio %g (0: off)\n", settings.hybrid.minRays,
                         double(settings.hybrid.visitRatio));
         printCamera(settings.camera, !cameraGiven);
-        printTable1(stdout, loaded.info, bvh.stats, setup.bvh);
+        printTable1(stdout, loaded.info, bvhStats, setup.bvh);
         printTable2(stdout, measured.stats);
 
         if (!f.out.empty()) {
@@ -397,7 +429,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
             nlohmann::json json = toJson(setup);
             json["device"] = measured.stats.device;
             json["device_kind"] = gpu ? "gpu" : "cpu";
-            json["table1"] = table1Json(loaded.info, bvh.stats, setup.bvh);
+            json["table1"] = table1Json(loaded.info, bvhStats, setup.bvh);
             json["table2"] = toJson(measured.stats);
             writeJsonFile(f.json, json);
             std::printf("json       %s\n", f.json.c_str());
