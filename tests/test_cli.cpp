@@ -189,8 +189,8 @@ TEST(Cli, DiffCountsDifferencesAndHasDocumentedExitCodes) {
 TEST(Cli, RenderWithADeviceBuilderBuildsInTheTracer) {
     const std::string camera = " --eye 0.5,3,-4 --at 0,0,0 --width 64 --height 48 --builder gpu-lbvh";
     const fs::path gpuHits = scratch() / "own-build-gpu.hits", cpuHits = scratch() / "own-build-cpu.hits";
-    const CliResult own = runCli("render gen:terrain:10k --device gpu --kernel single" + camera + " --hits " +
-                                 quoted(gpuHits));
+    const CliResult own =
+        runCli("render gen:terrain:10k --device gpu --kernel single" + camera + " --hits " + quoted(gpuHits));
     ASSERT_EQ(own.exitCode, 0) << own.output;
     EXPECT_NE(own.output.find("built in the tracer's own buffers"), std::string::npos) << own.output;
     EXPECT_NE(own.output.find("built on the device in"), std::string::npos) << own.output;

@@ -55,8 +55,7 @@ Bars barsFor(const std::string& name) {
         {"cpu-reference", {1.0, 1.0, true}},    {"cpu-packet", {1.0, 1.0, true}},
         {"gpu-packet", {0.9999, 0.999, false}}, {"gpu-single", {0.9999, 0.999, false}},
         {"gpu-hybrid", {0.9999, 0.999, false}}, {"gpu-wide", {0.9999, 0.999, false}},
-        {"embree", {0.9999, 0.999, false}},
-        {"driver-rt", {0.999, 0.995, false}},
+        {"embree", {0.9999, 0.999, false}},     {"driver-rt", {0.999, 0.995, false}},
     };
     const auto it = bars.find(name);
     EXPECT_NE(it, bars.end()) << "no bar for tracer " << name << ": add one here";
