@@ -6,7 +6,6 @@
 #include <oneapi/tbb/parallel_for.h>
 
 #include <algorithm>
-#include <array>
 #include <cfloat>
 #include <cstring>
 #include <utility>
@@ -80,71 +79,6 @@ void writeGpuLayout(const Scene& scene, const Bvh& bvh, const GpuLayoutCounts& c
     // 2. The references' triangles; 3. the materials and textures.
     writeGpuTriangles(scene, bvh.primIndices, counts, out);
     writeGpuMaterials(scene, counts, out);
-}
-
-std::vector<gpu::GpuNode> makeGpuWideNodes(const Bvh& bvh, uint32_t* depth) {
-    RAYPACK_CHECK(!bvh.nodes.empty());
-    const auto area = [](const BvhNode& n) {
-        const glm::vec3 d = n.hi - n.lo;
-        return d.x * d.y + d.y * d.z + d.z * d.x;
-    };
-    const auto slot = [&](const BvhNode& n, uint32_t entryIndex, uint32_t count) {
-        return gpu::GpuNode{withBits(n.lo, entryIndex), withBits(n.hi, count)};
-    };
-    const gpu::GpuNode empty{withBits(glm::vec3(FLT_MAX), gpu::kWideEmptySlot), withBits(glm::vec3(-FLT_MAX), 0u)};
-    std::vector<gpu::GpuNode> wide(4, empty);
-    uint32_t deepest = 0;
-    const BvhNode& root = bvh.nodes[0];
-    if (root.isLeaf()) {
-        // A root leaf (one leaf holds the scene; an empty scene's is empty and stays unused).
-        if (root.count > 0) wide[0] = slot(root, root.index, root.count);
-        *depth = 0;
-        return wide;
-    }
-    // Explicit work list (trees can be deep): wide node w is to be filled from binary inner node b.
-    struct Work {
-        uint32_t wideIndex;
-        uint32_t binary;
-        uint32_t depth;
-    };
-    std::vector<Work> work{{0u, 0u, 0u}};
-    while (!work.empty()) {
-        const Work item = work.back();
-        work.pop_back();
-        deepest = std::max(deepest, item.depth);
-        const BvhNode& parent = bvh.nodes[item.binary];
-        std::array<uint32_t, 4> children{parent.index, parent.index + 1, 0, 0};
-        uint32_t count = 2;
-        while (count < 4) {
-            int widest = -1;
-            float widestArea = -1.0f;
-            for (uint32_t c = 0; c < count; ++c) {
-                const BvhNode& n = bvh.nodes[children[c]];
-                if (!n.isLeaf() && area(n) > widestArea) {
-                    widest = int(c);
-                    widestArea = area(n);
-                }
-            }
-            if (widest < 0) break;
-            const BvhNode& opened = bvh.nodes[children[widest]];
-            children[widest] = opened.index;
-            children[count++] = opened.index + 1;
-        }
-        for (uint32_t c = 0; c < count; ++c) {
-            const BvhNode& n = bvh.nodes[children[c]];
-            gpu::GpuNode& target = wide[4 * size_t(item.wideIndex) + c];
-            if (n.isLeaf()) {
-                target = slot(n, n.index, n.count);
-            } else {
-                const uint32_t child = uint32_t(wide.size() / 4);
-                target = slot(n, child, 0u);
-                wide.resize(wide.size() + 4, empty);
-                work.push_back({child, children[c], item.depth + 1});
-            }
-        }
-    }
-    *depth = deepest;
-    return wide;
 }
 
 void writeGpuTriangles(const Scene& scene, std::span<const uint32_t> order, const GpuLayoutCounts& counts,

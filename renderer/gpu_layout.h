@@ -82,13 +82,6 @@ void writeGpuMaterials(const Scene& scene, const GpuLayoutCounts& counts, const 
 // statistics where they describe this tree, else a walk.
 uint32_t gpuTreeDepth(const Bvh& bvh);
 
-// The 4-wide tree of `bvh` for the wide single-ray kernel (shaders/gpu_types.h, kWideEmptySlot):
-// each wide node takes the binary node's two children and then replaces the inner child of the
-// largest surface area by its two children, until it has four or only leaves. Leaves keep their
-// triangle ranges, so writeGpuTriangles' leaf order serves both trees. `depth` receives the
-// deepest wide node below the root (root = 0), which sizes the traversal stack.
-std::vector<gpu::GpuNode> makeGpuWideNodes(const Bvh& bvh, uint32_t* depth);
-
 // The layout in host vectors (tests, tools): gpuLayoutCounts, writeGpuLayout and gpuTreeDepth.
 GpuLayout makeGpuLayout(const Scene& scene, const Bvh& bvh);
 

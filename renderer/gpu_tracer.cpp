@@ -43,10 +43,9 @@ struct PipelineKey {
     ShadowOrder shadowOrder;
     uint32_t hybridMinRays = 0;     // the hybrid kernel's split rules (0 for the other kernels)
     uint32_t hybridVisitRatio = 0;  // in 1/100
-    bool wideBvh = false;           // the single-ray kernel over the 4-wide tree
     auto tie() const {
         return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
-                        hybridMinRays, hybridVisitRatio, wideBvh);
+                        hybridMinRays, hybridVisitRatio);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -81,7 +80,6 @@ PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool s
         key.hybridMinRays = settings.hybrid.minRays;
         key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
     }
-    key.wideBvh = settings.bvhWidth == 4;
     return key;
 }
 
@@ -107,7 +105,6 @@ struct GpuTracer::State {
     bool hasScene = false, hasNormals = false, hasMaterials = false, hasUvs = false, hasColors = false;
     bool hostTimedPasses = false;  // setHostTimedPasses
     uint32_t stackEntries = 1;
-    uint32_t bvhWidth = 2;  // the uploaded tree: binary, or 4-wide (makeGpuWideNodes)
     Aabb sceneBounds;
     // buildOnDevice: the device builder (made on first use) and the scene whose materials,
     // textures and vertex arrays it uploaded (kept while only the tree changes).
@@ -214,18 +211,11 @@ uint32_t stackEntriesFor(const GpuTracer::State& s, uint32_t maxDepth);
 
 }  // namespace
 
-double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) {
+double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     State& s = *state_;
     const auto start = Clock::now();
-    if (bvhWidth != 2 && bvhWidth != 4)
-        throw Error("GPU: a BVH of width " + std::to_string(bvhWidth) + " is not traced (2 or 4)");
     const GpuLayoutCounts counts = gpuLayoutCounts(scene, bvh);
-    // The 4-wide tree (the wide single-ray kernel) is made here from the binary one; its stack holds
-    // at most three pushes per wide level.
-    uint32_t wideDepth = 0;
-    const std::vector<gpu::GpuNode> wide =
-        bvhWidth == 4 ? makeGpuWideNodes(bvh, &wideDepth) : std::vector<gpu::GpuNode>{};
-    const uint32_t entries = bvhWidth == 4 ? 3 * (wideDepth + 1) + 1 : stackEntriesFor(s, gpuTreeDepth(bvh));
+    const uint32_t entries = stackEntriesFor(s, gpuTreeDepth(bvh));
 
     vkQueueWaitIdle(s.ctx.queue);
     for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors, &s.textures, &s.texels})
@@ -240,8 +230,7 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) 
     vk::StagedUpload staging(s.ctx, s.pool);
     GpuLayoutTargets targets;
     const GpuLayoutCounts written = stageSceneTables(s, staging, counts, targets);
-    const size_t nodeCount = bvhWidth == 4 ? wide.size() : counts.nodes;
-    targets.nodes = static_cast<gpu::GpuNode*>(staging.add(s.nodes, nodeCount * sizeof(gpu::GpuNode), "BVH nodes"));
+    targets.nodes = static_cast<gpu::GpuNode*>(staging.add(s.nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes"));
     targets.triangles = static_cast<gpu::GpuTriangle*>(
         staging.add(s.triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles"));
     if (s.hasNormals)
@@ -254,20 +243,13 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) 
         targets.colors = static_cast<gpu::GpuTriangleColors*>(
             staging.add(s.colors, counts.triangles * sizeof(gpu::GpuTriangleColors), "vertex colours"));
     const auto converted = Clock::now();
-    if (bvhWidth == 4) {
-        std::memcpy(targets.nodes, wide.data(), wide.size() * sizeof(gpu::GpuNode));
-        writeGpuTriangles(scene, bvh.primIndices, written, targets);
-        writeGpuMaterials(scene, written, targets);
-    } else {
-        writeGpuLayout(scene, bvh, written, targets);
-    }
+    writeGpuLayout(scene, bvh, written, targets);
     const auto transferStart = Clock::now();
     s.lastUpload.allocationSeconds = std::chrono::duration<double>(converted - start).count();
     s.lastUpload.conversionSeconds = std::chrono::duration<double>(transferStart - converted).count();
     staging.submit();
     s.lastUpload.transferSeconds = secondsSince(transferStart);
     s.stackEntries = entries;
-    s.bvhWidth = bvhWidth;
     s.sceneBounds = scene.bounds();
     s.hasScene = true;
     if (s.width > 0) writeDescriptors(s);
@@ -330,7 +312,6 @@ GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBui
     result.stats.buildSeconds += arraysSeconds;
     result.stats.buildAllocationSeconds += arraysSeconds;
     s.stackEntries = stackEntriesFor(s, result.stats.maxLeafDepth);
-    s.bvhWidth = 2;
     s.lastUpload = result.upload;
     s.sceneBounds = scene.bounds();
     s.hasScene = true;
@@ -468,7 +449,6 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
                                                                 : gpu::kShadowOrderNearest;
     data.hybridMinRays = key.hybridMinRays;
     data.hybridVisitRatio = key.hybridVisitRatio;
-    data.wideBvh = key.wideBvh ? VK_TRUE : VK_FALSE;
     static_assert(sizeof(VkBool32) == sizeof(data.statistics), "a bool specialization constant is a VkBool32");
     std::array<VkSpecializationMapEntry, gpu::kTraceSpecializationEntries.size()> entries{};
     for (size_t i = 0; i < entries.size(); ++i) {
@@ -513,15 +493,6 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
         throw Error("GPU: packet " + name + " with a stack of " + std::to_string(s.stackEntries) + " entries needs " +
                     std::to_string(shared) + " bytes of shared memory; " + d.name + " has " +
                     std::to_string(d.maxSharedMemoryBytes));
-    if (settings.bvhWidth != s.bvhWidth)
-        throw Error("GPU: the uploaded BVH is " + std::to_string(s.bvhWidth) + "-wide, the settings ask for width " +
-                    std::to_string(settings.bvhWidth) + " (upload with that width)");
-    if (settings.bvhWidth == 4 && settings.kernel != KernelKind::Single)
-        throw Error(std::string("GPU: the 4-wide BVH is traced by the single-ray kernel only, not by the ") +
-                    toString(settings.kernel) + " kernel");
-    if (settings.bvhWidth == 4 && settings.shadowOrder != ShadowOrder::Nearest)
-        throw Error("GPU: the 4-wide BVH's shadow rays enter the nearest child first; --shadow-order " +
-                    std::string(toString(settings.shadowOrder)) + " applies to the binary tree");
     if (!(settings.hybrid.visitRatio >= 0.0f && settings.hybrid.visitRatio <= kMaxHybridVisitRatio))
         throw Error("GPU: the hybrid kernel's visit ratio " + std::to_string(settings.hybrid.visitRatio) +
                     " is not 0 (off) or a ratio up to " + std::to_string(int(kMaxHybridVisitRatio)));

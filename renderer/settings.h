@@ -70,9 +70,6 @@ struct RenderSettings {
     KernelKind kernel = KernelKind::Packet;
     PacketShape packet;  // the packet and hybrid kernels' packet (one workgroup)
     HybridParams hybrid;
-    // The tree the single-ray kernel traces: 2, the binary BVH as built, or 4, the 4-wide tree made
-    // from it at upload (issue 14, docs/gpu.md); the packet and hybrid kernels trace binary trees.
-    uint32_t bvhWidth = 2;
     bool collectCounters = false;  // per-ray N_TR / N_IT (statistics variant of the kernel)
     ViewMode view = ViewMode::Shaded;
     // The count shown as full red in the heat maps; 0: the view's default (256 nodes, 128 tests;

@@ -119,7 +119,6 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["hybrid"] = {{"min_rays", s.hybrid.minRays}, {"visit_ratio", s.hybrid.visitRatio}};
-    j["bvh_width"] = s.bvhWidth;
     j["collect_counters"] = s.collectCounters;
     j["view"] = toString(s.view);
     j["heat_full_scale"] = s.heatFullScale;
@@ -199,8 +198,6 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         if (!(s.hybrid.visitRatio >= 0.0f && s.hybrid.visitRatio <= kMaxHybridVisitRatio))
             badKey("hybrid", "visit_ratio must be 0 (off) or a ratio up to 1000");
     }
-    readUint(j, "bvh_width", "", s.bvhWidth);
-    if (s.bvhWidth != 2 && s.bvhWidth != 4) badKey("bvh_width", "must be 2 or 4");
     readBool(j, "collect_counters", "", s.collectCounters);
     if (const std::string view = readString(j, "view", ""); !view.empty()) {
         const auto parsed = parseViewMode(view);

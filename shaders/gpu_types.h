@@ -24,13 +24,6 @@ struct GpuNode {
 RP_CHECK_SIZE(GpuNode, 32);
 RP_CHECK_OFFSET(GpuNode, hi, 16);
 
-// The 4-wide tree of the wide single-ray kernel (RenderSettings::bvhWidth 4, makeGpuWideNodes):
-// wide node w is the four GpuNodes 4w .. 4w + 3, one per child, each with its child's box and
-// entry: an inner child's lo.w is the child's wide node index and hi.w 0, a leaf's as above; an
-// unused slot has lo.w kWideEmptySlot (and an inverted box, which the kernel does not test). Wide
-// node 0 is the root; a root that is a leaf is its only child.
-const uint kWideEmptySlot = 0xFFFFFFFFu;
-
 // 48 bytes: the three corners, gathered in leaf order so that a leaf's triangles are contiguous
 // and the watertight test (Woop, Benthin, Wald 2013) reads its vertices without an index fetch.
 //   v0.w (uint bits): the triangle's index in file order (HitRecord::prim)

@@ -51,9 +51,6 @@ layout(constant_id = kSpecShadowOrder) const uint kShadowOrder = kShadowOrderNea
 // rays pass kHybridVisitRatio / 100 times the visits those rays wanted.
 layout(constant_id = kSpecHybridMinRays) const uint kHybridMinRays = 8;
 layout(constant_id = kSpecHybridVisitRatio) const uint kHybridVisitRatio = 0;
-// The single-ray kernel traces the 4-wide tree (shaders/gpu_types.h, kWideEmptySlot) instead of the
-// binary one: the host uploaded makeGpuWideNodes' nodes (RenderSettings::bvhWidth 4).
-layout(constant_id = kSpecWideBvh) const bool kWideBvh = false;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
@@ -377,64 +374,15 @@ bool secondChildFirst(RayQuery q, GpuNode left, GpuNode right, float entryLeft, 
 uvec2 rayStack[kRayStackEntries];
 uint rayStackSize = 0u;
 
-// Puts the pair in order of entry distance (a compare-exchange of the sorting network below).
-void orderByDistance(inout float keyA, inout uvec2 entryA, inout float keyB, inout uvec2 entryB) {
-    if (keyB < keyA) {
-        const float key = keyA;
-        keyA = keyB;
-        keyB = key;
-        const uvec2 entry = entryA;
-        entryA = entryB;
-        entryB = entry;
-    }
-}
-
 // The single-ray while-while loop (Aila and Laine 2009) from `current` and rayStack until the ray is
 // done: nearer child first, the farther one pushed. `steps` (inner nodes visited plus triangles
-// tested) is bounded by kMaxTraversalSteps. With kWideBvh an inner node is a 4-wide node: the
-// children whose boxes the ray hits are sorted by entry distance (five compare-exchanges), the
-// nearest entered and the others pushed, farthest first.
+// tested) is bounded by kMaxTraversalSteps.
 void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
     while (true) {
         while (current.y == 0u) {
             if (++steps > kMaxTraversalSteps) {
                 atomicOr(status, kStatusTraversalTruncated);
                 return;
-            }
-            if (kWideBvh) {
-                if (kStatistics) q.nodes += 1u;
-                float key[4];
-                uvec2 entry[4];
-                uint hits = 0u;
-                for (uint i = 0u; i < 4u; ++i) {
-                    const GpuNode child = nodes[4u * current.x + i];
-                    entry[i] = nodeEntry(child);
-                    float tEntry;
-                    const bool hit =
-                        entry[i].x != kWideEmptySlot && boxTest(q.ray, child.lo.xyz, child.hi.xyz, q.tmax, tEntry);
-                    // Hits sort before misses: a hit's key is finite (the slab test's entry is).
-                    key[i] = hit ? min(tEntry, kFloatHuge) : kInfinity;
-                    hits += hit ? 1u : 0u;
-                }
-                orderByDistance(key[0], entry[0], key[1], entry[1]);
-                orderByDistance(key[2], entry[2], key[3], entry[3]);
-                orderByDistance(key[0], entry[0], key[2], entry[2]);
-                orderByDistance(key[1], entry[1], key[3], entry[3]);
-                orderByDistance(key[1], entry[1], key[2], entry[2]);
-                if (hits == 0u) {
-                    if (rayStackSize == 0u) return;
-                    current = rayStack[--rayStackSize];
-                    continue;
-                }
-                if (rayStackSize + hits - 1u > kRayStackEntries) {
-                    atomicOr(status, kStatusStackOverflow);
-                    return;
-                }
-                if (hits > 3u) rayStack[rayStackSize++] = entry[3];
-                if (hits > 2u) rayStack[rayStackSize++] = entry[2];
-                if (hits > 1u) rayStack[rayStackSize++] = entry[1];
-                current = entry[0];
-                continue;
             }
             const GpuNode left = nodes[current.x];
             const GpuNode right = nodes[current.x + 1u];
@@ -473,14 +421,9 @@ void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
 }
 
 // Starts a single-ray traversal: an empty stack and the root, when the ray is active and hits the
-// root's box (the 4-wide tree's root node, whose children's boxes the loop tests, when the ray is
-// active). Returns false when there is nothing to traverse.
+// root's box. Returns false when there is nothing to traverse.
 bool startSingle(RayQuery q, out uvec2 current) {
     rayStackSize = 0u;
-    if (kWideBvh) {
-        current = uvec2(0u, 0u);
-        return q.isActive;
-    }
     const GpuNode root = nodes[0];
     current = nodeEntry(root);
     float entry;

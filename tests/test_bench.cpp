@@ -145,7 +145,6 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         for (const char* kind : {"primary", "shadow"}) {
             EXPECT_TRUE(cells.count({scene, "cpu-reference", "", kind})) << scene << " " << kind;
             EXPECT_TRUE(cells.count({scene, "gpu-single", "", kind})) << scene << " " << kind;
-            EXPECT_TRUE(cells.count({scene, "gpu-wide", "", kind})) << scene << " " << kind;
             for (const std::string& packet : packets)
                 EXPECT_TRUE(cells.count({scene, "gpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
             for (const std::string& packet : packets)
@@ -153,7 +152,7 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
             for (const std::string& packet : cpuPackets)
                 EXPECT_TRUE(cells.count({scene, "cpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
         }
-    EXPECT_EQ(cells.size(), scenes.size() * 2 * (3 + 2 * packets.size() + cpuPackets.size()));
+    EXPECT_EQ(cells.size(), scenes.size() * 2 * (2 + 2 * packets.size() + cpuPackets.size()));
 }
 
 TEST(Bench, EmbreeAgreesWithTheReferenceOnHitDistances) {

@@ -102,62 +102,6 @@ TEST(GpuLayout, PackingLeafOrderAndContiguousLeaves) {
             }
 }
 
-// The 4-wide tree (makeGpuWideNodes): walked from the root, every leaf range of the binary tree
-// is reached exactly once, every child's box lies inside its slot's box, unused slots carry
-// kWideEmptySlot, nodes have between two and four children (one for a root leaf), and the depth
-// reported is the deepest wide node reached.
-TEST(GpuLayout, WideTreeHoldsEveryLeafOnceInsideItsParents) {
-    for (const char* spec : {"gen:default", "gen:terrain:20k", "gen:sphereflake:20k"})
-        for (const uint32_t leafSize : {1u, 4u}) {
-            SCOPED_TRACE(std::string(spec) + " leaf size " + std::to_string(leafSize));
-            const Scene scene = openScene(spec);
-            BvhBuildOptions options;
-            options.leafSize = leafSize;
-            const Bvh bvh = buildBvh(scene, options);
-            uint32_t depth = 0;
-            const std::vector<gpu::GpuNode> wide = makeGpuWideNodes(bvh, &depth);
-            ASSERT_EQ(wide.size() % 4, 0u);
-            std::vector<uint32_t> reached(bvh.primIndices.size(), 0);
-            std::vector<uint32_t> visits(wide.size() / 4, 0);
-            uint32_t deepest = 0;
-            struct Item {
-                uint32_t node, depth;
-                glm::vec3 lo, hi;
-            };
-            std::vector<Item> todo{{0, 0, glm::vec3(-FLT_MAX), glm::vec3(FLT_MAX)}};
-            while (!todo.empty()) {
-                const Item item = todo.back();
-                todo.pop_back();
-                ASSERT_LT(item.node, visits.size());
-                ++visits[item.node];
-                deepest = std::max(deepest, item.depth);
-                uint32_t children = 0;
-                for (uint32_t c = 0; c < 4; ++c) {
-                    const gpu::GpuNode& n = wide[4 * item.node + c];
-                    uint32_t index, count;
-                    std::memcpy(&index, &n.lo.w, 4);
-                    std::memcpy(&count, &n.hi.w, 4);
-                    if (index == gpu::kWideEmptySlot) continue;
-                    ++children;
-                    EXPECT_TRUE(glm::all(glm::greaterThanEqual(glm::vec3(n.lo), item.lo)) &&
-                                glm::all(glm::lessThanEqual(glm::vec3(n.hi), item.hi)))
-                        << "child box outside its parent's, wide node " << item.node;
-                    if (count == 0) {
-                        todo.push_back({index, item.depth + 1, glm::vec3(n.lo), glm::vec3(n.hi)});
-                    } else {
-                        ASSERT_LE(uint64_t(index) + count, reached.size());
-                        for (uint32_t k = index; k < index + count; ++k) ++reached[k];
-                    }
-                }
-                EXPECT_GE(children, item.node == 0 ? 1u : 2u) << "wide node " << item.node;
-            }
-            EXPECT_TRUE(std::all_of(visits.begin(), visits.end(), [](uint32_t v) { return v == 1; }));
-            EXPECT_TRUE(std::all_of(reached.begin(), reached.end(), [](uint32_t r) { return r == 1; }));
-            EXPECT_EQ(depth, deepest);
-            EXPECT_LT(wide.size() / 4, bvh.nodes.size() / 2) << "fewer wide nodes than binary inner nodes";
-        }
-}
-
 TEST(GpuLayout, SharedSceneWithMaterials) {
     expectLayoutOfTree(std::string(RAYPACK_SHARED_SCENES) + "/sibenik/sibenik_geom_75284.ply", BvhBuildOptions{});
 }

@@ -248,54 +248,6 @@ TEST(GpuDeepTree, StackIsSizedFromTheTree) {
     expectNoValidationMessages();
 }
 
-// The 4-wide tree (bvhWidth 4, the tracer gpu-wide): the hits and shadows of the binary tree's
-// single-ray kernel, which are the reference's (closest hit with ties by file index, any occluder
-// for shadows: the order of traversal does not change them), on the deep tree (its stack sized
-// from the wide depth), a one-triangle scene (a root leaf) and an empty one; the counters count
-// wide nodes, fewer visits than the binary tree's.
-TEST(GpuWideTree, HitsEqualTheBinaryTreesOnDeepOneTriangleAndEmptyScenes) {
-    Scene one;
-    one.positions = {glm::vec3(-1.0f, -1.0f, 0.0f), glm::vec3(1.0f, -1.0f, 0.0f), glm::vec3(0.0f, 1.0f, 0.0f)};
-    one.triangles = {glm::uvec3(0, 1, 2)};
-    for (const char* name : {"deep", "one", "empty", "default"}) {
-        SCOPED_TRACE(name);
-        LoadedScene s;
-        const std::string which = name;
-        if (which == "deep") s.scene = makeDeepScene(kDeepSceneMaxTriangles);
-        if (which == "one") s.scene = one;
-        if (which == "default") s.scene = openScene("gen:default");
-        BvhBuildOptions options;
-        options.leafSize = 1;
-        s.bvh = buildBvh(s.scene, options);
-        RenderSettings settings;
-        settings.width = 64;
-        settings.height = 48;
-        settings.camera = which == "empty" ? Camera{} : frameScene(s.scene.bounds());
-        settings.kernel = KernelKind::Single;
-        const FrameRequest request{true, true, true};
-        GpuTracer binary(validatedContext()), wide(validatedContext());
-        binary.upload(s.scene, s.bvh);
-        wide.upload(s.scene, s.bvh, 4);
-        const Frame a = binary.render(settings, request);
-        settings.bvhWidth = 4;
-        const Frame b = wide.render(settings, request);
-        EXPECT_EQ(differingPixels(a, b), 0u);
-        ASSERT_EQ(a.hits.size(), b.hits.size());
-        EXPECT_EQ(0, std::memcmp(a.hits.data(), b.hits.data(), a.hits.size() * sizeof(HitRecord)));
-        const CounterSummary binaryWork = summarizeCounters(a), wideWork = summarizeCounters(b);
-        // Fewer node visits where rays hit the scene (a ray that misses it visits the wide root
-        // where the binary kernel stops at the root's box).
-        if (which == "default") EXPECT_LT(wideWork.primaryNodes, binaryWork.primaryNodes);
-        // A frame of the other width is refused, naming the widths.
-        settings.bvhWidth = 2;
-        EXPECT_THROW(wide.render(settings, request), Error);
-        settings.bvhWidth = 4;
-        settings.kernel = KernelKind::Packet;
-        EXPECT_THROW(wide.render(settings, request), Error);
-    }
-    expectNoValidationMessages();
-}
-
 TEST(GpuEmptyScene, EveryRayMisses) {
     LoadedScene s;
     s.bvh = buildBvh(s.scene, BvhBuildOptions{});

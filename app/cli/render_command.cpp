@@ -41,7 +41,6 @@ struct RenderFlags {
     std::string view = "shaded";
     std::string intersect = "robust";
     std::string shadowOrder = "nearest";
-    uint32_t bvhWidth = 2;
     std::string out, hits, json, from;
     uint32_t repeat = 1;
     uint32_t spp = 1;
@@ -53,7 +52,7 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio, *bvhWidth;
+        *hybridMinRays, *hybridVisitRatio;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -90,7 +89,6 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.view)) s.view = requireViewMode("--view", f.view);
     if (given(o.intersect)) s.intersect = requireIntersectMode("--intersect", f.intersect);
     if (given(o.shadowOrder)) s.shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
-    if (given(o.bvhWidth)) s.bvhWidth = f.bvhWidth;
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
     if (given(o.bins)) setup.bvh.binCount = f.bvh.binCount;
@@ -241,12 +239,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
                                      "area); the shadows are the same, the work differs (docs/gpu.md)")
                         ->check(CLI::IsMember({"nearest", "tree", "larger"}))
                         ->capture_default_str();
-    o.bvhWidth = command
-                     ->add_option("--bvh-width", f.bvhWidth,
-                                  "GPU --kernel single: trace the binary BVH (2) or the 4-wide tree made from "
-                                  "it at upload (4; the tracer gpu-wide, docs/gpu.md)")
-                     ->check(CLI::IsMember({2u, 4u}))
-                     ->capture_default_str();
     command->add_option("--out", f.out,
                         "Write the image to this file: PNG for .png, JPEG (quality 95) for .jpg or "
                         ".jpeg; any other extension is refused before rendering");
@@ -309,10 +301,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
             throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
         if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--shadow-order applies to --device gpu --kernel single only");
-        if (settings.bvhWidth != 2 && (cpu || settings.kernel != KernelKind::Single))
-            throw Error("--bvh-width 4 applies to --device gpu --kernel single only");
-        if (settings.bvhWidth != 2 && settings.shadowOrder != ShadowOrder::Nearest)
-            throw Error("--bvh-width 4 takes the nearest child first; --shadow-order applies to the binary tree");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
         // the render.
         if (!f.out.empty()) {
@@ -332,7 +320,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         // A device builder on --device gpu builds in the GPU tracer's own buffers (issue 13: no tree
         // on the host, no second Vulkan device, no download and upload again). The start view
         // traces the tree on the host, so without a camera the tree is built and downloaded first.
-        const bool buildInTracer = gpu && isGpuBvhBuilder(setup.bvh.builder) && cameraGiven && settings.bvhWidth == 2;
+        const bool buildInTracer = gpu && isGpuBvhBuilder(setup.bvh.builder) && cameraGiven;
         std::optional<Bvh> bvh;
         if (!buildInTracer) bvh = buildSceneBvh(loaded.scene, setup.bvh, f.gpu);
         if (!cameraGiven) {
@@ -352,7 +340,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
         const bool packets = settings.kernel == KernelKind::Packet;
         const char* gpuTracer = packets                                 ? "gpu-packet"
                                 : settings.kernel == KernelKind::Hybrid ? "gpu-hybrid"
-                                : settings.bvhWidth == 4                ? "gpu-wide"
                                                                         : "gpu-single";
         std::optional<VulkanSession> session;
         TracerEnvironment environment;
@@ -409,7 +396,6 @@ CommandRunner addRenderCommand(CLI::App& app) {
 
         if (gpu || packets)
             std::printf("kernel     %s, packet %s\n", toString(settings.kernel), toString(settings.packet).c_str());
-        if (gpu && settings.bvhWidth == 4) std::printf("tree       4-wide, made from the binary BVH at upload\n");
         if (settings.kernel == KernelKind::Hybrid)
             std::printf("hybrid     split below %u rays, visit ratio %g (0: off)\n", settings.hybrid.minRays,
                         double(settings.hybrid.visitRatio));

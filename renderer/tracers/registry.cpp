@@ -35,8 +35,6 @@ const std::vector<Row>& rows() {
          [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Packet); }},
         {"gpu-single", TracerDevice::Gpu, "single", needsVulkan,
          [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Single); }},
-        {"gpu-wide", TracerDevice::Gpu, "single", needsVulkan,
-         [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Single, 4); }},
         {"gpu-hybrid", TracerDevice::Gpu, "hybrid", needsVulkan,
          [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Hybrid); }},
         {"driver-rt", TracerDevice::Gpu, "vkCmdTraceRaysKHR",

@@ -13,10 +13,9 @@ namespace raypack {
 
 std::unique_ptr<Tracer> makeCpuReferenceTracer();
 std::unique_ptr<Tracer> makeCpuPacketTracer();
-// `kernel`: the packet kernel (Gunther et al. 2007), the single-ray kernel (Aila and Laine 2009) or
-// the hybrid, on `context`, which must outlive the tracer; `bvhWidth` 4 (single-ray kernel only):
-// the 4-wide tree made at upload.
-std::unique_ptr<Tracer> makeGpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel, uint32_t bvhWidth = 2);
+// `kernel`: the packet kernel (Gunther et al. 2007) or the single-ray kernel (Aila and Laine
+// 2009), on `context`, which must outlive the tracer.
+std::unique_ptr<Tracer> makeGpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel);
 // Throws RtPeerUnsupported where `context` cannot run the driver's ray tracing.
 std::unique_ptr<Tracer> makeDriverRtTracer(const vk::VulkanContext& context);
 // Throws raypack::Error in a build without Embree.
