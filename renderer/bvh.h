@@ -79,7 +79,11 @@ struct BvhBuildOptions {
     // SahSplit only: at most splitBudget × (triangle count) references in all leaves together; once
     // a subtree has used its share, only object splits are tried there. 1 = no spatial splits. 1..4.
     float splitBudget = 1.3f;
+    // GpuPloc only: clusters searched on either side for each one's nearest neighbour (Meister and
+    // Bittner 2018's r), 1..kMaxPlocRadius: smaller builds faster, larger finds better pairs.
+    uint32_t plocRadius = 16;
 };
+inline constexpr uint32_t kMaxPlocRadius = 64;
 
 // Table 1 of the report, plus what raypack adds.
 struct BvhStats {

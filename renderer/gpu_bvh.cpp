@@ -104,6 +104,7 @@ struct GpuBvhBuilder::State {
     vk::StorageSetLayout layout;  // every build kernel's storage buffers and push constants
     std::array<VkShaderModule, 5> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
+    uint32_t plocRadius = BvhBuildOptions{}.plocRadius;  // the nearest-neighbour pipeline's r
     VkQueryPool queries = VK_NULL_HANDLE;
     uint32_t subgroupsPerGroup = 0;
 
@@ -137,14 +138,16 @@ void destroyBuilder(GpuBvhBuilder::State& s) {
     if (s.pool) vkDestroyCommandPool(device, s.pool, nullptr);
 }
 
-VkPipeline createPhasePipeline(GpuBvhBuilder::State& s, uint32_t phase) {
+VkPipeline createPhasePipeline(GpuBvhBuilder::State& s, uint32_t phase, uint32_t plocRadius) {
     struct Constants {
         uint32_t phase;
         uint32_t subgroupsPerGroup;
-    } data{phase, s.subgroupsPerGroup};
-    const std::array<VkSpecializationMapEntry, 2> entries{{
+        uint32_t plocRadius;
+    } data{phase, s.subgroupsPerGroup, plocRadius};
+    const std::array<VkSpecializationMapEntry, 3> entries{{
         {gpu::kLbvhSpecPhase, offsetof(Constants, phase), sizeof(uint32_t)},
         {gpu::kLbvhSpecSubgroupsPerGroup, offsetof(Constants, subgroupsPerGroup), sizeof(uint32_t)},
+        {gpu::kLbvhSpecPlocRadius, offsetof(Constants, plocRadius), sizeof(uint32_t)},
     }};
     // The sort's shared memory is sized by the second constant; the other kernels do not declare it
     // (a map entry for a constant the module lacks is ignored).
@@ -187,7 +190,8 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
         s.modules[2] = vk::createShaderModule(context, prefix_scan_spv, sizeof(prefix_scan_spv), "prefix_scan.comp");
         s.modules[3] = vk::createShaderModule(context, lbvh_spv, sizeof(lbvh_spv), "lbvh.comp");
         s.modules[4] = vk::createShaderModule(context, ploc_spv, sizeof(ploc_spv), "ploc.comp");
-        for (uint32_t phase = 0; phase < kPhaseCount; ++phase) s.pipelines[phase] = createPhasePipeline(s, phase);
+        for (uint32_t phase = 0; phase < kPhaseCount; ++phase)
+            s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
 
         if (info.timestamps) {
             VkQueryPoolCreateInfo queryInfo{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
@@ -313,6 +317,15 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const uint32_t inner = n < 2 ? 0u : n - 1u;
     const uint32_t sortBlocks = std::max(1u, (n + gpu::kLbvhSortBlock - 1) / gpu::kLbvhSortBlock);
     const bool ploc = options.builder == BvhBuilder::GpuPloc;
+    if (ploc && options.plocRadius != s.plocRadius) {
+        // The search window is a specialization constant (it sizes shared memory): a new pipeline.
+        VkPipeline& nearest = s.pipelines[gpu::kLbvhPhasePlocNearest];
+        vkQueueWaitIdle(s.ctx.queue);
+        vkDestroyPipeline(s.ctx.device, nearest, nullptr);
+        nearest = VK_NULL_HANDLE;
+        nearest = createPhasePipeline(s, gpu::kLbvhPhasePlocNearest, options.plocRadius);
+        s.plocRadius = options.plocRadius;
+    }
     const ScanPlan scan = planScan(uint64_t(sortBlocks) * gpu::kLbvhRadixDigits);
     // gpu-ploc scans two flags per cluster, from n clusters down.
     const ScanPlan keepScan = planScan(n, 0), mergeScan = planScan(n, keepScan.words);

@@ -129,7 +129,7 @@ nlohmann::json toJson(const BvhBuildOptions& o) {
     return {{"builder", toString(o.builder)},    {"leaf_size", o.leafSize},
             {"traversal_cost", o.traversalCost}, {"intersection_cost", o.intersectionCost},
             {"bin_count", o.binCount},           {"split_alpha", o.splitAlpha},
-            {"split_budget", o.splitBudget}};
+            {"split_budget", o.splitBudget},     {"ploc_radius", o.plocRadius}};
 }
 
 nlohmann::json toJson(const RenderSetup& setup) {
@@ -225,6 +225,9 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     if (!(o.splitAlpha >= 0.0f && o.splitAlpha <= 1.0f)) badKey("bvh.split_alpha", "must be in 0..1");
     readFloat(j, "split_budget", "bvh.", o.splitBudget);
     if (!(o.splitBudget >= 1.0f && o.splitBudget <= 4.0f)) badKey("bvh.split_budget", "must be in 1..4");
+    readUint(j, "ploc_radius", "bvh.", o.plocRadius);
+    if (o.plocRadius < 1 || o.plocRadius > kMaxPlocRadius)
+        badKey("bvh.ploc_radius", "must be in 1.." + std::to_string(kMaxPlocRadius));
     if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
         badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
     return o;

@@ -11,6 +11,9 @@
 #
 # Prepare here: scripts/device-pack.sh build. On the device, from the repository root (the run
 # tool, carry [".gl", ".device"]): bash scripts/device-gpu-build.sh
+# Environment: SCENE_LIST (bench --scenes), PLOC_RADII (default "16": one gpu-ploc row per
+# --ploc-radius), LBVH_RUNS and PLOC_RUNS (default 3 each; the first of each runs 5 repeats),
+# SKIP_BINNED=1 (no sah-binned run), RUN_TIMEOUT_S (default 140 per bench run).
 set -uo pipefail
 out=${OUT:-${OUT_DIR:-out}}
 mkdir -p "$out/runs"
@@ -29,17 +32,19 @@ run() {  # NAME BUILDER [FLAGS...]
   timeout "${RUN_TIMEOUT_S:-140}" .device/bin/raypack-cli "${common[@]}" --builder "$builder" "$@" --out "$out/runs/$name.json" \
     > /dev/null 2>> "$out/runs/progress.log" || echo "FAILED $name" | tee -a "$out/gpu-build.txt"
 }
+radii=${PLOC_RADII:-16}
 run lbvh-1 gpu-lbvh --repeat 5
-run lbvh-2 gpu-lbvh --no-driver-rt --repeat 1
-run lbvh-3 gpu-lbvh --no-driver-rt --repeat 1
-run ploc-1 gpu-ploc --no-driver-rt --repeat 5
-run ploc-2 gpu-ploc --no-driver-rt --repeat 1
-run ploc-3 gpu-ploc --no-driver-rt --repeat 1
-run binned sah-binned --no-driver-rt --repeat 1
+for i in $(seq 2 "${LBVH_RUNS:-3}"); do run "lbvh-$i" gpu-lbvh --no-driver-rt --repeat 1; done
+for radius in $radii; do
+  run "ploc$radius-1" gpu-ploc --no-driver-rt --repeat 5 --ploc-radius "$radius"
+  for i in $(seq 2 "${PLOC_RUNS:-3}"); do run "ploc$radius-$i" gpu-ploc --no-driver-rt --repeat 1 --ploc-radius "$radius"; done
+done
+[ "${SKIP_BINNED:-0}" = 1 ] || run binned sah-binned --no-driver-rt --repeat 1
 run exact sah-exact --no-driver-rt --repeat 5
-python3 - "$out/runs" >> "$out/gpu-build.txt" <<'PY'
+python3 - "$out/runs" "$radii" >> "$out/gpu-build.txt" <<'PY'
 import glob, json, statistics, sys
 runs = sys.argv[1]
+radii = sys.argv[2].split()
 def load(name):
     try:
         return json.load(open(f"{runs}/{name}.json"))["records"]
@@ -55,8 +60,11 @@ driver = by_scene(load("lbvh-1"), "driver-rt")
 binned, exact = by_scene(load("binned"), "gpu-single"), by_scene(load("exact"), "gpu-single")
 print(f"{'builder':8s} {'scene':22s} {'tris':>9s} {'T_B':>9s} {'device':>9s} {'Mtri/s':>8s} {'driver':>9s} {'Mtri/s':>8s}"
       f" {'dev/drv':>7s} {'binned T_B':>10s} {'SAH/exact':>9s} {'trace/exact':>11s} {'scratch B/tri':>13s}")
-for builder in ("lbvh", "ploc"):
-    runs_of = [by_scene(load(f"{builder}-{i}"), "gpu-single") for i in (1, 2, 3)]
+for builder in ["lbvh"] + [f"ploc{r}" for r in radii]:
+    runs_of = [by_scene(load(f"{builder}-{i}"), "gpu-single") for i in range(1, 10)]
+    runs_of = [r for r in runs_of if r]
+    if not runs_of:
+        continue
     for scene, first in runs_of[0].items():
         rows = [r[scene] for r in runs_of if scene in r]
         tris = first["triangles"]
@@ -71,7 +79,7 @@ for builder in ("lbvh", "ploc"):
               f" {trace:11.3f} {first.get('build_scratch_bytes', 0) / tris:13.1f}")
 print("T_B: host wall time of the device build (scratch allocation, submission, wait); device: its timestamps;"
       " driver: the driver's BLAS build by timestamps (driver-rt peer, run lbvh-1); dev/drv > 1: gpu-lbvh faster;"
-      " SAH and trace: gpu-lbvh tree / sah-exact tree, single-ray kernel primary Mrays/s; medians of 3 runs for gpu-lbvh and gpu-ploc (gpu-ploc's device time spans its submissions, one per clustering iteration, host waits included)")
+      " SAH and trace: the device-built tree / sah-exact tree, single-ray kernel primary Mrays/s; medians over the runs of each builder (gpu-ploc's device time spans its submissions, host waits included); ploc<r>: --ploc-radius r")
 PY
 cat "$out/gpu-build.txt"
 tar czf "$out/results.tgz" -C "$out" runs

@@ -66,6 +66,7 @@ const uint kLbvhBindingCount = 24u;
 // Specialization constants of every build kernel.
 const uint kLbvhSpecPhase = 0u;              // kLbvhPhase* (a kernel file holds several phases)
 const uint kLbvhSpecSubgroupsPerGroup = 1u;  // radix_sort.comp: kLbvhGroupSize / subgroup size
+const uint kLbvhSpecPlocRadius = 2u;         // ploc.comp: clusters searched on either side (r)
 
 // One workgroup is this many invocations in every build kernel.
 const uint kLbvhGroupSize = 256u;

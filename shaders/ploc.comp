@@ -22,9 +22,9 @@
 
 layout(local_size_x = kLbvhGroupSize) in;
 layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhasePlocInit;
-// Clusters compared on each side: Meister and Bittner's r; 16 is within a few percent of their best
-// SAH at a fraction of the search.
-const uint kPlocRadius = 16u;
+// Clusters compared on each side: Meister and Bittner's r (BvhBuildOptions::plocRadius, 1..64;
+// default 16, within a few percent of their best SAH at a fraction of the search).
+layout(constant_id = kLbvhSpecPlocRadius) const uint kPlocRadius = 16u;
 layout(push_constant) uniform Params { LbvhParams params; };
 
 layout(std430, set = 0, binding = kLbvhBindKeysA) buffer ClustersA { uint clustersA[]; };

@@ -379,6 +379,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     setup.bvh.traversalCost = 1.5f;
     setup.bvh.intersectionCost = 0.75f;
     setup.bvh.binCount = 16;
+    setup.bvh.plocRadius = 7;
 
     // Through text, as a file would carry it.
     const RenderSetup back = renderSetupFromJson(nlohmann::json::parse(toJson(setup).dump()));
@@ -403,6 +404,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     EXPECT_EQ(b.view, s.view);
     EXPECT_EQ(back.bvh.builder, setup.bvh.builder);
     EXPECT_EQ(back.bvh.leafSize, setup.bvh.leafSize);
+    EXPECT_EQ(back.bvh.plocRadius, setup.bvh.plocRadius);
     EXPECT_EQ(back.bvh.traversalCost, setup.bvh.traversalCost);
     EXPECT_EQ(back.bvh.intersectionCost, setup.bvh.intersectionCost);
     EXPECT_EQ(back.bvh.binCount, setup.bvh.binCount);

@@ -52,7 +52,7 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio;
+        *hybridMinRays, *hybridVisitRatio, *plocRadius;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -94,6 +94,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.bins)) setup.bvh.binCount = f.bvh.binCount;
     if (given(o.splitAlpha)) setup.bvh.splitAlpha = f.bvh.splitAlpha;
     if (given(o.splitBudget)) setup.bvh.splitBudget = f.bvh.splitBudget;
+    if (given(o.plocRadius)) setup.bvh.plocRadius = f.bvh.plocRadius;
     if (given(o.eye)) s.camera.eye = parseVec3("--eye", f.eye);
     if (given(o.at)) s.camera.at = parseVec3("--at", f.at);
     if (given(o.up)) s.camera.up = parseVec3("--up", f.up);
@@ -186,6 +187,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
     o.bins = command->get_option("--bins");
     o.splitAlpha = command->get_option("--split-alpha");
     o.splitBudget = command->get_option("--split-budget");
+    o.plocRadius = command->get_option("--ploc-radius");
     command
         ->add_option("--device", f.device,
                      "Tracer: cpu (the reference, or the CPU packet tracer with --kernel packet) "

@@ -57,6 +57,12 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
                     "1..4; 1 = no spatial splits")
         ->check(CLI::Range(1.0f, 4.0f))
         ->capture_default_str();
+    command
+        .add_option("--ploc-radius", flags.plocRadius,
+                    "gpu-ploc only: clusters searched on either side for each one's nearest neighbour "
+                    "(Meister and Bittner's r), 1..64; smaller builds faster, larger finds better pairs")
+        ->check(CLI::Range(1u, kMaxPlocRadius))
+        ->capture_default_str();
 }
 
 BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
@@ -66,6 +72,7 @@ BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
     options.binCount = flags.binCount;
     options.splitAlpha = flags.splitAlpha;
     options.splitBudget = flags.splitBudget;
+    options.plocRadius = flags.plocRadius;
     return options;
 }
 

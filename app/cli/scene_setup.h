@@ -27,6 +27,7 @@ struct BvhFlags {
     uint32_t binCount = BvhBuildOptions{}.binCount;
     float splitAlpha = BvhBuildOptions{}.splitAlpha;
     float splitBudget = BvhBuildOptions{}.splitBudget;
+    uint32_t plocRadius = BvhBuildOptions{}.plocRadius;
 };
 void addBvhFlags(CLI::App& command, BvhFlags& flags);
 // Throws raypack::Error for an unknown builder name.
