@@ -464,9 +464,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         // One level of the listed levels: its dispatch size is indirect[level].
         void level(uint32_t phase, uint32_t level, gpu::LbvhParams params) const {
             params.counts.z = level;
-            bind(phase, params);
-            vkCmdDispatchIndirect(cmd, indirectBuffer, VkDeviceSize(level) * 16);
-            barrier();
+            indirect(phase, level, params);
         }
         // A dispatch whose size the device wrote at indirect[entry].
         void indirect(uint32_t phase, uint32_t entry, const gpu::LbvhParams& params) const {
@@ -667,7 +665,6 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             result.deviceSeconds = double(stamps[1] - stamps[0]) * double(s.ctx.info.timestampPeriodNs) * 1e-9;
     }
     result.scratchBytes = x.bytes();
-    result.allocationSeconds = allocationSeconds;
     stats.deviceBuildSeconds = result.deviceSeconds;
     stats.buildScratchBytes = result.scratchBytes;
     stats.buildAllocationSeconds = allocationSeconds;

@@ -75,10 +75,9 @@ public:
     bool hasColors() const;
 
     struct Result {
-        BvhStats stats;                // of the built tree; buildSeconds is the host's wall time
-        double deviceSeconds = 0;      // the build's commands by the device's timestamps (0 without)
-        uint64_t scratchBytes = 0;     // temporary device memory of the build, freed before it returns
-        double allocationSeconds = 0;  // the host's time creating the scratch buffers
+        BvhStats stats;             // of the built tree; buildSeconds is the host's wall time
+        double deviceSeconds = 0;   // the build's commands by the device's timestamps (0 without)
+        uint64_t scratchBytes = 0;  // temporary device memory of the build, freed before it returns
     };
     // Builds with `options` (builder gpu-lbvh; leafSize, traversalCost and intersectionCost are
     // honoured, the bin and split settings do not apply) into `outputs`, and waits for it. Throws

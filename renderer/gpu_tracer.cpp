@@ -573,25 +573,22 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
                       VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.layout.pipelineLayout, 0, 1, &s.layout.set, 0,
-                            nullptr);
-    vkCmdPushConstants(cmd, s.layout.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
     const PacketShape shape = settings.packet;
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
     PipelineKey key = pipelineKeyFor(settings, 0u, statistics, s.stackEntries);
-
     key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
-    if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery);
-    const Clock::time_point primaryStart = hostClock ? hostClock->split() : Clock::time_point{};
-    // A split re-opened the command buffer: bind again what the dispatches use.
+    // What the dispatches use: bound here, and again after a host split, which re-opens the
+    // command buffer.
     auto bindState = [&] {
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.layout.pipelineLayout, 0, 1, &s.layout.set, 0,
                                 nullptr);
         vkCmdPushConstants(cmd, s.layout.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
     };
+    bindState();
+    if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery);
+    const Clock::time_point primaryStart = hostClock ? hostClock->split() : Clock::time_point{};
     if (hostClock) bindState();
     vkCmdDispatch(cmd, groupsX, groupsY, 1);
     if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 1);

@@ -650,51 +650,26 @@ void trace(inout RayQuery q) {
     else traceSingle(q);
 }
 
-// The ray of `pixel` in this pass: the camera ray (primary passes), or the shadow ray from the light
-// to the pixel's kept hit (report 2.3). A ray of a pixel outside the image (padding, report 3.4),
-// whose primary ray missed, or whose shadow ray is degenerate is inactive: it follows a packet's
-// control flow without voting (report 3.5) and traces nothing.
-RayQuery pixelQuery(uvec2 pixel, bool inside) {
+void main() {
     const uint width = params.frame.x;
     const uint height = params.frame.y;
-    const vec3 eye = cameraEye(params.camera);
-    if (kPass == kPassPrimary || kPass == kPassPrimaryShade) {
-        const vec3 dir = primaryRayDirection(params.camera, min(pixel.x, width - 1u), min(pixel.y, height - 1u));
-        return makeQuery(eye, dir, kInfinity, false, kNoHit, inside);
-    }
+    // Images not a multiple of the packet are padded; padding rays follow the packet but trace
+    // nothing and write nothing (report 3.4).
+    const uvec2 pixel = gl_GlobalInvocationID.xy;
+    const bool inside = pixel.x < width && pixel.y < height;
     const uint index = inside ? pixel.y * width + pixel.x : 0u;
-    const vec4 kept = inside ? primaryHits[index].data : vec4(kInfinity, uintBitsToFloat(kNoHit), 0.0f, 0.0f);
-    const uint leafTri = floatBitsToUint(kept.y);
-    ShadowRay s;
-    s.org = params.light.xyz;
-    s.dir = vec3(1.0f);
-    s.tmax = 0.0f;
-    s.skipPrim = kNoHit;
-    bool traceShadow = false;
-    if (leafTri != kNoHit) {
-        const vec3 dir = primaryRayDirection(params.camera, pixel.x, pixel.y);
-        s = makeShadowRay(params.light.xyz, hitPosition(eye, dir, kept.x), floatBitsToUint(triangles[leafTri].v0.w));
-        traceShadow = !isDegenerateShadowRay(s);
-    }
-    return makeQuery(s.org, traceShadow ? s.dir : vec3(1.0f), s.tmax, true, s.skipPrim, traceShadow);
-}
-
-// What follows the trace of `pixel`'s ray `q`: the primary pass keeps the hit for the shadow pass
-// (kPassPrimary) or shades without shadows; the shadow pass shades with the shadow's answer.
-// Writes the output, the hit records and the counters the frame asks for.
-void finishPixel(uvec2 pixel, bool inside, RayQuery q) {
-    if (!inside) return;
-    const uint width = params.frame.x;
-    const uint index = pixel.y * width + pixel.x;
     const vec3 eye = cameraEye(params.camera);
-    const vec3 dir = primaryRayDirection(params.camera, pixel.x, pixel.y);
+    const vec3 dir = primaryRayDirection(params.camera, min(pixel.x, width - 1u), min(pixel.y, height - 1u));
 
     float t = kInfinity;
     uint leafTri = kNoHit;
     vec2 bary = vec2(0.0f);
     RayCounters counts = RayCounters(0u, 0u, 0u, 0u);
     uint shadow = kShadowNone;
+
     if (kPass == kPassPrimary || kPass == kPassPrimaryShade) {
+        RayQuery q = makeQuery(eye, dir, kInfinity, false, kNoHit, inside);
+        trace(q);
         t = q.tmax;
         leafTri = q.leafTri;
         bary = q.bary;
@@ -706,21 +681,41 @@ void finishPixel(uvec2 pixel, bool inside, RayQuery q) {
         counts.primaryNodes = q.nodes;
         counts.primaryTests = q.tests;
         if (kPass == kPassPrimary) {
-            primaryHits[index].data = vec4(t, uintBitsToFloat(leafTri), bary.x, bary.y);
-            if (kStatistics) counters[index] = counts;
+            if (inside) {
+                primaryHits[index].data = vec4(t, uintBitsToFloat(leafTri), bary.x, bary.y);
+                if (kStatistics) counters[index] = counts;
+            }
             return;
         }
     } else {
-        const vec4 kept = primaryHits[index].data;
+        // Shadow packet (report 2.3): from the light to each hit point, the stack restarted. Rays
+        // whose primary ray missed follow the packet's control flow without voting (report 3.5).
+        const vec4 kept = inside ? primaryHits[index].data : vec4(kInfinity, uintBitsToFloat(kNoHit), 0.0f, 0.0f);
         t = kept.x;
         leafTri = floatBitsToUint(kept.y);
         bary = kept.zw;
-        if (kStatistics) counts = counters[index];
-        // A ray that traced nothing (degenerate) keeps leafTri kNoHit: lit.
-        if (leafTri != kNoHit) shadow = q.leafTri != kNoHit ? kShadowOccluded : kShadowLit;
+        if (kStatistics && inside) counts = counters[index];
+        const bool hit = leafTri != kNoHit;
+        const vec3 light = params.light.xyz;
+        ShadowRay s;
+        s.org = light;
+        s.dir = vec3(1.0f);
+        s.tmax = 0.0f;
+        s.skipPrim = kNoHit;
+        bool traceShadow = false;
+        if (hit) {
+            const uint file = floatBitsToUint(triangles[leafTri].v0.w);
+            s = makeShadowRay(light, hitPosition(eye, dir, t), file);
+            traceShadow = !isDegenerateShadowRay(s);
+            shadow = kShadowLit;
+        }
+        RayQuery q = makeQuery(s.org, traceShadow ? s.dir : vec3(1.0f), s.tmax, true, s.skipPrim, traceShadow);
+        trace(q);
+        if (traceShadow && q.leafTri != kNoHit) shadow = kShadowOccluded;
         counts.shadowNodes = q.nodes;
         counts.shadowTests = q.tests;
     }
+    if (!inside) return;
 
     // Shading (shaders/shading.h, the CPU reference's text).
     vec3 color = params.background.xyz;
@@ -772,14 +767,4 @@ void finishPixel(uvec2 pixel, bool inside, RayQuery q) {
         hitRecords[index] = makeHitRecord(eye, dir, t, prim, shadow);
     }
     if (kStatistics) counters[index] = counts;
-}
-
-void main() {
-    // Images not a multiple of the packet are padded; padding rays follow the packet but trace
-    // nothing and write nothing (report 3.4).
-    const uvec2 pixel = gl_GlobalInvocationID.xy;
-    const bool inside = pixel.x < params.frame.x && pixel.y < params.frame.y;
-    RayQuery q = pixelQuery(pixel, inside);
-    trace(q);
-    finishPixel(pixel, inside, q);
 }

@@ -142,15 +142,15 @@ void destroyStorageSetLayout(const VulkanContext& context, StorageSetLayout& lay
 // Points binding b of `set` at the whole of buffers[b].
 void writeStorageSet(const VulkanContext& context, VkDescriptorSet set, std::span<const VkBuffer> buffers);
 
-// Device-local buffers filled through mapped staging buffers of the same size: add() creates both
-// and returns the staging memory to write (null for an empty array, which still gets its device
-// buffer), submit() copies every one in one submission. Staging buffers are freed on every path out.
+// Device-local buffers filled from the host: add() creates one and returns memory to write (null for
+// an empty array, which still gets its device buffer), submit() makes every write reach the device.
+// Where the device's memory is mappable in full (mappableDeviceMemory: resizable BAR on a discrete
+// GPU, every CPU device), that memory is the device buffer's own mapping and submit() copies
+// nothing; else (or with RAYPACK_UPLOAD=staged in the environment, for measuring the two) a mapped
+// staging buffer of the same size, copied in one submission. Staging buffers are freed on every
+// path out.
 class StagedUpload {
 public:
-    // Where the device's memory is mappable in full (one heap holds both the device-local type and a
-    // device-local, host-visible, host-coherent one: resizable BAR on a discrete GPU, every CPU
-    // device), `add` hands out the device buffer's own mapping and `submit` copies nothing; else (or
-    // with RAYPACK_UPLOAD=staged in the environment, for measuring the two) a staging buffer.
     StagedUpload(const VulkanContext& context, VkCommandPool pool);
     ~StagedUpload();
     StagedUpload(const StagedUpload&) = delete;
@@ -162,7 +162,6 @@ public:
     // Host seconds spent creating buffers in `add`, and in `submit` (copies and the wait).
     double allocationSeconds() const { return allocationSeconds_; }
     double transferSeconds() const { return transferSeconds_; }
-    bool direct() const { return direct_; }
     // Storage, transfer source and destination: what the tracers' and the builder's arrays use.
     static constexpr VkBufferUsageFlags kUsage =
         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
