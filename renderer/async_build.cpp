@@ -1,5 +1,6 @@
 #include "renderer/async_build.h"
 
+#include "renderer/bvh_build.h"  // throwIfCancelled
 #include "renderer/error.h"
 #include "renderer/gpu_bvh.h"
 #include "renderer/measure/spread.h"
@@ -19,8 +20,8 @@ const char* toString(BuildPhase phase) {
     return "?";
 }
 
-AsyncSceneBuilder::AsyncSceneBuilder(SceneLoader loader, std::string buildDevice)
-    : loader_(std::move(loader)), buildDevice_(std::move(buildDevice)), worker_([this] { workerLoop(); }) {
+AsyncSceneBuilder::AsyncSceneBuilder(SceneLoader loader, const vk::VulkanContext* device)
+    : loader_(std::move(loader)), device_(device), worker_([this] { workerLoop(); }) {
     RAYPACK_CHECK(loader_);
 }
 
@@ -33,6 +34,7 @@ AsyncSceneBuilder::~AsyncSceneBuilder() {
     }
     wake_.notify_all();
     worker_.join();
+    deviceBuilder_.reset();
 }
 
 void AsyncSceneBuilder::cancelRunningLocked() {
@@ -47,7 +49,7 @@ uint64_t AsyncSceneBuilder::requestLoad(const std::string& path, const BvhBuildO
     {
         std::lock_guard lock(mutex_);
         id = nextId_++;
-        waiting_ = Request{id, path, nullptr, options, /*reuseLoaded=*/false};
+        waiting_ = Request{id, path, nullptr, options, /*reuseLoaded=*/false, /*hostTree=*/true};
         outstandingLoadPath_ = path;
         cancelRunningLocked();
     }
@@ -55,15 +57,16 @@ uint64_t AsyncSceneBuilder::requestLoad(const std::string& path, const BvhBuildO
     return id;
 }
 
-uint64_t AsyncSceneBuilder::requestRebuild(std::shared_ptr<const Scene> scene, const BvhBuildOptions& options) {
+uint64_t AsyncSceneBuilder::requestRebuild(std::shared_ptr<const Scene> scene, const BvhBuildOptions& options,
+                                           bool hostTree) {
     uint64_t id;
     {
         std::lock_guard lock(mutex_);
         id = nextId_++;
         if (!outstandingLoadPath_.empty())
-            waiting_ = Request{id, outstandingLoadPath_, nullptr, options, /*reuseLoaded=*/true};
+            waiting_ = Request{id, outstandingLoadPath_, nullptr, options, /*reuseLoaded=*/true, /*hostTree=*/true};
         else if (scene)
-            waiting_ = Request{id, {}, std::move(scene), options, false};
+            waiting_ = Request{id, {}, std::move(scene), options, false, hostTree};
         else
             return 0;  // no scene yet and none loading: nothing to build
         cancelRunningLocked();
@@ -160,27 +163,36 @@ void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
         }
 
         const auto buildStart = std::chrono::steady_clock::now();
-        std::shared_ptr<const Bvh> bvh;
+        SceneBuild build;
+        build.options = request.options;
         if (isGpuBvhBuilder(request.options.builder)) {
-            if (!deviceContext_) {
-                vk::VulkanContextOptions options;
-                options.device = buildDevice_;
-                deviceContext_ = std::shared_ptr<vk::VulkanContext>(
-                    new vk::VulkanContext(vk::createVulkanContext(options)), [](vk::VulkanContext* context) {
-                        vk::destroyVulkanContext(*context);
-                        delete context;
-                    });
+            if (!device_)
+                throw Error(std::string(toString(request.options.builder)) + " builds on a Vulkan device; none given");
+            job.buildProgress.total.store(scene->triangleCount());
+            bvh_detail::throwIfCancelled(&job.buildProgress);
+            if (!deviceBuilder_) deviceBuilder_ = std::make_unique<GpuBvhBuilder>(*device_);
+            deviceScene_ = scene;
+            // The order is kept either way: a CPU consumer may ask for the host tree later.
+            build.deviceTree = buildGpuTree(*deviceBuilder_, *scene, request.options, /*keepOrder=*/true);
+            build.stats = build.deviceTree->stats;
+            if (request.hostTree && !job.buildProgress.cancel) {
+                build.bvh = std::make_shared<const Bvh>(downloadGpuTree(*build.deviceTree));
+                build.stats = build.bvh->stats;
             }
-            bvh = std::make_shared<const Bvh>(
-                buildBvhOnDevice(*deviceContext_, *scene, request.options, &job.buildProgress));
+            job.buildProgress.done.store(scene->triangleCount());
         } else {
-            bvh = std::make_shared<const Bvh>(buildBvh(*scene, request.options, &job.buildProgress));
+            build.bvh = std::make_shared<const Bvh>(buildBvh(*scene, request.options, &job.buildProgress));
+            build.stats = build.bvh->stats;
         }
-        const double buildSeconds = secondsSince(buildStart);
+        build.buildSeconds = secondsSince(buildStart);
+        build.requestId = request.id;
+        build.scene = std::move(scene);
+        build.scenePath = request.path;
+        build.loadSeconds = loadSeconds;
 
         std::lock_guard lock(mutex_);
         if (job.buildProgress.cancel) return;
-        finished_ = SceneBuild{request.id, std::move(scene), std::move(bvh), request.path, loadSeconds, buildSeconds};
+        finished_ = std::move(build);
     } catch (const BuildCancelled&) {
         // Superseded by a newer request: nothing to hand back.
     } catch (const std::exception& e) {

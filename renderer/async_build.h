@@ -9,6 +9,7 @@
 // BuildCancelled soon after) and takes the waiting slot, so rapid slider changes end in the tree
 // of the last request, and nothing in between is handed back once it is superseded.
 #include "renderer/bvh.h"
+#include "renderer/gpu_bvh.h"
 #include "renderer/progress.h"
 #include "renderer/scene.h"
 
@@ -25,21 +26,22 @@
 
 namespace raypack {
 
-namespace vk {
-struct VulkanContext;
-}
-
 // The renderer library does not call the loaders (scenes/ links renderer/), so the caller passes
 // the function that opens a scene spec (a file path or a generator spec, scenes/load.h openScene).
 // It reports through LoadProgress, throws raypack::Error for a bad file and LoadCancelled once
 // LoadProgress::cancel is set.
 using SceneLoader = std::function<Scene(const std::string& spec, LoadProgress& progress)>;
 
-// A finished job: the scene and the tree built over it, ready to be uploaded and traced.
+// A finished job: the scene and the tree built over it, ready to be uploaded and traced. A device
+// build hands back the tree in device buffers (deviceTree, for GpuTracer::adopt) and the host tree
+// only where the request asked for it (bvh null otherwise); a CPU build hands back bvh.
 struct SceneBuild {
     uint64_t requestId = 0;
     std::shared_ptr<const Scene> scene;
     std::shared_ptr<const Bvh> bvh;
+    std::unique_ptr<GpuTree> deviceTree;
+    BvhStats stats;             // of the tree (bvh's, or the device's statistics)
+    BvhBuildOptions options;    // it was built with
     std::string scenePath;      // the file it came from (empty for a rebuild of a scene in memory)
     double loadSeconds = 0.0;   // 0 when the scene was not read in this job
     double buildSeconds = 0.0;  // wall clock of buildBvh
@@ -70,23 +72,26 @@ const char* toString(BuildPhase phase);
 
 class AsyncSceneBuilder {
 public:
-    // `buildDevice`: the Vulkan device (vk::VulkanContextOptions::device, "" automatic) on which the
-    // worker builds with a device builder (gpu-lbvh): it makes its own context there on the first
-    // such build, builds and downloads the canonical tree (buildBvhOnDevice), so the render thread
-    // takes it like any other.
-    explicit AsyncSceneBuilder(SceneLoader loader, std::string buildDevice = "");
+    // `device`: the context of the tracer that will trace the trees, on which the worker builds with
+    // a device builder (gpu-lbvh, gpu-ploc) through a GpuBvhBuilder of its own, into buffers the
+    // tracer adopts (no host round trip); the worker and the render thread share its queue through
+    // vk::lockQueue. It must outlive this object. Null: device builders fail with an error.
+    explicit AsyncSceneBuilder(SceneLoader loader, const vk::VulkanContext* device = nullptr);
     // Cancels the running job, drops the waiting one and joins the worker.
     ~AsyncSceneBuilder();
     AsyncSceneBuilder(const AsyncSceneBuilder&) = delete;
     AsyncSceneBuilder& operator=(const AsyncSceneBuilder&) = delete;
 
-    // Read `path` and build over it. Returns the request's id.
+    // Read `path` and build over it. Returns the request's id. A device build hands back the host
+    // tree too (the start view needs it).
     uint64_t requestLoad(const std::string& path, const BvhBuildOptions& options);
     // Build over `scene` with new options. When a load is still outstanding (waiting, running, or
     // finished but not yet taken), the rebuild applies to that newer scene instead, so a slider
     // moved while a file loads does not bring the old scene back. `scene` may be null before the
     // first scene arrives; with no load outstanding either, nothing is requested and 0 returned.
-    uint64_t requestRebuild(std::shared_ptr<const Scene> scene, const BvhBuildOptions& options);
+    // `hostTree`: a device build also reads the tree back (for a CPU tracer); without it the
+    // caller reads it back when a CPU consumer asks (GpuTracer::downloadBvh).
+    uint64_t requestRebuild(std::shared_ptr<const Scene> scene, const BvhBuildOptions& options, bool hostTree = true);
 
     // Non-blocking; called by the render thread once per frame. The newest finished build that no
     // later request has superseded, if any, and the newest failure, if any.
@@ -104,6 +109,7 @@ private:
         std::shared_ptr<const Scene> scene;  // otherwise build over this scene
         BvhBuildOptions options;
         bool reuseLoaded = false;  // a path repeated by a rebuild may reuse the scene just read
+        bool hostTree = true;      // a device build reads the tree back too
     };
     struct RunningJob {
         uint64_t id = 0;
@@ -119,8 +125,11 @@ private:
     void cancelRunningLocked();
 
     SceneLoader loader_;
-    std::string buildDevice_;
-    std::shared_ptr<vk::VulkanContext> deviceContext_;  // the worker's, made on its first device build
+    const vk::VulkanContext* device_ = nullptr;
+    // The worker's device builder (made on its first device build) and the scene it holds, kept
+    // alive so that no later scene can take its address while the builder still keeps its arrays.
+    std::unique_ptr<GpuBvhBuilder> deviceBuilder_;
+    std::shared_ptr<const Scene> deviceScene_;
     mutable std::mutex mutex_;
     std::condition_variable wake_;    // a request arrived, or shutdown
     std::condition_variable idleCv_;  // a job ended

@@ -21,6 +21,7 @@
 #include <cstring>
 #include <functional>
 #include <string>
+#include <utility>
 
 namespace raypack {
 
@@ -125,7 +126,7 @@ namespace {
 void destroyBuilder(GpuBvhBuilder::State& s) {
     const VkDevice device = s.ctx.device;
     if (!device) return;
-    vkDeviceWaitIdle(device);
+    vk::deviceWaitIdle(s.ctx);
     for (VkPipeline& p : s.pipelines)
         if (p) vkDestroyPipeline(device, p, nullptr);
     for (VkShaderModule& m : s.modules)
@@ -213,6 +214,7 @@ GpuBvhBuilder::~GpuBvhBuilder() {
 bool GpuBvhBuilder::holds(const Scene& scene) const {
     return state_->hasScene && state_->scene == &scene && state_->triangleCount == scene.triangleCount();
 }
+const vk::VulkanContext& GpuBvhBuilder::context() const { return state_->ctx; }
 bool GpuBvhBuilder::hasNormals() const { return state_->normals; }
 bool GpuBvhBuilder::hasUvs() const { return state_->uvs; }
 bool GpuBvhBuilder::hasColors() const { return state_->colors; }
@@ -256,7 +258,7 @@ GpuBvhBuilder::SceneUpload GpuBvhBuilder::setScene(const Scene& scene) {
         [](bool a, bool b) { return a && b; });
     if (!indicesInRange) throw Error("gpu-lbvh: " + scene.source + ": vertex index out of range");
 
-    vkQueueWaitIdle(s.ctx.queue);
+    vk::queueWaitIdle(s.ctx);
     for (vk::Buffer* b :
          {&s.positions, &s.indices, &s.triangleMaterials, &s.vertexNormals, &s.vertexUvs, &s.vertexColors, &s.order})
         vk::destroyBuffer(s.ctx, *b);
@@ -320,7 +322,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     if (ploc && options.plocRadius != s.plocRadius) {
         // The search window is a specialization constant (it sizes shared memory): a new pipeline.
         VkPipeline& nearest = s.pipelines[gpu::kLbvhPhasePlocNearest];
-        vkQueueWaitIdle(s.ctx.queue);
+        vk::queueWaitIdle(s.ctx);
         vkDestroyPipeline(s.ctx.device, nearest, nullptr);
         nearest = VK_NULL_HANDLE;
         nearest = createPhasePipeline(s, gpu::kLbvhPhasePlocNearest, options.plocRadius);
@@ -694,6 +696,12 @@ std::vector<uint32_t> GpuBvhBuilder::downloadOrder() {
     return order;
 }
 
+vk::Buffer GpuBvhBuilder::takeOrder() {
+    State& s = *state_;
+    s.orderCount = 0;
+    return std::exchange(s.order, vk::Buffer{});
+}
+
 Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, std::vector<uint32_t> order) {
     RAYPACK_CHECK_MSG(!nodes.empty(), "a device build has a root");
     const auto bits = [](float f) {
@@ -740,6 +748,94 @@ Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, std::vector<uint32_t> o
     return bvh;
 }
 
+GpuTreeAttributes gpuTreeAttributes(const Scene& scene) {
+    GpuTreeAttributes attributes;
+    attributes.normals = scene.hasNormals();
+    attributes.colors = scene.hasVertexColors();
+    attributes.uvs = scene.hasUvs() && std::any_of(scene.textures.begin(), scene.textures.end(),
+                                                   [](const Texture& t) { return !t.texels.empty(); });
+    return attributes;
+}
+
+GpuTree::~GpuTree() {
+    for (vk::Buffer* b : {&nodes, &triangles, &normals, &uvs, &colors, &order}) vk::destroyBuffer(ctx, *b);
+}
+
+std::unique_ptr<GpuTree> buildGpuTree(GpuBvhBuilder& builder, const Scene& scene, const BvhBuildOptions& options,
+                                      bool keepOrder) {
+    const vk::VulkanContext& ctx = builder.context();
+    if (!builder.holds(scene)) builder.setScene(scene);
+    auto tree = std::make_unique<GpuTree>(ctx);
+    tree->scene = &scene;
+    tree->options = options;
+    // The arrays the build fills on the device: device-local, never written by the host.
+    const auto allocationStart = SteadyClock::now();
+    const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
+    const auto create = [&](vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) {
+        vk::checkBindable(ctx, count * entryBytes, what);
+        buffer = vk::createBuffer(ctx, count * entryBytes, kStorage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+        return buffer.buffer;
+    };
+    GpuBvhOutputs outputs;
+    outputs.nodes = create(tree->nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes");
+    outputs.triangles = create(tree->triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles");
+    const GpuTreeAttributes attributes = gpuTreeAttributes(scene);
+    if (attributes.normals)
+        outputs.normals = create(tree->normals, sizes.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals");
+    if (attributes.uvs) outputs.uvs = create(tree->uvs, sizes.triangles, sizeof(gpu::GpuTriangleUvs), "UVs");
+    if (attributes.colors)
+        outputs.colors = create(tree->colors, sizes.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours");
+    const double arraysSeconds = secondsSince(allocationStart);
+    tree->stats = builder.build(options, outputs).stats;
+    // Creating the tree's arrays is part of building it (T_B); it was counted nowhere before
+    // 2026-12-02 (t_scene_to_frame_s left it out).
+    tree->stats.buildSeconds += arraysSeconds;
+    tree->stats.buildAllocationSeconds += arraysSeconds;
+    if (keepOrder) tree->order = builder.takeOrder();
+    return tree;
+}
+
+Bvh downloadGpuTree(const GpuTree& tree) {
+    const vk::VulkanContext& ctx = tree.ctx;
+    RAYPACK_CHECK_MSG(tree.scene, "a device tree knows its scene");
+    const size_t n = tree.scene->triangleCount();
+    const GpuBvhSizes sizes = gpuBvhSizes(n);
+    if (n > 0 && tree.order.size < n * 4) throw Error("gpu-lbvh: the tree's leaf order was not kept; rebuild it");
+    const uint64_t nodeBytes = sizes.nodes * sizeof(gpu::GpuNode), orderBytes = uint64_t(n) * 4;
+    struct ReadBack {
+        const vk::VulkanContext& ctx;
+        vk::Buffer buffer;
+        VkCommandPool pool = VK_NULL_HANDLE;
+        ~ReadBack() {
+            vk::destroyBuffer(ctx, buffer);
+            if (pool) vkDestroyCommandPool(ctx.device, pool, nullptr);
+        }
+    } back{ctx};
+    back.buffer = vk::createBuffer(ctx, nodeBytes + orderBytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                   VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                   "the tree's read-back");
+    back.pool = vk::createCommandPool(ctx, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, "vkCreateCommandPool");
+    vk::submitAndWait(ctx, back.pool, [&](VkCommandBuffer cmd) {
+        const VkBufferCopy nodes{0, 0, nodeBytes};
+        vkCmdCopyBuffer(cmd, tree.nodes.buffer, back.buffer.buffer, 1, &nodes);
+        if (orderBytes > 0) {
+            const VkBufferCopy order{0, nodeBytes, orderBytes};
+            vkCmdCopyBuffer(cmd, tree.order.buffer, back.buffer.buffer, 1, &order);
+        }
+    });
+    const auto* bytes = static_cast<const unsigned char*>(back.buffer.mapped);
+    std::vector<uint32_t> order(n);
+    if (n > 0) std::memcpy(order.data(), bytes + nodeBytes, orderBytes);
+    Bvh bvh = bvhFromGpuNodes({reinterpret_cast<const gpu::GpuNode*>(bytes), sizes.nodes}, std::move(order));
+    bvh.options = tree.options;
+    bvh.stats = computeBvhStats(bvh, tree.options);
+    bvh.stats.buildSeconds = tree.stats.buildSeconds;
+    bvh.stats.deviceBuildSeconds = tree.stats.deviceBuildSeconds;
+    bvh.stats.buildScratchBytes = tree.stats.buildScratchBytes;
+    bvh.stats.buildAllocationSeconds = tree.stats.buildAllocationSeconds;
+    return bvh;
+}
+
 Bvh buildBvhOnDevice(const vk::VulkanContext& context, const Scene& scene, const BvhBuildOptions& options,
                      BuildProgress* progress) {
     if (progress) {
@@ -748,41 +844,8 @@ Bvh buildBvhOnDevice(const vk::VulkanContext& context, const Scene& scene, const
     }
     bvh_detail::throwIfCancelled(progress);
     GpuBvhBuilder builder(context);
-    builder.setScene(scene);
-    const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
-    struct Outputs {
-        const vk::VulkanContext& ctx;
-        vk::Buffer nodes, triangles, readback;
-        ~Outputs() {
-            for (vk::Buffer* b : {&nodes, &triangles, &readback}) vk::destroyBuffer(ctx, *b);
-        }
-    } out{context};
-    out.nodes = vk::createBuffer(context, sizes.nodes * sizeof(gpu::GpuNode), kStorage,
-                                 VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "BVH nodes");
-    out.triangles = vk::createBuffer(context, sizes.triangles * sizeof(gpu::GpuTriangle), kStorage,
-                                     VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "triangles");
-    const GpuBvhBuilder::Result built = builder.build(options, {out.nodes.buffer, out.triangles.buffer});
-    out.readback = vk::createBuffer(context, sizes.nodes * sizeof(gpu::GpuNode), VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                    VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
-                                    "the nodes' read-back");
-    VkCommandPool pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_TRANSIENT_BIT, "vkCreateCommandPool");
-    try {
-        vk::submitAndWait(context, pool, [&](VkCommandBuffer cmd) {
-            const VkBufferCopy region{0, 0, sizes.nodes * sizeof(gpu::GpuNode)};
-            vkCmdCopyBuffer(cmd, out.nodes.buffer, out.readback.buffer, 1, &region);
-        });
-    } catch (...) {
-        vkDestroyCommandPool(context.device, pool, nullptr);
-        throw;
-    }
-    vkDestroyCommandPool(context.device, pool, nullptr);
-    const auto* slots = static_cast<const gpu::GpuNode*>(out.readback.mapped);
-    Bvh bvh = bvhFromGpuNodes({slots, sizes.nodes}, builder.downloadOrder());
-    bvh.options = options;
-    bvh.stats = computeBvhStats(bvh, options);
-    bvh.stats.buildSeconds = built.stats.buildSeconds;
-    bvh.stats.deviceBuildSeconds = built.stats.deviceBuildSeconds;
-    bvh.stats.buildScratchBytes = built.stats.buildScratchBytes;
+    const std::unique_ptr<GpuTree> tree = buildGpuTree(builder, scene, options, /*keepOrder=*/true);
+    Bvh bvh = downloadGpuTree(*tree);
     if (progress) progress->done.store(scene.triangleCount());
     return bvh;
 }

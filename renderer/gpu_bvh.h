@@ -85,12 +85,52 @@ public:
     Result build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs);
     // The last build's leaf order: slot k holds triangle order[k] (Bvh::primIndices).
     std::vector<uint32_t> downloadOrder();
+    // Hands over the device buffer holding the last build's order (n uint32); downloadOrder is empty
+    // after it until the next build.
+    vk::Buffer takeOrder();
+    const vk::VulkanContext& context() const;
 
     struct State;
 
 private:
     std::unique_ptr<State> state_;
 };
+
+// The per-triangle attributes the tracers read of `scene`: UVs only where textures have texels.
+struct GpuTreeAttributes {
+    bool normals = false;
+    bool uvs = false;
+    bool colors = false;
+};
+GpuTreeAttributes gpuTreeAttributes(const Scene& scene);
+
+// A device build's arrays in buffers of its own: what the tracers trace (nodes, leaf-order
+// triangles and their attributes) and, where kept, the leaf order, from which the canonical tree
+// can be read back later (downloadGpuTree). The viewer's worker builds one on the tracer's device
+// (through its own GpuBvhBuilder, submitting under vk::lockQueue) while the render thread still
+// draws the previous tree, and the render thread swaps it in (GpuTracer::adopt): no host round trip.
+struct GpuTree {
+    explicit GpuTree(const vk::VulkanContext& context) : ctx(context) {}
+    ~GpuTree();
+    GpuTree(const GpuTree&) = delete;
+    GpuTree& operator=(const GpuTree&) = delete;
+
+    const vk::VulkanContext& ctx;
+    const Scene* scene = nullptr;  // what it was built over; must outlive the tree's use
+    vk::Buffer nodes, triangles, normals, uvs, colors;
+    vk::Buffer order;  // empty unless kept
+    BvhBuildOptions options;
+    BvhStats stats;  // the device's statistics; buildSeconds includes creating the arrays
+};
+
+// Builds `scene` with `builder` (uploading it first unless the builder holds it) into a new
+// GpuTree, keeping the order when asked. Throws as GpuBvhBuilder does.
+std::unique_ptr<GpuTree> buildGpuTree(GpuBvhBuilder& builder, const Scene& scene, const BvhBuildOptions& options,
+                                      bool keepOrder);
+
+// The canonical tree of `tree` (which kept its order): its node slots and order read back and
+// renumbered (bvhFromGpuNodes), statistics by computeBvhStats, the build's times from tree.stats.
+Bvh downloadGpuTree(const GpuTree& tree);
 
 // The canonical tree of a device build, from its node slots and its order: nodes renumbered depth
 // first from the root (children after their parents, the unused slots dropped), leaves indexing

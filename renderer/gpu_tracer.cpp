@@ -100,16 +100,19 @@ struct GpuTracer::State {
     VkCommandBuffer syncCommands = VK_NULL_HANDLE;
     VkFence syncFence = VK_NULL_HANDLE;
 
-    // Scene.
-    vk::Buffer nodes, triangles, normals, materials, uvs, colors, textures, texels, dummy;
+    // Scene: the tables that depend on the scene alone (materials, textures), uploaded for
+    // `tablesScene`, and the tree's arrays (nodes, leaf-order triangles and their attributes),
+    // uploaded from a host tree or built on the device.
+    vk::Buffer materials, textures, texels, dummy;
+    const Scene* tablesScene = nullptr;
+    std::unique_ptr<GpuTree> tree;
     bool hasScene = false, hasNormals = false, hasMaterials = false, hasUvs = false, hasColors = false;
     bool hostTimedPasses = false;  // setHostTimedPasses
     uint32_t stackEntries = 1;
     Aabb sceneBounds;
-    // buildOnDevice: the device builder (made on first use) and the scene whose materials,
-    // textures and vertex arrays it uploaded (kept while only the tree changes).
+    // buildOnDevice's builder (made on first use); it keeps the scene's vertex arrays while only
+    // the tree changes.
     std::unique_ptr<GpuBvhBuilder> builder;
-    const Scene* deviceBuiltScene = nullptr;
 
     // Frame.
     uint32_t width = 0, height = 0;
@@ -170,11 +173,13 @@ GpuTracer::~GpuTracer() {
 namespace {
 void destroyState(GpuTracer::State& s) {
     const VkDevice device = s.ctx.device;
-    if (device) vkDeviceWaitIdle(device);
+    if (device) vk::deviceWaitIdle(s.ctx);
     for (auto& [key, pipeline] : s.pipelines) vkDestroyPipeline(device, pipeline, nullptr);
     s.pipelines.clear();
-    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors, &s.textures, &s.texels,
-                          &s.dummy, &s.primaryHits, &s.output, &s.hits, &s.counters, &s.status, &s.readback})
+    s.tree.reset();
+    s.builder.reset();
+    for (vk::Buffer* b : {&s.materials, &s.textures, &s.texels, &s.dummy, &s.primaryHits, &s.output, &s.hits,
+                          &s.counters, &s.status, &s.readback})
         vk::destroyBuffer(s.ctx, *b);
     if (s.syncFence) vkDestroyFence(device, s.syncFence, nullptr);
     if (s.queries) vkDestroyQueryPool(device, s.queries, nullptr);
@@ -190,24 +195,55 @@ namespace {
 
 void writeDescriptors(GpuTracer::State& s);
 
-// A device-local buffer the device fills itself (a device build's output), of `count` entries.
-void createDeviceArray(const vk::VulkanContext& ctx, vk::Buffer& buffer, size_t count, size_t entryBytes,
-                       const char* what) {
-    vk::checkBindable(ctx, count * entryBytes, what);
-    buffer =
-        vk::createBuffer(ctx, count * entryBytes, vk::StagedUpload::kUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
-}
-
-// What both uploads share: the scene's attribute flags, and staging for the tables that do not depend
-// on the tree (materials, texture table, texels). Returns `counts` as the layout is written: UVs come
-// with textures (Scene::uvs), and without texels the kernels never read UVs, so neither the UVs nor
-// the texture tables are converted or uploaded then.
+// What every way of setting a scene shares: the scene's attribute flags, and staging for the tables
+// that do not depend on the tree (materials, texture table, texels). Returns `counts` as the layout is written: UVs
+// come with textures (Scene::uvs), and without texels the kernels never read UVs, so neither the UVs nor the texture
+// tables are converted or uploaded then.
 GpuLayoutCounts stageSceneTables(GpuTracer::State& s, vk::StagedUpload& staging, GpuLayoutCounts counts,
                                  GpuLayoutTargets& targets);
 
 // The stack entries a tree of depth `maxDepth` needs (a leaf at depth D has at most D pending
 // siblings; one more for the root leaf); throws when the packet stack does not fit shared memory.
 uint32_t stackEntriesFor(const GpuTracer::State& s, uint32_t maxDepth);
+
+// Drops the current scene after the queue has gone idle; the tables too unless `keepTables`.
+void dropScene(GpuTracer::State& s, bool keepTables) {
+    vk::queueWaitIdle(s.ctx);
+    s.tree.reset();
+    s.hasScene = false;
+    if (keepTables) return;
+    for (vk::Buffer* b : {&s.materials, &s.textures, &s.texels}) vk::destroyBuffer(s.ctx, *b);
+    s.tablesScene = nullptr;
+}
+
+// Uploads `scene`'s tables (materials, textures) and sets the attribute flags: T_CU's share of a
+// device-built tree, whose own arrays the device fills.
+GpuTracer::UploadTimings uploadTables(GpuTracer::State& s, const Scene& scene) {
+    const auto start = Clock::now();
+    Bvh none;  // counts of the scene alone: no tree yet
+    none.nodes.resize(1);
+    vk::StagedUpload staging(s.ctx, s.pool);
+    GpuLayoutTargets targets;
+    writeGpuMaterials(scene, stageSceneTables(s, staging, gpuLayoutCounts(scene, none), targets), targets);
+    staging.submit();
+    s.tablesScene = &scene;
+    GpuTracer::UploadTimings timings;
+    timings.allocationSeconds = staging.allocationSeconds();
+    timings.transferSeconds = staging.transferSeconds();
+    timings.conversionSeconds = secondsSince(start) - timings.allocationSeconds - timings.transferSeconds;
+    return timings;
+}
+
+// Makes `tree` the traced one (the queue idle, the previous tree dropped, the tables in place),
+// with the kernels' stack sized for `stackEntries`.
+void installTree(GpuTracer::State& s, std::unique_ptr<GpuTree> tree, uint32_t stackEntries) {
+    const Scene& scene = *tree->scene;
+    s.stackEntries = stackEntries;
+    s.tree = std::move(tree);
+    s.sceneBounds = scene.bounds();
+    s.hasScene = true;
+    if (s.width > 0) writeDescriptors(s);
+}
 
 }  // namespace
 
@@ -217,11 +253,11 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     const GpuLayoutCounts counts = gpuLayoutCounts(scene, bvh);
     const uint32_t entries = stackEntriesFor(s, gpuTreeDepth(bvh));
 
-    vkQueueWaitIdle(s.ctx.queue);
-    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors, &s.textures, &s.texels})
-        vk::destroyBuffer(s.ctx, *b);
-    s.hasScene = false;
-    s.deviceBuiltScene = nullptr;
+    dropScene(s, /*keepTables=*/false);
+    auto tree = std::make_unique<GpuTree>(s.ctx);
+    tree->scene = &scene;
+    tree->options = bvh.options;
+    tree->stats = bvh.stats;
 
     // Each array gets its device-local buffer and a mapped staging buffer of the same size; the
     // layout is written straight into the staging memory by parallel workers (writeGpuLayout: no
@@ -230,18 +266,19 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     vk::StagedUpload staging(s.ctx, s.pool);
     GpuLayoutTargets targets;
     const GpuLayoutCounts written = stageSceneTables(s, staging, counts, targets);
-    targets.nodes = static_cast<gpu::GpuNode*>(staging.add(s.nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes"));
+    targets.nodes =
+        static_cast<gpu::GpuNode*>(staging.add(tree->nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes"));
     targets.triangles = static_cast<gpu::GpuTriangle*>(
-        staging.add(s.triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles"));
+        staging.add(tree->triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles"));
     if (s.hasNormals)
         targets.normals = static_cast<gpu::GpuTriangleNormals*>(
-            staging.add(s.normals, counts.triangles * sizeof(gpu::GpuTriangleNormals), "vertex normals"));
+            staging.add(tree->normals, counts.triangles * sizeof(gpu::GpuTriangleNormals), "vertex normals"));
     if (s.hasUvs)
         targets.uvs = static_cast<gpu::GpuTriangleUvs*>(
-            staging.add(s.uvs, counts.triangles * sizeof(gpu::GpuTriangleUvs), "UVs"));
+            staging.add(tree->uvs, counts.triangles * sizeof(gpu::GpuTriangleUvs), "UVs"));
     if (s.hasColors)
         targets.colors = static_cast<gpu::GpuTriangleColors*>(
-            staging.add(s.colors, counts.triangles * sizeof(gpu::GpuTriangleColors), "vertex colours"));
+            staging.add(tree->colors, counts.triangles * sizeof(gpu::GpuTriangleColors), "vertex colours"));
     const auto converted = Clock::now();
     writeGpuLayout(scene, bvh, written, targets);
     const auto transferStart = Clock::now();
@@ -249,10 +286,8 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     s.lastUpload.conversionSeconds = std::chrono::duration<double>(transferStart - converted).count();
     staging.submit();
     s.lastUpload.transferSeconds = secondsSince(transferStart);
-    s.stackEntries = entries;
-    s.sceneBounds = scene.bounds();
-    s.hasScene = true;
-    if (s.width > 0) writeDescriptors(s);
+    s.tablesScene = &scene;
+    installTree(s, std::move(tree), entries);
     return secondsSince(start);
 }
 
@@ -262,62 +297,46 @@ GpuTracer::DeviceBuild GpuTracer::buildOnDevice(const Scene& scene, const BvhBui
     if (!isGpuBvhBuilder(options.builder))
         throw Error(std::string("GPU: ") + toString(options.builder) + " is not a device builder");
     if (!s.builder) s.builder = std::make_unique<GpuBvhBuilder>(s.ctx);
-    vkQueueWaitIdle(s.ctx.queue);
-    for (vk::Buffer* b : {&s.nodes, &s.triangles, &s.normals, &s.uvs, &s.colors}) vk::destroyBuffer(s.ctx, *b);
-    s.hasScene = false;
-
-    DeviceBuild result;
     // What does not depend on the tree is uploaded once per scene: the builder's vertex arrays
-    // and indices, the materials and the textures.
-    const bool sameScene = s.deviceBuiltScene == &scene && s.builder->holds(scene);
+    // and indices, the materials and the textures. The previous tree is dropped first, so that a
+    // large scene never holds two trees.
+    const bool sameScene = s.tablesScene == &scene && s.builder->holds(scene);
+    dropScene(s, /*keepTables=*/sameScene);
+    DeviceBuild result;
     if (!sameScene) {
-        for (vk::Buffer* b : {&s.materials, &s.textures, &s.texels}) vk::destroyBuffer(s.ctx, *b);
-        s.deviceBuiltScene = nullptr;
-        Bvh none;  // counts of the scene alone: no tree yet
-        none.nodes.resize(1);
-        vk::StagedUpload staging(s.ctx, s.pool);
-        GpuLayoutTargets targets;
-        writeGpuMaterials(scene, stageSceneTables(s, staging, gpuLayoutCounts(scene, none), targets), targets);
-        staging.submit();
+        const UploadTimings tables = uploadTables(s, scene);
         const GpuBvhBuilder::SceneUpload arrays = s.builder->setScene(scene);
-        s.deviceBuiltScene = &scene;
         result.uploadSeconds = secondsSince(start);
-        result.upload.allocationSeconds = staging.allocationSeconds() + arrays.allocationSeconds;
-        result.upload.transferSeconds = staging.transferSeconds() + arrays.transferSeconds;
+        result.upload.allocationSeconds = tables.allocationSeconds + arrays.allocationSeconds;
+        result.upload.transferSeconds = tables.transferSeconds + arrays.transferSeconds;
         result.upload.conversionSeconds =
             result.uploadSeconds - result.upload.allocationSeconds - result.upload.transferSeconds;
     }
-    // The tree's arrays, which the build fills on the device.
-    const auto allocationStart = Clock::now();
-    const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
-    createDeviceArray(s.ctx, s.nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes");
-    createDeviceArray(s.ctx, s.triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles");
-    GpuBvhOutputs targets{s.nodes.buffer, s.triangles.buffer};
-    if (s.hasNormals) {
-        createDeviceArray(s.ctx, s.normals, sizes.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals");
-        targets.normals = s.normals.buffer;
-    }
-    if (s.hasUvs) {
-        createDeviceArray(s.ctx, s.uvs, sizes.triangles, sizeof(gpu::GpuTriangleUvs), "UVs");
-        targets.uvs = s.uvs.buffer;
-    }
-    if (s.hasColors) {
-        createDeviceArray(s.ctx, s.colors, sizes.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours");
-        targets.colors = s.colors.buffer;
-    }
-    const double arraysSeconds = secondsSince(allocationStart);
-    result.stats = s.builder->build(options, targets).stats;
-    // Creating the tree's arrays is part of building it (T_B); it was counted nowhere before
-    // 2026-12-02 (t_scene_to_frame_s left it out).
-    result.stats.buildSeconds += arraysSeconds;
-    result.stats.buildAllocationSeconds += arraysSeconds;
-    s.stackEntries = stackEntriesFor(s, result.stats.maxLeafDepth);
+    std::unique_ptr<GpuTree> tree = buildGpuTree(*s.builder, scene, options, /*keepOrder=*/false);
+    result.stats = tree->stats;
+    installTree(s, std::move(tree), stackEntriesFor(s, result.stats.maxLeafDepth));
     s.lastUpload = result.upload;
-    s.sceneBounds = scene.bounds();
-    s.hasScene = true;
-    if (s.width > 0) writeDescriptors(s);
     result.seconds = secondsSince(start);
     return result;
+}
+
+double GpuTracer::adopt(std::unique_ptr<GpuTree> tree) {
+    State& s = *state_;
+    RAYPACK_CHECK_MSG(tree && tree->scene && &tree->ctx == &s.ctx, "a tree built on the tracer's device");
+    const auto start = Clock::now();
+    const Scene& scene = *tree->scene;
+    const uint32_t entries = stackEntriesFor(s, tree->stats.maxLeafDepth);  // throws before anything is dropped
+    const bool sameScene = s.tablesScene == &scene;
+    dropScene(s, /*keepTables=*/sameScene);
+    s.lastUpload = sameScene ? UploadTimings{} : uploadTables(s, scene);
+    installTree(s, std::move(tree), entries);
+    return sameScene ? 0.0 : secondsSince(start);
+}
+
+Bvh GpuTracer::downloadBvh() const {
+    const State& s = *state_;
+    if (!s.hasScene) throw Error("GPU: no scene uploaded");
+    return downloadGpuTree(*s.tree);
 }
 
 GpuTracer::UploadTimings GpuTracer::lastUploadTimings() const { return state_->lastUpload; }
@@ -331,10 +350,12 @@ VkDeviceSize GpuTracer::outputBytes() const { return VkDeviceSize(state_->width)
 uint64_t GpuTracer::sceneBytes() const {
     const State& s = *state_;
     uint64_t bytes = 0;
+    if (!s.hasScene) return 0;
+    const GpuTree& tree = *s.tree;
     for (const vk::Buffer* b :
-         {&s.nodes, &s.triangles, &s.normals, &s.materials, &s.uvs, &s.colors, &s.textures, &s.texels})
+         {&tree.nodes, &tree.triangles, &tree.normals, &s.materials, &tree.uvs, &tree.colors, &s.textures, &s.texels})
         bytes += b->size;
-    return s.hasScene ? bytes : 0;
+    return bytes;
 }
 
 namespace {
@@ -374,17 +395,18 @@ uint32_t stackEntriesFor(const GpuTracer::State& s, uint32_t maxDepth) {
 
 void writeDescriptors(GpuTracer::State& s) {
     std::array<VkBuffer, gpu::kBindingCount> buffers{};
-    buffers[gpu::kBindNodes] = s.nodes.buffer;
-    buffers[gpu::kBindTriangles] = s.triangles.buffer;
-    buffers[gpu::kBindNormals] = (s.hasNormals ? s.normals : s.dummy).buffer;
+    const GpuTree& tree = *s.tree;
+    buffers[gpu::kBindNodes] = tree.nodes.buffer;
+    buffers[gpu::kBindTriangles] = tree.triangles.buffer;
+    buffers[gpu::kBindNormals] = (s.hasNormals ? tree.normals : s.dummy).buffer;
     buffers[gpu::kBindMaterials] = (s.hasMaterials ? s.materials : s.dummy).buffer;
     buffers[gpu::kBindPrimaryHits] = s.primaryHits.buffer;
     buffers[gpu::kBindOutput] = s.output.buffer;
     buffers[gpu::kBindHits] = s.hits.buffer;
     buffers[gpu::kBindCounters] = s.counters.buffer;
     buffers[gpu::kBindStatus] = s.status.buffer;
-    buffers[gpu::kBindUvs] = (s.hasUvs ? s.uvs : s.dummy).buffer;
-    buffers[gpu::kBindColors] = (s.hasColors ? s.colors : s.dummy).buffer;
+    buffers[gpu::kBindUvs] = (s.hasUvs ? tree.uvs : s.dummy).buffer;
+    buffers[gpu::kBindColors] = (s.hasColors ? tree.colors : s.dummy).buffer;
     buffers[gpu::kBindTextures] = (s.hasUvs ? s.textures : s.dummy).buffer;
     buffers[gpu::kBindTexels] = (s.hasUvs ? s.texels : s.dummy).buffer;
     vk::writeStorageSet(s.ctx, s.layout.set, buffers);
@@ -393,7 +415,7 @@ void writeDescriptors(GpuTracer::State& s) {
 // (Re-)creates the per-pixel buffers for a width x height frame.
 void ensureFrameBuffers(GpuTracer::State& s, uint32_t width, uint32_t height) {
     if (s.width == width && s.height == height) return;
-    vkQueueWaitIdle(s.ctx.queue);
+    vk::queueWaitIdle(s.ctx);
     for (vk::Buffer* b : {&s.primaryHits, &s.output, &s.hits, &s.counters, &s.readback}) vk::destroyBuffer(s.ctx, *b);
     s.width = s.height = 0;
     const VkDeviceSize pixels = VkDeviceSize(width) * height;
@@ -538,7 +560,7 @@ void submitSyncCommandsAndWait(GpuTracer::State& s) {
     VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
     submit.commandBufferCount = 1;
     submit.pCommandBuffers = &s.syncCommands;
-    vk::check(vkQueueSubmit(s.ctx.queue, 1, &submit, s.syncFence), "vkQueueSubmit");
+    vk::queueSubmit(s.ctx, submit, s.syncFence, "vkQueueSubmit");
     vk::check(vkWaitForFences(s.ctx.device, 1, &s.syncFence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
 }
 

@@ -13,6 +13,7 @@
 // It does not own the VulkanContext, which must outlive it.
 #include "renderer/bvh.h"
 #include "renderer/frame.h"
+#include "renderer/gpu_bvh.h"
 #include "renderer/scene.h"
 #include "renderer/settings.h"
 #include "renderer/vk/context.h"
@@ -64,6 +65,16 @@ public:
         double seconds = 0;        // the whole call: upload, allocation, build
     };
     DeviceBuild buildOnDevice(const Scene& scene, const BvhBuildOptions& options);
+    // Takes over `tree`, built on this tracer's device by another GpuBvhBuilder (buildGpuTree, on
+    // any thread: the viewer's worker), in place of the current tree once the queue has gone idle;
+    // the previous tree is traced until this call. The scene's materials and textures are uploaded
+    // when tree->scene is not the current scene (it must stay unchanged while it is used). Returns
+    // that upload's seconds (T_CU; 0 when the scene was kept). Throws raypack::Error as upload().
+    double adopt(std::unique_ptr<GpuTree> tree);
+    // The canonical tree of the current scene read back from the device (for a CPU consumer of a
+    // tree built on the device). Throws raypack::Error without a scene, or when the tree's leaf
+    // order was not kept (buildOnDevice keeps none; adopt keeps what buildGpuTree kept).
+    Bvh downloadBvh() const;
     bool hasScene() const;
     UploadTimings lastUploadTimings() const;
 

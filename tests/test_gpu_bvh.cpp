@@ -5,6 +5,7 @@
 // through it hit what the CPU reference hits, on generated, degenerate and shared scenes.
 #include "renderer/gpu_bvh.h"
 
+#include "renderer/async_build.h"
 #include "renderer/camera.h"
 #include "renderer/cpu_tracer.h"
 #include "renderer/gpu_tracer.h"
@@ -229,6 +230,91 @@ TEST_P(GpuBuilder, TracerBuildsInItsOwnBuffersAndMatchesTheReference) {
             std::string(relative) + " leaf 8");
     }
     test::expectNoValidationMessages();
+}
+
+// The viewer's path (issue 13): its worker builds on the tracer's own device, through a builder of
+// its own, while the render thread keeps tracing the previous tree on the queue they share
+// (vk::lockQueue); the tracer adopts the device tree
+// without a host round trip, and the host tree is read back only when asked for. Requests that
+// replace one another end in the last one, and nothing leaves a validation message.
+TEST_P(GpuBuilder, AWorkerBuildsTreesTheTracerAdoptsWhileItStillTraces) {
+    const std::string path = test::sharedScene("gltf/Duck/glTF/Duck.gltf");
+    AsyncSceneBuilder builder(
+        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); },
+        &validatedContext());
+    GpuTracer tracer(validatedContext());
+    const FrameRequest request{true, true, false};
+
+    // A load hands back the device tree and, for the start view, the host tree.
+    builder.requestLoad(path, lbvhOptions(2));
+    builder.waitIdle();
+    std::optional<SceneBuild> loaded = builder.takeFinished();
+    ASSERT_TRUE(loaded && loaded->deviceTree && loaded->bvh) << (builder.takeFailure() ? "failed" : "nothing");
+    const std::shared_ptr<const Scene> scene = loaded->scene;
+    const std::shared_ptr<const Bvh> loadedBvh = loaded->bvh;
+    EXPECT_EQ(loaded->stats.leafCount, loadedBvh->stats.leafCount);
+    EXPECT_GT(tracer.adopt(std::move(loaded->deviceTree)), 0.0) << "a new scene's tables are uploaded";
+    RenderSettings settings;
+    settings.width = 160;
+    settings.height = 120;
+    settings.camera = frameScene(scene->bounds());
+    settings.kernel = KernelKind::Single;
+    test::expectMatchesReference(tracer.render(settings, request), renderCpu(*scene, *loadedBvh, settings, request),
+                                 "loaded");
+
+    // A rebuild without the host tree, traced against while it builds.
+    builder.requestRebuild(scene, lbvhOptions(8), /*hostTree=*/false);
+    uint32_t framesDuringTheBuild = 0;
+    while (builder.status().phase != BuildPhase::Idle || builder.status().requestWaiting) {
+        tracer.render(settings);
+        ++framesDuringTheBuild;
+    }
+    builder.waitIdle();
+    std::optional<SceneBuild> rebuilt = builder.takeFinished();
+    ASSERT_TRUE(rebuilt && rebuilt->deviceTree);
+    EXPECT_FALSE(rebuilt->bvh) << "no host tree unless asked for";
+    EXPECT_EQ(rebuilt->scene, scene);
+    const BvhStats deviceStats = rebuilt->stats;
+    EXPECT_EQ(tracer.adopt(std::move(rebuilt->deviceTree)), 0.0) << "the same scene's tables are kept";
+    const Frame frame = tracer.render(settings, request);
+    const Bvh downloaded = tracer.downloadBvh();
+    expectValidTree(*scene, downloaded, 8);
+    EXPECT_EQ(downloaded.stats.leafCount, deviceStats.leafCount);
+    EXPECT_EQ(downloaded.stats.maxLeafDepth, deviceStats.maxLeafDepth);
+    EXPECT_LT(downloaded.stats.leafCount, loadedBvh->stats.leafCount);
+    test::expectMatchesReference(frame, renderCpu(*scene, downloaded, settings, request), "leaf 8");
+    std::printf("frames traced during the rebuild: %u\n", framesDuringTheBuild);
+
+    // Requests replacing one another: the last one's tree, its host tree asked for.
+    for (const uint32_t leafSize : {1u, 4u, 3u}) builder.requestRebuild(scene, lbvhOptions(leafSize), true);
+    builder.waitIdle();
+    std::optional<SceneBuild> last = builder.takeFinished();
+    ASSERT_TRUE(last && last->deviceTree && last->bvh);
+    EXPECT_EQ(last->options.leafSize, 3u);
+    expectValidTree(*scene, *last->bvh, 3);
+    tracer.adopt(std::move(last->deviceTree));
+    test::expectMatchesReference(tracer.render(settings, request), renderCpu(*scene, *last->bvh, settings, request),
+                                 "leaf 3");
+    test::expectNoValidationMessages();
+}
+
+// Without a device a device build fails with a message, and the worker goes on.
+TEST(GpuBuilderWorker, ADeviceBuildWithoutADeviceFailsWithAMessage) {
+    AsyncSceneBuilder builder(
+        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); });
+    auto scene = std::make_shared<const Scene>(sceneOfTriangles({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}}));
+    BvhBuildOptions options;
+    options.builder = BvhBuilder::GpuPloc;
+    builder.requestRebuild(scene, options);
+    builder.waitIdle();
+    EXPECT_FALSE(builder.takeFinished());
+    const std::optional<BuildFailure> failure = builder.takeFailure();
+    ASSERT_TRUE(failure);
+    EXPECT_NE(failure->message.find("Vulkan device"), std::string::npos) << failure->message;
+    options.builder = BvhBuilder::SahBinned;
+    builder.requestRebuild(scene, options);
+    builder.waitIdle();
+    EXPECT_TRUE(builder.takeFinished());
 }
 
 TEST_P(GpuBuilder, RefusesWhatItCannotBuild) {

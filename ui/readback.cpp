@@ -25,7 +25,7 @@ void copyTexels(uint32_t* dst, const uint32_t* src, size_t count, bool bgra) {
 void ensureHostBuffer(const vk::VulkanContext& context, vk::Buffer& buffer, VkDeviceSize bytes,
                       VkBufferUsageFlags usage, const char* what) {
     if (buffer.size == bytes) return;
-    vkDeviceWaitIdle(context.device);
+    vk::deviceWaitIdle(context);
     vk::destroyBuffer(context, buffer);
     buffer = vk::createBuffer(context, bytes, usage,
                               VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, what);
@@ -35,7 +35,7 @@ Image readBackImage(const vk::VulkanContext& context, VkCommandPool pool, VkBuff
                     uint32_t height, bool bgra, vk::Buffer& staging) {
     const VkDeviceSize bytes = VkDeviceSize(width) * height * 4;
     ensureHostBuffer(context, staging, bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT, "screenshot");
-    vk::check(vkDeviceWaitIdle(context.device), "vkDeviceWaitIdle (screenshot)");
+    vk::deviceWaitIdle(context);
     vk::submitAndWait(context, pool, [&](VkCommandBuffer cmd) {
         const VkBufferCopy region{0, 0, bytes};
         vkCmdCopyBuffer(cmd, source, staging.buffer, 1, &region);

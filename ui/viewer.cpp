@@ -91,7 +91,10 @@ struct Session {
     PacketShape otherPacket = kDefaultCpuPacket;  // the packet shape of the tracers not drawing
 
     std::shared_ptr<const Scene> scene;
+    // The host tree: a CPU build's, or a device build's read back when a CPU consumer first asks
+    // (hostBvh); null until then.
     std::shared_ptr<const Bvh> bvh;
+    uint64_t treeGeneration = 0;          // counts the trees taken from the worker
     std::optional<CpuSceneView> cpuView;  // made when a CPU tracer first draws this tree
     std::string sceneSpec;
     bool firstScene = true;
@@ -169,7 +172,7 @@ struct Session {
     explicit Session(const ViewerOptions& o) : options(o) {}
     ~Session() {
         builder.reset();
-        if (context.device) vkDeviceWaitIdle(context.device);
+        if (context.device) vk::deviceWaitIdle(context);
         tracer.reset();
         vk::destroyBuffer(context, shownImage);
         vk::destroyBuffer(context, screenshotReadback);
@@ -337,6 +340,18 @@ void setTracer(Session& s, TracerChoice tracer, const std::string& reason) {
     s.info.tracerReason = reason;
 }
 
+// The host tree of the scene shown (the CPU tracers, picking, the CPU reference): a device build's
+// is read back from the tracer the first time a CPU consumer asks for it.
+const Bvh& hostBvh(Session& s) {
+    if (!s.bvh) s.bvh = std::make_shared<const Bvh>(s.tracer->downloadBvh());
+    return *s.bvh;
+}
+
+// Whether a CPU tracer draws (either half): a device build then reads its tree back on the worker.
+bool needsHostTree(const Session& s) {
+    return isCpuTracer(s.panel.tracer) || (s.panel.sideBySide && isCpuTracer(s.panel.sideBySideTracer));
+}
+
 // At the frame boundary: swap in what the worker finished (upload, then trace it from this frame
 // on), and show what failed.
 void takeWorkerResults(Session& s) {
@@ -352,7 +367,9 @@ void takeWorkerResults(Session& s) {
     std::optional<SceneBuild> build = s.builder->takeFinished();
     if (!build) return;
     try {
-        s.uploadSeconds = s.tracer->upload(*build->scene, *build->bvh);
+        // A device build is already in the tracer's device memory: it is swapped in, not uploaded.
+        s.uploadSeconds = build->deviceTree ? s.tracer->adopt(std::move(build->deviceTree))
+                                            : s.tracer->upload(*build->scene, *build->bvh);
     } catch (const Error& e) {
         s.report(e.what());
         return;
@@ -360,9 +377,10 @@ void takeWorkerResults(Session& s) {
     const bool newScene = build->scene != s.scene;
     s.scene = build->scene;
     s.bvh = build->bvh;
+    ++s.treeGeneration;
     s.cpuView.reset();
-    s.info.bvhStats = s.bvh->stats;
-    s.info.builtWith = s.bvh->options;
+    s.info.bvhStats = build->stats;
+    s.info.builtWith = build->options;
     s.info.hasBvh = true;
     s.info.compare.valid = false;
     s.panel.showing = Showing::Traced;
@@ -380,7 +398,7 @@ void takeWorkerResults(Session& s) {
     // The start camera is the CLI's start view (the file's camera, the framing, or inside a room),
     // so the viewer and raypack-cli render agree.
     const Camera camera =
-        (s.firstScene && s.options.cameraGiven) ? s.options.settings.camera : startCamera(*s.scene, *s.bvh);
+        (s.firstScene && s.options.cameraGiven) ? s.options.settings.camera : startCamera(*s.scene, hostBvh(s));
     s.firstScene = false;
     s.panel.settings.camera = camera;
     s.fly.reset(camera, bounds);
@@ -423,8 +441,8 @@ nlohmann::json statisticsJson(const Session& s) {
         stats["shadow_tests_per_ray"] = st.counters.shadowTests;
         stats["counters_from"] = s.countersSource;
     }
-    if (s.bvh) {
-        const BvhStats& b = s.bvh->stats;
+    if (s.info.hasBvh) {
+        const BvhStats& b = s.info.bvhStats;
         stats["bvh"] = {{"leaves", b.leafCount},
                         {"avg_leaf_depth", b.avgLeafDepth},
                         {"max_leaf_depth", b.maxLeafDepth},
@@ -439,7 +457,7 @@ nlohmann::json statisticsJson(const Session& s) {
 }
 
 const CpuSceneView& cpuViewOf(Session& s) {
-    if (!s.cpuView) s.cpuView.emplace(makeCpuSceneView(*s.scene, *s.bvh));
+    if (!s.cpuView) s.cpuView.emplace(makeCpuSceneView(*s.scene, hostBvh(s)));
     return *s.cpuView;
 }
 
@@ -454,7 +472,7 @@ Frame traceOnHost(Session& s, TracerChoice tracer, const RenderSettings& setting
 // The CPU reference of the same view and the difference, shown in the panel (raypack-cli diff's
 // numbers) and, on request, in place of the traced image.
 void compareWithReference(Session& s) {
-    if (!s.scene || !s.bvh) return;
+    if (!s.scene || !s.info.hasBvh) return;
     RenderSettings settings = s.panel.settings;
     settings.collectCounters = false;
     settings.pixelJitter = glm::vec2(0.0f);
@@ -489,7 +507,7 @@ Image shownImageNow(Session& s) {
 void saveScreenshot(Session& s, const std::string& path) {
     try {
         Image image = shownImageNow(s);
-        RenderSetup setup{s.sceneSpec, s.panel.settings, s.bvh ? s.bvh->options : s.panel.bvh};
+        RenderSetup setup{s.sceneSpec, s.panel.settings, s.info.hasBvh ? s.info.builtWith : s.panel.bvh};
         setup.settings.width = image.width;
         setup.settings.height = image.height;
         setup.settings.pixelJitter = glm::vec2(0.0f);
@@ -566,7 +584,7 @@ void applyScriptSteps(Session& s, std::string& screenshot, std::string& windowSh
 // The scene point under the cursor: the primary ray of that pixel of the image (at full
 // resolution) through the CPU reference; nullopt over the background, the panel or no scene.
 std::optional<PickHit> pickUnderCursor(Session& s, glm::dvec2 cursor) {
-    if (!s.scene || !s.bvh) return std::nullopt;
+    if (!s.scene || !s.info.hasBvh) return std::nullopt;
     int windowW = 0, windowH = 0, fbW = 0, fbH = 0;
     glfwGetWindowSize(s.window.window, &windowW, &windowH);
     glfwGetFramebufferSize(s.window.window, &fbW, &fbH);
@@ -578,7 +596,7 @@ std::optional<PickHit> pickUnderCursor(Session& s, glm::dvec2 cursor) {
     const std::optional<glm::uvec2> pixel =
         imagePixelUnderCursor(cursor, glm::ivec2(windowW, windowH), glm::ivec2(fbW, fbH), image);
     if (!pixel) return std::nullopt;
-    return pickPixel(*s.scene, *s.bvh, settings.camera, settings.width, settings.height, pixel->x, pixel->y);
+    return pickPixel(*s.scene, hostBvh(s), settings.camera, settings.width, settings.height, pixel->x, pixel->y);
 }
 
 // The camera for this frame from the keys held, the mouse, the wheel, or the path being played.
@@ -710,7 +728,7 @@ void drawHelp(Session& s) {
 void handleActions(Session& s, const PanelActions& a, const RenderSettings& before) {
     if (a.dismissError) s.info.error.clear();
     if (a.open && !s.panel.openPath.empty()) requestLoad(s, s.panel.openPath);
-    if (a.rebuild) s.builder->requestRebuild(s.scene, s.panel.bvh);
+    if (a.rebuild) s.builder->requestRebuild(s.scene, s.panel.bvh, needsHostTree(s));
     if (a.frameAll && s.scene) {
         s.fly.frameAll();
         s.panel.settings.camera = s.fly.camera();
@@ -725,7 +743,7 @@ void handleActions(Session& s, const PanelActions& a, const RenderSettings& befo
             const RenderSettings& st = s.panel.settings;
             std::optional<glm::vec3> pivot;
             if (std::optional<PickHit> hit =
-                    pickPixel(*s.scene, *s.bvh, st.camera, st.width, st.height, st.width / 2, st.height / 2))
+                    pickPixel(*s.scene, hostBvh(s), st.camera, st.width, st.height, st.width / 2, st.height / 2))
                 pivot = hit->point;
             switchToOrbit(s.fly, s.orbit, s.scene->bounds(), pivot);
         } else {
@@ -776,7 +794,7 @@ std::string viewKey(const Session& s) {
     if (s.panel.sideBySide)
         key["side_by_side"] = {cliName(s.panel.sideBySideTracer), s.panel.sideBySidePacket.width,
                                s.panel.sideBySidePacket.height};
-    key["tree"] = reinterpret_cast<uintptr_t>(s.bvh.get());
+    key["tree"] = s.treeGeneration;
     return key.dump();
 }
 
@@ -1302,10 +1320,10 @@ int runViewer(const ViewerOptions& options) {
     // On lavapipe the timestamps of the window's frames do not bracket the dispatches (measured: 17
     // us for a 57 ms pass), so there GpuTracer::render times each pass on the host.
     s.tracer->setHostTimedPasses(s.cpuDevice);
-    // A device builder (gpu-lbvh) runs on the viewer's own device, through the worker's context.
+    // A device builder (gpu-lbvh, gpu-ploc) runs on the viewer's own device: the worker builds into
+    // buffers the tracer adopts at a frame boundary, while the previous tree is still drawn.
     s.builder = std::make_unique<AsyncSceneBuilder>(
-        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); },
-        std::to_string(s.context.info.index));
+        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); }, &s.context);
 
     s.panel.settings = options.settings;
     s.panel.bvh = options.bvh;
@@ -1383,7 +1401,7 @@ int runViewer(const ViewerOptions& options) {
         recordFrame(s, result, startSeconds, idleWall, idleCpu);
         ++s.frameIndex;
     }
-    vkDeviceWaitIdle(s.context.device);
+    vk::deviceWaitIdle(s.context);
 
     if (!options.recordPath.empty()) {
         CameraPath recorded = s.recording;

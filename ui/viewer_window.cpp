@@ -43,7 +43,7 @@ VkImageMemoryBarrier imageBarrier(VkImage image, VkImageLayout from, VkImageLayo
 }
 
 void recreateSwapchain(const vk::VulkanContext& context, ViewerWindow& w, uint32_t width, uint32_t height) {
-    check(vkDeviceWaitIdle(context.device), "vkDeviceWaitIdle (swapchain re-creation)");
+    vk::deviceWaitIdle(context);
     Swapchain old = w.swapchain;
     w.swapchain = createSwapchain(context, w.surface, w.overlayPass, old.format, width, height, w.wantedPresentMode,
                                   old.swapchain);
@@ -154,7 +154,7 @@ ViewerWindow createViewerWindow(const vk::VulkanContext& context, const ViewerWi
 }
 
 void destroyViewerWindow(const vk::VulkanContext& context, ViewerWindow& w) {
-    if (context.device) vkDeviceWaitIdle(context.device);
+    if (context.device) vk::deviceWaitIdle(context);
     if (w.imguiPool) {
         ImGui_ImplVulkan_Shutdown();
         ImGui_ImplGlfw_Shutdown();
@@ -314,6 +314,7 @@ void finishFrame(const vk::VulkanContext& context, ViewerWindow& w, const FrameT
     submit.pCommandBuffers = &target.cmd;
     submit.signalSemaphoreCount = 1;
     submit.pSignalSemaphores = &renderFinished;
+    const auto queueLock = vk::lockQueue(context);
     check(vkQueueSubmit(context.queue, 1, &submit, w.frameDone), "vkQueueSubmit (viewer frame)");
 
     VkPresentInfoKHR present{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};

@@ -521,6 +521,26 @@ VkCommandPool createCommandPool(const VulkanContext& ctx, VkCommandPoolCreateFla
     return pool;
 }
 
+std::unique_lock<std::mutex> lockQueue(const VulkanContext& ctx) {
+    RAYPACK_CHECK(ctx.queueMutex);
+    return std::unique_lock<std::mutex>(*ctx.queueMutex);
+}
+
+void queueSubmit(const VulkanContext& ctx, const VkSubmitInfo& submit, VkFence fence, const char* what) {
+    const auto lock = lockQueue(ctx);
+    check(vkQueueSubmit(ctx.queue, 1, &submit, fence), what);
+}
+
+void queueWaitIdle(const VulkanContext& ctx) {
+    const auto lock = lockQueue(ctx);
+    vkQueueWaitIdle(ctx.queue);
+}
+
+void deviceWaitIdle(const VulkanContext& ctx) {
+    const auto lock = lockQueue(ctx);
+    vkDeviceWaitIdle(ctx.device);
+}
+
 void submitAndWait(const VulkanContext& ctx, VkCommandPool pool, const std::function<void(VkCommandBuffer)>& record) {
     VkCommandBufferAllocateInfo allocate{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
     allocate.commandPool = pool;
@@ -540,7 +560,7 @@ void submitAndWait(const VulkanContext& ctx, VkCommandPool pool, const std::func
         VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
         submit.commandBufferCount = 1;
         submit.pCommandBuffers = &cmd;
-        check(vkQueueSubmit(ctx.queue, 1, &submit, fence), "vkQueueSubmit");
+        queueSubmit(ctx, submit, fence, "vkQueueSubmit");
         check(vkWaitForFences(ctx.device, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
     } catch (...) {
         if (fence) vkDestroyFence(ctx.device, fence, nullptr);

@@ -87,7 +87,19 @@ struct VulkanContext {
     bool rayTracing = false;
     // VK_KHR_pipeline_executable_properties is enabled (VulkanContextOptions::enablePipelineStatistics).
     bool pipelineStatistics = false;
+    // The queue's external synchronisation: the viewer's render thread and its build worker both
+    // submit to `queue`, so every vkQueueSubmit, vkQueueWaitIdle, vkQueuePresentKHR and
+    // vkDeviceWaitIdle goes through lockQueue (or the helpers below that take it).
+    std::unique_ptr<std::mutex> queueMutex = std::make_unique<std::mutex>();
 };
+
+// Holds the context's queue for one submission, present or wait.
+[[nodiscard]] std::unique_lock<std::mutex> lockQueue(const VulkanContext& context);
+// vkQueueSubmit of one VkSubmitInfo under the queue's lock; throws naming `what` on an error.
+void queueSubmit(const VulkanContext& context, const VkSubmitInfo& submit, VkFence fence, const char* what);
+// vkQueueWaitIdle and vkDeviceWaitIdle under the queue's lock.
+void queueWaitIdle(const VulkanContext& context);
+void deviceWaitIdle(const VulkanContext& context);
 
 // Throws raypack::Error when there is no Vulkan loader or driver, no usable device, or the
 // requested device is not found (the message lists the devices).
