@@ -94,7 +94,12 @@ struct Session {
     // The host tree: a CPU build's, or a device build's read back when a CPU consumer first asks
     // (hostBvh); null until then.
     std::shared_ptr<const Bvh> bvh;
-    uint64_t treeGeneration = 0;          // counts the trees taken from the worker
+    uint64_t treeGeneration = 0;  // counts the trees taken from the worker
+    // Frames drawn while the worker loaded or built, since the last tree was taken, and the
+    // longest of them; each tree taken, for --summary ("trees").
+    uint32_t framesWhileBuilding = 0;
+    double longestFrameWhileBuilding = 0.0;
+    nlohmann::json treesTaken = nlohmann::json::array();
     std::optional<CpuSceneView> cpuView;  // made when a CPU tracer first draws this tree
     std::string sceneSpec;
     bool firstScene = true;
@@ -366,14 +371,35 @@ void takeWorkerResults(Session& s) {
     }
     std::optional<SceneBuild> build = s.builder->takeFinished();
     if (!build) return;
+    const auto takeStart = Clock::now();
+    const bool adopted = build->deviceTree != nullptr;
     try {
         // A device build is already in the tracer's device memory: it is swapped in, not uploaded.
-        s.uploadSeconds = build->deviceTree ? s.tracer->adopt(std::move(build->deviceTree))
-                                            : s.tracer->upload(*build->scene, *build->bvh);
+        s.uploadSeconds =
+            adopted ? s.tracer->adopt(std::move(build->deviceTree)) : s.tracer->upload(*build->scene, *build->bvh);
     } catch (const Error& e) {
         s.report(e.what());
         return;
     }
+    // What the render thread spent taking the tree (the frame it delays), against the worker's build.
+    const double takeSeconds = std::chrono::duration<double>(Clock::now() - takeStart).count();
+    s.treesTaken.push_back({{"frame", s.frameIndex},
+                            {"builder", toString(build->options.builder)},
+                            {"leaf_size", build->options.leafSize},
+                            {"triangles", build->scene->triangleCount()},
+                            {"taken_by", adopted ? "adopt" : "upload"},
+                            {"take_s", takeSeconds},
+                            {"build_s", build->buildSeconds},
+                            {"frames_while_building", s.framesWhileBuilding},
+                            {"longest_frame_while_building_s", s.longestFrameWhileBuilding}});
+    if (s.options.frames)
+        std::printf(
+            "raypack: frame %u: tree of %s (leaf size %u) built in %.3f s on the worker, taken by %s in %.4f "
+            "s on the render thread; %u frames drawn meanwhile, the longest %.1f ms\n",
+            s.frameIndex, toString(build->options.builder), build->options.leafSize, build->buildSeconds,
+            adopted ? "adopt" : "upload", takeSeconds, s.framesWhileBuilding, s.longestFrameWhileBuilding * 1e3);
+    s.framesWhileBuilding = 0;
+    s.longestFrameWhileBuilding = 0.0;
     const bool newScene = build->scene != s.scene;
     s.scene = build->scene;
     s.bvh = build->bvh;
@@ -1250,6 +1276,7 @@ nlohmann::json summaryJson(const Session& s) {
     summary["window"] = {s.panel.settings.width, s.panel.settings.height};
     summary["frame_budget_ms"] = s.panel.frameLoop.frameBudgetMs;
     summary["samples_wanted"] = s.panel.frameLoop.samples;
+    summary["trees"] = s.treesTaken;
     return summary;
 }
 
@@ -1393,8 +1420,14 @@ int runViewer(const ViewerOptions& options) {
             }
         }
         takeWorkerResults(s);
+        const bool building = s.builder->status().phase != BuildPhase::Idle;
         const double startSeconds = s.secondsSinceStart(iterationStart);
         const FrameResult result = drawFrame(s, screenshot, windowShot, scriptedInput);
+        if (building) {
+            ++s.framesWhileBuilding;
+            s.longestFrameWhileBuilding = std::max(
+                s.longestFrameWhileBuilding, std::chrono::duration<double>(Clock::now() - iterationStart).count());
+        }
         idle = !result.presented;
         const double idleWall = idle ? std::chrono::duration<double>(Clock::now() - iterationStart).count() : 0.0;
         const double idleCpu = idle ? processCpuSeconds() - cpuStart : 0.0;
