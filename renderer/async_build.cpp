@@ -34,6 +34,7 @@ AsyncSceneBuilder::~AsyncSceneBuilder() {
     }
     wake_.notify_all();
     worker_.join();
+    retired_.clear();
     deviceBuilder_.reset();
 }
 
@@ -92,6 +93,14 @@ std::optional<BuildFailure> AsyncSceneBuilder::takeFailure() {
     return taken;
 }
 
+void AsyncSceneBuilder::retire(std::unique_ptr<GpuTree> tree) {
+    {
+        std::lock_guard lock(mutex_);
+        retired_.push_back(std::move(tree));
+    }
+    wake_.notify_all();
+}
+
 BuildStatus AsyncSceneBuilder::status() const {
     std::lock_guard lock(mutex_);
     BuildStatus status;
@@ -117,8 +126,16 @@ void AsyncSceneBuilder::waitIdle() {
 void AsyncSceneBuilder::workerLoop() {
     std::unique_lock lock(mutex_);
     for (;;) {
-        wake_.wait(lock, [&] { return shutdown_ || waiting_.has_value(); });
+        wake_.wait(lock, [&] { return shutdown_ || waiting_.has_value() || !retired_.empty(); });
         if (shutdown_) break;
+        if (!retired_.empty()) {
+            std::vector<std::unique_ptr<GpuTree>> trees = std::move(retired_);
+            retired_.clear();
+            lock.unlock();
+            trees.clear();
+            lock.lock();
+            continue;
+        }
         const Request request = std::move(*waiting_);
         waiting_.reset();
         auto job = std::make_shared<RunningJob>();

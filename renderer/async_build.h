@@ -23,6 +23,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace raypack {
 
@@ -98,6 +99,10 @@ public:
     std::optional<SceneBuild> takeFinished();
     std::optional<BuildFailure> takeFailure();
 
+    // Frees `tree` on the worker thread (between jobs): a tracer's replaced tree
+    // (GpuTracer::setRetiredTreeSink), so that the render thread does not wait for it.
+    void retire(std::unique_ptr<GpuTree> tree);
+
     BuildStatus status() const;
     // Blocks until idle. For scripted runs and tests only: the render loop never calls it.
     void waitIdle();
@@ -137,6 +142,7 @@ private:
     std::shared_ptr<RunningJob> running_;
     std::optional<SceneBuild> finished_;
     std::optional<BuildFailure> failure_;
+    std::vector<std::unique_ptr<GpuTree>> retired_;
     // The path of the latest load request until its scene is taken by the render thread.
     std::string outstandingLoadPath_;
     // The last scene read, so that a rebuild that arrives during a load does not read it again.

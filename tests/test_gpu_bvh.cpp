@@ -243,6 +243,8 @@ TEST_P(GpuBuilder, AWorkerBuildsTreesTheTracerAdoptsWhileItStillTraces) {
         [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); },
         &validatedContext());
     GpuTracer tracer(validatedContext());
+    // Replaced trees are freed on the worker, as in the viewer.
+    tracer.setRetiredTreeSink([&](std::unique_ptr<GpuTree> tree) { builder.retire(std::move(tree)); });
     const FrameRequest request{true, true, false};
 
     // A load hands back the device tree and, for the start view, the host tree.

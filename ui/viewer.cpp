@@ -1351,6 +1351,10 @@ int runViewer(const ViewerOptions& options) {
     // buffers the tracer adopts at a frame boundary, while the previous tree is still drawn.
     s.builder = std::make_unique<AsyncSceneBuilder>(
         [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); }, &s.context);
+    // A replaced tree is freed on the worker, not between two frames.
+    s.tracer->setRetiredTreeSink([&s](std::unique_ptr<GpuTree> tree) {
+        if (s.builder) s.builder->retire(std::move(tree));
+    });
 
     s.panel.settings = options.settings;
     s.panel.bvh = options.bvh;
