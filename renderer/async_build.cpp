@@ -190,7 +190,8 @@ void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
             if (!deviceBuilder_) deviceBuilder_ = std::make_unique<GpuBvhBuilder>(*device_);
             deviceScene_ = scene;
             // The order is kept either way: a CPU consumer may ask for the host tree later.
-            build.deviceTree = buildGpuTree(*deviceBuilder_, *scene, request.options, /*keepOrder=*/true);
+            build.deviceTree =
+                buildGpuTree(*deviceBuilder_, *scene, request.options, /*keepOrder=*/true, &job.buildProgress);
             build.stats = build.deviceTree->stats;
             if (request.hostTree && !job.buildProgress.cancel) {
                 build.bvh = std::make_shared<const Bvh>(downloadGpuTree(*build.deviceTree));

@@ -306,7 +306,8 @@ GpuBvhBuilder::SceneUpload GpuBvhBuilder::setScene(const Scene& scene) {
     return timings;
 }
 
-GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs) {
+GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs,
+                                           BuildProgress* progress) {
     State& s = *state_;
     const auto start = SteadyClock::now();
     if (!isGpuBvhBuilder(options.builder))
@@ -511,6 +512,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         }
     };
     const auto submit = [&](const std::function<void(const Recorder&)>& record) {
+        bvh_detail::throwIfCancelled(progress);
         vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
             const Recorder r{s, cmd, x.indirect.buffer};
             r.begin();
@@ -600,6 +602,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                             std::to_string(clusters) + " clusters merged none");
             clusters = words[gpu::kLbvhStateNextClusters];
             made = words[gpu::kLbvhStateNextMerged];
+            if (progress) progress->done.store(made);
         }
         RAYPACK_CHECK_MSG(made == n - 1, "gpu-ploc made n - 1 inner nodes");
         // The levels, a batch of levels per submission until one comes out empty.
@@ -762,7 +765,7 @@ GpuTree::~GpuTree() {
 }
 
 std::unique_ptr<GpuTree> buildGpuTree(GpuBvhBuilder& builder, const Scene& scene, const BvhBuildOptions& options,
-                                      bool keepOrder) {
+                                      bool keepOrder, BuildProgress* progress) {
     const vk::VulkanContext& ctx = builder.context();
     if (!builder.holds(scene)) builder.setScene(scene);
     auto tree = std::make_unique<GpuTree>(ctx);
@@ -786,7 +789,7 @@ std::unique_ptr<GpuTree> buildGpuTree(GpuBvhBuilder& builder, const Scene& scene
     if (attributes.colors)
         outputs.colors = create(tree->colors, sizes.triangles, sizeof(gpu::GpuTriangleColors), "vertex colours");
     const double arraysSeconds = secondsSince(allocationStart);
-    tree->stats = builder.build(options, outputs).stats;
+    tree->stats = builder.build(options, outputs, progress).stats;
     // Creating the tree's arrays is part of building it (T_B); it was counted nowhere before
     // 2026-12-02 (t_scene_to_frame_s left it out).
     tree->stats.buildSeconds += arraysSeconds;
@@ -844,7 +847,7 @@ Bvh buildBvhOnDevice(const vk::VulkanContext& context, const Scene& scene, const
     }
     bvh_detail::throwIfCancelled(progress);
     GpuBvhBuilder builder(context);
-    const std::unique_ptr<GpuTree> tree = buildGpuTree(builder, scene, options, /*keepOrder=*/true);
+    const std::unique_ptr<GpuTree> tree = buildGpuTree(builder, scene, options, /*keepOrder=*/true, progress);
     Bvh bvh = downloadGpuTree(*tree);
     if (progress) progress->done.store(scene.triangleCount());
     return bvh;

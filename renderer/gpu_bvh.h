@@ -82,7 +82,10 @@ public:
     // Builds with `options` (builder gpu-lbvh; leafSize, traversalCost and intersectionCost are
     // honoured, the bin and split settings do not apply) into `outputs`, and waits for it. Throws
     // raypack::Error for options out of range, without a scene, or when the device is out of memory.
-    Result build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs);
+    // `progress` (optional): total is the triangle count, done counts gpu-ploc's merges as they are
+    // read back, and cancel is polled before each of the build's submissions, throwing
+    // BuildCancelled (the outputs are then undefined).
+    Result build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs, BuildProgress* progress = nullptr);
     // The last build's leaf order: slot k holds triangle order[k] (Bvh::primIndices).
     std::vector<uint32_t> downloadOrder();
     // Hands over the device buffer holding the last build's order (n uint32); downloadOrder is empty
@@ -126,7 +129,7 @@ struct GpuTree {
 // Builds `scene` with `builder` (uploading it first unless the builder holds it) into a new
 // GpuTree, keeping the order when asked. Throws as GpuBvhBuilder does.
 std::unique_ptr<GpuTree> buildGpuTree(GpuBvhBuilder& builder, const Scene& scene, const BvhBuildOptions& options,
-                                      bool keepOrder);
+                                      bool keepOrder, BuildProgress* progress = nullptr);
 
 // The canonical tree of `tree` (which kept its order): its node slots and order read back and
 // renumbered (bvhFromGpuNodes), statistics by computeBvhStats, the build's times from tree.stats.

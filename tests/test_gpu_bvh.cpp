@@ -20,6 +20,7 @@
 #include <cstring>
 #include <filesystem>
 #include <random>
+#include <thread>
 
 namespace raypack {
 namespace {
@@ -298,6 +299,32 @@ TEST_P(GpuBuilder, AWorkerBuildsTreesTheTracerAdoptsWhileItStillTraces) {
     test::expectMatchesReference(tracer.render(settings, request), renderCpu(*scene, *last->bvh, settings, request),
                                  "leaf 3");
     test::expectNoValidationMessages();
+}
+
+// A device build stops at its next submission once cancelled (the viewer's worker cancels a
+// superseded build): before it starts, and while gpu-ploc clusters (after the first batch of
+// iterations has reported its merges); the builder builds again afterwards.
+TEST(GpuBuilderCancel, ADeviceBuildStopsAtItsNextSubmission) {
+    const Scene scene = makeSphereFlake(60000);
+    BvhBuildOptions options;
+    options.builder = BvhBuilder::GpuPloc;
+    GpuBvhBuilder builder(validatedContext());
+    BuildProgress cancelled;
+    cancelled.cancel = true;
+    EXPECT_THROW(buildGpuTree(builder, scene, options, false, &cancelled), BuildCancelled);
+
+    BuildProgress progress;
+    std::thread watcher([&] {
+        while (progress.done.load() == 0) std::this_thread::sleep_for(std::chrono::microseconds(100));
+        progress.cancel = true;
+    });
+    EXPECT_THROW(buildGpuTree(builder, scene, options, false, &progress), BuildCancelled);
+    watcher.join();
+    EXPECT_GT(progress.done.load(), 0u);
+
+    const std::unique_ptr<GpuTree> tree = buildGpuTree(builder, scene, options, true);
+    expectValidTree(scene, downloadGpuTree(*tree), 1);
+    EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
 }
 
 // Without a device a device build fails with a message, and the worker goes on.
