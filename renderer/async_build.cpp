@@ -20,8 +20,8 @@ const char* toString(BuildPhase phase) {
     return "?";
 }
 
-AsyncSceneBuilder::AsyncSceneBuilder(SceneLoader loader, const vk::VulkanContext* device)
-    : loader_(std::move(loader)), device_(device), worker_([this] { workerLoop(); }) {
+AsyncSceneBuilder::AsyncSceneBuilder(SceneLoader loader, const vk::VulkanContext* device, DeviceBuilds deviceBuilds)
+    : loader_(std::move(loader)), device_(device), deviceBuilds_(deviceBuilds), worker_([this] { workerLoop(); }) {
     RAYPACK_CHECK(loader_);
 }
 
@@ -36,6 +36,7 @@ AsyncSceneBuilder::~AsyncSceneBuilder() {
     worker_.join();
     retired_.clear();
     deviceBuilder_.reset();
+    if (ownDevice_) vk::destroyVulkanContext(*ownDevice_);
 }
 
 void AsyncSceneBuilder::cancelRunningLocked() {
@@ -187,17 +188,28 @@ void AsyncSceneBuilder::run(const Request& request, RunningJob& job) {
                 throw Error(std::string(toString(request.options.builder)) + " builds on a Vulkan device; none given");
             job.buildProgress.total.store(scene->triangleCount());
             bvh_detail::throwIfCancelled(&job.buildProgress);
-            if (!deviceBuilder_) deviceBuilder_ = std::make_unique<GpuBvhBuilder>(*device_);
-            deviceScene_ = scene;
-            // The order is kept either way: a CPU consumer may ask for the host tree later.
-            build.deviceTree =
-                buildGpuTree(*deviceBuilder_, *scene, request.options, /*keepOrder=*/true, &job.buildProgress);
-            build.stats = build.deviceTree->stats;
-            if (request.hostTree && !job.buildProgress.cancel) {
-                build.bvh = std::make_shared<const Bvh>(downloadGpuTree(*build.deviceTree));
+            if (deviceBuilds_ == DeviceBuilds::OwnDevice) {
+                if (!ownDevice_) {
+                    vk::VulkanContextOptions options;
+                    options.device = std::to_string(device_->info.index);
+                    ownDevice_ = std::make_unique<vk::VulkanContext>(vk::createVulkanContext(options));
+                }
+                build.bvh = std::make_shared<const Bvh>(
+                    buildBvhOnDevice(*ownDevice_, *scene, request.options, &job.buildProgress));
                 build.stats = build.bvh->stats;
+            } else {
+                if (!deviceBuilder_) deviceBuilder_ = std::make_unique<GpuBvhBuilder>(*device_);
+                deviceScene_ = scene;
+                // The order is kept either way: a CPU consumer may ask for the host tree later.
+                build.deviceTree =
+                    buildGpuTree(*deviceBuilder_, *scene, request.options, /*keepOrder=*/true, &job.buildProgress);
+                build.stats = build.deviceTree->stats;
+                if (request.hostTree && !job.buildProgress.cancel) {
+                    build.bvh = std::make_shared<const Bvh>(downloadGpuTree(*build.deviceTree));
+                    build.stats = build.bvh->stats;
+                }
+                job.buildProgress.done.store(scene->triangleCount());
             }
-            job.buildProgress.done.store(scene->triangleCount());
         } else {
             build.bvh = std::make_shared<const Bvh>(buildBvh(*scene, request.options, &job.buildProgress));
             build.stats = build.bvh->stats;

@@ -71,13 +71,26 @@ struct BuildStatus {
 
 const char* toString(BuildPhase phase);
 
+// Where the worker runs a device build (gpu-lbvh, gpu-ploc).
+enum class DeviceBuilds {
+    // On the given context, into a GpuTree the tracer on that context adopts: no host round trip.
+    // The build's submissions share the context's queue with the frames, which wait behind them.
+    SharedDevice,
+    // On a Vulkan device of the worker's own over the same physical device, the tree read back
+    // (buildBvhOnDevice) and handed over as a host tree: the frames never wait for the build's
+    // submissions. For CPU devices (lavapipe), whose one queue runs a submission at a time on the
+    // CPU: there a frame behind a gpu-ploc batch of a 1M-triangle scene waited about a second.
+    OwnDevice,
+};
+
 class AsyncSceneBuilder {
 public:
     // `device`: the context of the tracer that will trace the trees, on which the worker builds with
     // a device builder (gpu-lbvh, gpu-ploc) through a GpuBvhBuilder of its own, into buffers the
     // tracer adopts (no host round trip); the worker and the render thread share its queue through
     // vk::lockQueue. It must outlive this object. Null: device builders fail with an error.
-    explicit AsyncSceneBuilder(SceneLoader loader, const vk::VulkanContext* device = nullptr);
+    explicit AsyncSceneBuilder(SceneLoader loader, const vk::VulkanContext* device = nullptr,
+                               DeviceBuilds deviceBuilds = DeviceBuilds::SharedDevice);
     // Cancels the running job, drops the waiting one and joins the worker.
     ~AsyncSceneBuilder();
     AsyncSceneBuilder(const AsyncSceneBuilder&) = delete;
@@ -131,6 +144,9 @@ private:
 
     SceneLoader loader_;
     const vk::VulkanContext* device_ = nullptr;
+    DeviceBuilds deviceBuilds_ = DeviceBuilds::SharedDevice;
+    // DeviceBuilds::OwnDevice: the worker's context on device_'s physical device, made on first use.
+    std::unique_ptr<vk::VulkanContext> ownDevice_;
     // The worker's device builder (made on its first device build) and the scene it holds, kept
     // alive so that no later scene can take its address while the builder still keeps its arrays.
     std::unique_ptr<GpuBvhBuilder> deviceBuilder_;

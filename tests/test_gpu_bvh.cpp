@@ -327,6 +327,28 @@ TEST(GpuBuilderCancel, ADeviceBuildStopsAtItsNextSubmission) {
     EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
 }
 
+// DeviceBuilds::OwnDevice (the viewer's choice on CPU devices): the worker builds on a Vulkan
+// device of its own and hands back the host tree, the same tree the shared device builds.
+TEST(GpuBuilderWorker, OnADeviceOfItsOwnTheWorkerHandsBackTheHostTree) {
+    AsyncSceneBuilder builder(
+        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); }, &validatedContext(),
+        DeviceBuilds::OwnDevice);
+    auto scene = std::make_shared<const Scene>(makeSphereFlake(6000));
+    BvhBuildOptions options;
+    options.builder = BvhBuilder::GpuPloc;
+    options.leafSize = 2;
+    builder.requestRebuild(scene, options, /*hostTree=*/false);
+    builder.waitIdle();
+    std::optional<SceneBuild> built = builder.takeFinished();
+    ASSERT_TRUE(built && built->bvh) << (builder.takeFailure() ? "failed" : "nothing");
+    EXPECT_FALSE(built->deviceTree);
+    expectValidTree(*scene, *built->bvh, 2);
+    const Bvh shared = buildBvhOnDevice(validatedContext(), *scene, options);
+    EXPECT_EQ(built->bvh->nodes.size(), shared.nodes.size());
+    EXPECT_EQ(built->bvh->primIndices, shared.primIndices);
+    EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
+}
+
 // Without a device a device build fails with a message, and the worker goes on.
 TEST(GpuBuilderWorker, ADeviceBuildWithoutADeviceFailsWithAMessage) {
     AsyncSceneBuilder builder(

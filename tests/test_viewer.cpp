@@ -538,30 +538,37 @@ TEST_F(ViewerUnderXvfb, OffscreenRunsTheSameFrameLoopWithoutADisplay) {
     expectCliReproduces(dir_, shot, "");
 }
 
-TEST_F(ViewerUnderXvfb, DeviceBuildsAreAdoptedByTheTracerAndReadBackOnlyForACpuTracer) {
-    // Issue 13: the worker builds on the viewer's own device and the tracer adopts the tree (no
-    // upload); a CPU tracer chosen afterwards reads that tree back; a device build while a CPU
-    // tracer draws brings the host tree along. The last frame is what the CLI renders of its setup.
-    const std::string shot = (dir_ / "device-built.png").string(),
-                      summary = (dir_ / "device-built-summary.json").string();
-    const CommandRun viewer =
-        runCommand(std::string("env -u DISPLAY -u WAYLAND_DISPLAY XDG_RUNTIME_DIR=/tmp ") + RAYPACK_VIEWER +
-                   " --offscreen --validation --width 120 --height 90 --samples 1 --tracer vulkan-single --frames 9"
-                   " --script 1:builder:gpu-ploc --script 2:wait --script 3:leaf-size:4 --script 4:wait"
-                   " --script 5:tracer:cpu-packet --script 6:builder:gpu-lbvh --script 7:wait --summary " +
-                   summary + " --screenshot " + shot);
-    ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
-    EXPECT_NE(viewer.output.find("0 validation messages"), std::string::npos) << viewer.output;
-    const nlohmann::json trees = readJsonFile(summary)["trees"];
-    ASSERT_EQ(trees.size(), 4u) << trees.dump();
-    EXPECT_EQ(trees[0]["taken_by"], "upload") << "the start scene's CPU-built tree";
-    for (size_t k = 1; k < 4; ++k) EXPECT_EQ(trees[k]["taken_by"], "adopt") << trees[k].dump();
-    EXPECT_EQ(trees[1]["builder"], "gpu-ploc");
-    EXPECT_EQ(trees[2]["leaf_size"], 4u);
-    EXPECT_EQ(trees[3]["builder"], "gpu-lbvh");
-    const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
-    EXPECT_EQ(sidecar["bvh"]["builder"], "gpu-lbvh") << sidecar.dump();
-    expectCliReproduces(dir_, shot, "--device cpu");
+TEST_F(ViewerUnderXvfb, DeviceBuildsAreAdoptedByTheTracerOrBuiltOnADeviceOfTheWorkersOwn) {
+    // Issue 13. RAYPACK_DEVICE_BUILD=shared (a GPU's default): the worker builds on the viewer's own
+    // device and the tracer adopts the tree (no upload); a CPU tracer chosen afterwards reads that
+    // tree back; a device build while a CPU tracer draws brings the host tree along. Unset (on this
+    // CPU device: its own device), every device-built tree arrives as a host tree and is uploaded.
+    // Either way the last frame is what the CLI renders of its setup.
+    for (const std::string mode : {"shared", ""}) {
+        SCOPED_TRACE("RAYPACK_DEVICE_BUILD=" + mode);
+        const std::string shot = (dir_ / "device-built.png").string(),
+                          summary = (dir_ / "device-built-summary.json").string();
+        const CommandRun viewer =
+            runCommand(std::string("env -u DISPLAY -u WAYLAND_DISPLAY XDG_RUNTIME_DIR=/tmp ") +
+                       (mode.empty() ? "" : "RAYPACK_DEVICE_BUILD=" + mode + " ") + RAYPACK_VIEWER +
+                       " --offscreen --validation --width 120 --height 90 --samples 1 --tracer vulkan-single --frames 9"
+                       " --script 1:builder:gpu-ploc --script 2:wait --script 3:leaf-size:4 --script 4:wait"
+                       " --script 5:tracer:cpu-packet --script 6:builder:gpu-lbvh --script 7:wait --summary " +
+                       summary + " --screenshot " + shot);
+        ASSERT_EQ(viewer.exitCode, 0) << viewer.output;
+        EXPECT_NE(viewer.output.find("0 validation messages"), std::string::npos) << viewer.output;
+        const nlohmann::json trees = readJsonFile(summary)["trees"];
+        ASSERT_EQ(trees.size(), 4u) << trees.dump();
+        EXPECT_EQ(trees[0]["taken_by"], "upload") << "the start scene's CPU-built tree";
+        for (size_t k = 1; k < 4; ++k)
+            EXPECT_EQ(trees[k]["taken_by"], mode == "shared" ? "adopt" : "upload") << trees[k].dump();
+        EXPECT_EQ(trees[1]["builder"], "gpu-ploc");
+        EXPECT_EQ(trees[2]["leaf_size"], 4u);
+        EXPECT_EQ(trees[3]["builder"], "gpu-lbvh");
+        const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
+        EXPECT_EQ(sidecar["bvh"]["builder"], "gpu-lbvh") << sidecar.dump();
+        expectCliReproduces(dir_, shot, "--device cpu");
+    }
 }
 
 TEST_F(ViewerUnderXvfb, SideBySideHalvesAreTheTwoTracersImages) {

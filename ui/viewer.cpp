@@ -41,6 +41,7 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
@@ -1347,10 +1348,23 @@ int runViewer(const ViewerOptions& options) {
     // On lavapipe the timestamps of the window's frames do not bracket the dispatches (measured: 17
     // us for a 57 ms pass), so there GpuTracer::render times each pass on the host.
     s.tracer->setHostTimedPasses(s.cpuDevice);
-    // A device builder (gpu-lbvh, gpu-ploc) runs on the viewer's own device: the worker builds into
-    // buffers the tracer adopts at a frame boundary, while the previous tree is still drawn.
+    // A device builder (gpu-lbvh, gpu-ploc) runs on the viewer's own device: on a GPU the worker
+    // builds into buffers the tracer adopts at a frame boundary, while the previous tree is still
+    // drawn; on a CPU device (one queue, whose submissions run one at a time on the CPU) through a
+    // device of its own, so that the frames do not wait behind the build (docs/viewer.md).
+    // RAYPACK_DEVICE_BUILD=shared|own chooses either, for measuring them against each other.
+    DeviceBuilds deviceBuilds = s.cpuDevice ? DeviceBuilds::OwnDevice : DeviceBuilds::SharedDevice;
+    if (const char* mode = std::getenv("RAYPACK_DEVICE_BUILD")) {
+        if (std::string(mode) == "shared")
+            deviceBuilds = DeviceBuilds::SharedDevice;
+        else if (std::string(mode) == "own")
+            deviceBuilds = DeviceBuilds::OwnDevice;
+        else
+            throw Error(std::string("RAYPACK_DEVICE_BUILD: '") + mode + "' is neither shared nor own");
+    }
     s.builder = std::make_unique<AsyncSceneBuilder>(
-        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); }, &s.context);
+        [](const std::string& spec, LoadProgress& progress) { return openScene(spec, &progress); }, &s.context,
+        deviceBuilds);
     // A replaced tree is freed on the worker, not between two frames.
     s.tracer->setRetiredTreeSink([&s](std::unique_ptr<GpuTree> tree) {
         if (s.builder) s.builder->retire(std::move(tree));
