@@ -196,12 +196,13 @@ namespace {
 
 void writeDescriptors(GpuTracer::State& s);
 
-// What every way of setting a scene shares: the scene's attribute flags, and staging for the tables
-// that do not depend on the tree (materials, texture table, texels). Returns `counts` as the layout is written: UVs
-// come with textures (Scene::uvs), and without texels the kernels never read UVs, so neither the UVs nor the texture
-// tables are converted or uploaded then.
-GpuLayoutCounts stageSceneTables(GpuTracer::State& s, vk::StagedUpload& staging, GpuLayoutCounts counts,
-                                 GpuLayoutTargets& targets);
+// What every way of setting a scene shares: the scene's attribute flags (gpuTreeAttributes, the
+// arrays a device build makes), and staging for the tables that do not depend on the tree
+// (materials, texture table, texels). Returns `counts` (gpuLayoutCounts of `scene`) as the layout
+// is written: UVs come with textures (Scene::uvs), and without texels the kernels never read UVs,
+// so neither the UVs nor the texture tables are converted or uploaded then.
+GpuLayoutCounts stageSceneTables(GpuTracer::State& s, vk::StagedUpload& staging, const Scene& scene,
+                                 GpuLayoutCounts counts, GpuLayoutTargets& targets);
 
 // The stack entries a tree of depth `maxDepth` needs (a leaf at depth D has at most D pending
 // siblings; one more for the root leaf); throws when the packet stack does not fit shared memory.
@@ -228,7 +229,7 @@ GpuTracer::UploadTimings uploadTables(GpuTracer::State& s, const Scene& scene) {
     none.nodes.resize(1);
     vk::StagedUpload staging(s.ctx, s.pool);
     GpuLayoutTargets targets;
-    writeGpuMaterials(scene, stageSceneTables(s, staging, gpuLayoutCounts(scene, none), targets), targets);
+    writeGpuMaterials(scene, stageSceneTables(s, staging, scene, gpuLayoutCounts(scene, none), targets), targets);
     staging.submit();
     s.tablesScene = &scene;
     GpuTracer::UploadTimings timings;
@@ -270,7 +271,7 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     // array.
     vk::StagedUpload staging(s.ctx, s.pool);
     GpuLayoutTargets targets;
-    const GpuLayoutCounts written = stageSceneTables(s, staging, counts, targets);
+    const GpuLayoutCounts written = stageSceneTables(s, staging, scene, counts, targets);
     targets.nodes =
         static_cast<gpu::GpuNode*>(staging.add(tree->nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes"));
     targets.triangles = static_cast<gpu::GpuTriangle*>(
@@ -369,12 +370,13 @@ uint64_t GpuTracer::sceneBytes() const {
 
 namespace {
 
-GpuLayoutCounts stageSceneTables(GpuTracer::State& s, vk::StagedUpload& staging, GpuLayoutCounts counts,
-                                 GpuLayoutTargets& targets) {
-    s.hasNormals = counts.normals;
+GpuLayoutCounts stageSceneTables(GpuTracer::State& s, vk::StagedUpload& staging, const Scene& scene,
+                                 GpuLayoutCounts counts, GpuLayoutTargets& targets) {
+    const GpuTreeAttributes attributes = gpuTreeAttributes(scene);
+    s.hasNormals = attributes.normals;
     s.hasMaterials = counts.materials > 0;
-    s.hasUvs = counts.uvs && counts.texels > 0;
-    s.hasColors = counts.colors;
+    s.hasUvs = attributes.uvs;
+    s.hasColors = attributes.colors;
     if (!s.hasUvs) {
         counts.uvs = false;
         counts.textures = 0;

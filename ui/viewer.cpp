@@ -97,7 +97,7 @@ struct Session {
     std::shared_ptr<const Bvh> bvh;
     uint64_t treeGeneration = 0;  // counts the trees taken from the worker
     // Frames drawn while the worker loaded or built, since the last tree was taken, and the
-    // longest of them; each tree taken, for --summary ("trees").
+    // longest of them; each tree taken, kept only for --summary ("trees").
     uint32_t framesWhileBuilding = 0;
     double longestFrameWhileBuilding = 0.0;
     nlohmann::json treesTaken = nlohmann::json::array();
@@ -384,15 +384,16 @@ void takeWorkerResults(Session& s) {
     }
     // What the render thread spent taking the tree (the frame it delays), against the worker's build.
     const double takeSeconds = std::chrono::duration<double>(Clock::now() - takeStart).count();
-    s.treesTaken.push_back({{"frame", s.frameIndex},
-                            {"builder", toString(build->options.builder)},
-                            {"leaf_size", build->options.leafSize},
-                            {"triangles", build->scene->triangleCount()},
-                            {"taken_by", adopted ? "adopt" : "upload"},
-                            {"take_s", takeSeconds},
-                            {"build_s", build->buildSeconds},
-                            {"frames_while_building", s.framesWhileBuilding},
-                            {"longest_frame_while_building_s", s.longestFrameWhileBuilding}});
+    if (!s.options.summaryPath.empty())
+        s.treesTaken.push_back({{"frame", s.frameIndex},
+                                {"builder", toString(build->options.builder)},
+                                {"leaf_size", build->options.leafSize},
+                                {"triangles", build->scene->triangleCount()},
+                                {"taken_by", adopted ? "adopt" : "upload"},
+                                {"take_s", takeSeconds},
+                                {"build_s", build->buildSeconds},
+                                {"frames_while_building", s.framesWhileBuilding},
+                                {"longest_frame_while_building_s", s.longestFrameWhileBuilding}});
     if (s.options.frames)
         std::printf(
             "raypack: frame %u: tree of %s (leaf size %u) built in %.3f s on the worker, taken by %s in %.4f "
