@@ -33,6 +33,7 @@ using Clock = std::chrono::steady_clock;
 
 struct BenchFlags {
     std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
+    std::string singleGroups = toString(PacketShape{});  // the GPU single-ray kernel's workgroups
     std::string intersect;  // "robust", "fast" or a list of them (the trade suites); "": the suite's
     std::string only;       // names of the suite's scenes to run, comma-separated; empty: all
     std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
@@ -251,6 +252,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         parsePacketShapes("--packets", given("--packets") ? f.packets : suite.packets);
     const std::vector<PacketShape> cpuPackets =
         parsePacketShapes("--cpu-packets", given("--cpu-packets") ? f.cpuPackets : suite.cpuPackets);
+    const std::vector<PacketShape> singleGroups = parsePacketShapes("--single-groups", f.singleGroups);
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
     if (suite.scenesFor && (given("--width") || given("--height"))) suite.scenes = suite.scenesFor(width, height);
     // After scenesFor: the chosen scenes keep the cameras of this image size.
@@ -322,6 +324,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 for (const HybridMinRaysSpec& k : hybridMinRays)
                     for (const float ratio : hybridVisitRatios)
                         cells.push_back({tracer, p, HybridParams{k.resolve(p), ratio}, k.text});
+        } else if (info.kernel == "single" && info.device == TracerDevice::Gpu) {
+            // The single-ray kernel's workgroup: which pixels run side by side, not a packet.
+            for (const PacketShape& g : singleGroups) cells.push_back({tracer, g, std::nullopt, ""});
         } else if (tracer->capabilities().packetShapes) {
             for (const PacketShape& p : info.device == TracerDevice::Cpu ? cpuPackets : packets)
                 cells.push_back({tracer, p, std::nullopt, ""});
@@ -356,6 +361,12 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                [&] {
                    json list = json::array();
                    for (const PacketShape& p : packets) list.push_back(toString(p));
+                   return list;
+               }()},
+              {"single_groups",
+               [&] {
+                   json list = json::array();
+                   for (const PacketShape& p : singleGroups) list.push_back(toString(p));
                    return list;
                }()},
               {"cpu_packets",
@@ -572,6 +583,11 @@ CommandRunner addBenchCommand(CLI::App& app) {
     command->add_option("--packets", f.packets,
                         "Packet shapes of the packet kernel, e.g. 8x4,4x8,5x6,8x8,16x16 (default: "
                         "the suite's; quick: 8x4,5x6)");
+    command->add_option("--single-groups", f.singleGroups,
+                        "Workgroup shapes WxH of the GPU single-ray kernel, one cell each, e.g. "
+                        "8x4,8x8,8x16 (each ray traces alone; the shape says which pixels share a "
+                        "workgroup; its \"packet\" field in the records)")
+        ->capture_default_str();
     command->add_option("--cpu-packets", f.cpuPackets,
                         "Packet shapes of the CPU packet tracer, e.g. 4x4,8x8,16x16,32x32 "
                         "(default: the suite's; report and scaling: 8x8,16x16; quick: 16x16)");
