@@ -73,9 +73,9 @@ uint32_t viewConstant(ViewMode view) {
 // specialization constant takes, the hybrid kernel's split rules included (the other kernels keep
 // 0, one pipeline). One place for the frame's dispatches and for pipelineStatistics.
 PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries) {
-    PipelineKey key{settings.kernel,     settings.packet.width,       settings.packet.height, pass,
-                    statistics,          viewConstant(settings.view), stackEntries,           settings.intersect,
-                    settings.shadowOrder};
+    const PacketShape group = gpuWorkgroup(settings);
+    PipelineKey key{settings.kernel, group.width,         group.height, pass, statistics, viewConstant(settings.view),
+                    stackEntries,    settings.intersect, settings.shadowOrder};
     if (settings.kernel == KernelKind::Hybrid) {
         key.hybridMinRays = settings.hybrid.minRays;
         key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
@@ -513,17 +513,18 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
         throw Error("GPU: the image is empty (" + std::to_string(settings.width) + "x" +
                     std::to_string(settings.height) + ")");
     const vk::DeviceInfo& d = s.ctx.info;
-    const PacketShape shape = settings.packet;
-    const std::string name = std::to_string(shape.width) + "x" + std::to_string(shape.height);
-    if (shape.width == 0 || shape.height == 0) throw Error("GPU: packet " + name + " is empty");
+    const PacketShape shape = gpuWorkgroup(settings);
+    const std::string name = std::string(settings.kernel == KernelKind::Single ? "workgroup " : "packet ") +
+                             std::to_string(shape.width) + "x" + std::to_string(shape.height);
+    if (shape.width == 0 || shape.height == 0) throw Error("GPU: " + name + " is empty");
     if (shape.rays() > d.maxWorkgroupInvocations || shape.width > d.maxWorkgroupSize[0] ||
         shape.height > d.maxWorkgroupSize[1])
-        throw Error("GPU: packet " + name + " exceeds " + d.name + "'s workgroup limit (" +
+        throw Error("GPU: " + name + " exceeds " + d.name + "'s workgroup limit (" +
                     std::to_string(d.maxWorkgroupInvocations) + " invocations, " +
                     std::to_string(d.maxWorkgroupSize[0]) + "x" + std::to_string(d.maxWorkgroupSize[1]) + ")");
     const uint64_t shared = uint64_t(s.stackEntries) * 8u + kVoteBytes;
     if (settings.kernel != KernelKind::Single && shared > d.maxSharedMemoryBytes)
-        throw Error("GPU: packet " + name + " with a stack of " + std::to_string(s.stackEntries) + " entries needs " +
+        throw Error("GPU: " + name + " with a stack of " + std::to_string(s.stackEntries) + " entries needs " +
                     std::to_string(shared) + " bytes of shared memory; " + d.name + " has " +
                     std::to_string(d.maxSharedMemoryBytes));
     if (!(settings.hybrid.visitRatio >= 0.0f && settings.hybrid.visitRatio <= kMaxHybridVisitRatio))
@@ -533,7 +534,7 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
     const uint64_t groupsY = (settings.height + shape.height - 1) / shape.height;
     if (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1])
         throw Error("GPU: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
-                    " in packets of " + name + " needs " + std::to_string(groupsX) + "x" + std::to_string(groupsY) +
+                    " in " + name + "s needs " + std::to_string(groupsX) + "x" + std::to_string(groupsY) +
                     " workgroups, more than " + d.name + " dispatches");
 }
 
@@ -546,7 +547,7 @@ gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings&
     p.background = glm::vec4(settings.background, settings.heatFullScale);
     p.phong =
         glm::vec4(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular, settings.phong.shininess);
-    const uint32_t packetsPerRow = (settings.width + settings.packet.width - 1) / settings.packet.width;
+    const uint32_t packetsPerRow = (settings.width + gpuWorkgroup(settings).width - 1) / gpuWorkgroup(settings).width;
     p.frame =
         glm::uvec4(settings.width, settings.height,
                    (writeHits ? gpu::kFrameWriteHits : 0u) | (options.bgra ? gpu::kFrameBgra : 0u) |
@@ -606,7 +607,7 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
                       VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 
-    const PacketShape shape = settings.packet;
+    const PacketShape shape = gpuWorkgroup(settings);
     const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
     PipelineKey key = pipelineKeyFor(settings, 0u, statistics, s.stackEntries);

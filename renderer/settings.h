@@ -69,6 +69,10 @@ struct RenderSettings {
     // GPU path only.
     KernelKind kernel = KernelKind::Packet;
     PacketShape packet;  // the packet and hybrid kernels' packet (one workgroup)
+    // The single-ray kernel's workgroup: each ray traces alone, the shape only groups pixels. An
+    // SM of the H200 holds at most 32 workgroups, so 32-ray workgroups capped it at 32 warps; 8x16
+    // (each 32-lane subgroup still an 8x4 tile) traced 1.03-1.14x faster there (docs/gpu.md).
+    PacketShape singleGroup{8, 16};
     HybridParams hybrid;
     bool collectCounters = false;  // per-ray N_TR / N_IT (statistics variant of the kernel)
     ViewMode view = ViewMode::Shaded;
@@ -76,6 +80,11 @@ struct RenderSettings {
     // shaders/shading.h). The viewer's "auto" sets the frame's 99th percentile.
     float heatFullScale = 0.0f;
 };
+
+// The workgroup a GPU kernel of `settings` runs in: the packet, or the single-ray kernel's group.
+inline PacketShape gpuWorkgroup(const RenderSettings& settings) {
+    return settings.kernel == KernelKind::Single ? settings.singleGroup : settings.packet;
+}
 
 const char* toString(KernelKind kind);
 const char* toString(ViewMode mode);

@@ -118,6 +118,7 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["shadow_order"] = toString(s.shadowOrder);
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
+    j["single_group"] = {{"width", s.singleGroup.width}, {"height", s.singleGroup.height}};
     j["hybrid"] = {{"min_rays", s.hybrid.minRays}, {"visit_ratio", s.hybrid.visitRatio}};
     j["collect_counters"] = s.collectCounters;
     j["view"] = toString(s.view);
@@ -191,6 +192,12 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         readUint(*packet, "width", "packet.", s.packet.width);
         readUint(*packet, "height", "packet.", s.packet.height);
         if (s.packet.width == 0 || s.packet.height == 0) badKey("packet", "width and height must both be at least 1");
+    }
+    if (const json* group = readObject(j, "single_group", "")) {
+        readUint(*group, "width", "single_group.", s.singleGroup.width);
+        readUint(*group, "height", "single_group.", s.singleGroup.height);
+        if (s.singleGroup.width == 0 || s.singleGroup.height == 0)
+            badKey("single_group", "width and height must both be at least 1");
     }
     if (const json* hybrid = readObject(j, "hybrid", "")) {
         readUint(*hybrid, "min_rays", "hybrid.", s.hybrid.minRays);

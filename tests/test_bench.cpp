@@ -5,6 +5,7 @@
 #include "cli_runner.h"
 
 #include "renderer/settings_json.h"
+#include "renderer/settings_text.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -138,13 +139,14 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         cells.emplace(r.at("scene"), tracer, r.at("packet").is_string() ? r.at("packet") : "", kind);
     }
     // Every cell of the matrix is there, primary and shadow: CPU reference, each packet shape,
-    // the single-ray kernel, the hybrid kernel per packet shape (one K, one visit ratio by
-    // default), on each scene.
+    // the single-ray kernel in its default workgroup (recorded as its "packet"), the hybrid kernel
+    // per packet shape (one K, one visit ratio by default), on each scene.
     EXPECT_EQ(scenes.size(), 2u);
     for (const std::string& scene : scenes)
         for (const char* kind : {"primary", "shadow"}) {
             EXPECT_TRUE(cells.count({scene, "cpu-reference", "", kind})) << scene << " " << kind;
-            EXPECT_TRUE(cells.count({scene, "gpu-single", "", kind})) << scene << " " << kind;
+            EXPECT_TRUE(cells.count({scene, "gpu-single", toString(RenderSettings{}.singleGroup), kind}))
+                << scene << " " << kind;
             for (const std::string& packet : packets)
                 EXPECT_TRUE(cells.count({scene, "gpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
             for (const std::string& packet : packets)

@@ -372,6 +372,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     s.background = glm::vec3(0.2f, 0.3f, 0.4f);
     s.kernel = KernelKind::Single;
     s.packet = {5, 6};
+    s.singleGroup = {4, 32};
     s.collectCounters = true;
     s.view = ViewMode::HeatIntersections;
     setup.bvh.builder = BvhBuilder::SahBinned;
@@ -400,6 +401,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     EXPECT_EQ(b.background, s.background);
     EXPECT_EQ(b.kernel, s.kernel);
     EXPECT_EQ(b.packet, s.packet);
+    EXPECT_EQ(b.singleGroup, s.singleGroup);
     EXPECT_EQ(b.collectCounters, s.collectCounters);
     EXPECT_EQ(b.view, s.view);
     EXPECT_EQ(back.bvh.builder, setup.bvh.builder);
@@ -432,6 +434,7 @@ TEST(SettingsJson, BadValuesNameTheKey) {
     EXPECT_NE(errorOf(R"({"kernel": "warp"})").find("kernel"), std::string::npos);
     EXPECT_NE(errorOf(R"({"view": "xray"})").find("view"), std::string::npos);
     EXPECT_NE(errorOf(R"({"packet": {"width": 0, "height": 4}})").find("packet"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"single_group": {"width": 8, "height": 0}})").find("single_group"), std::string::npos);
     EXPECT_NE(errorOf(R"({"shadows": "yes"})").find("shadows"), std::string::npos);
     EXPECT_NE(errorOf(R"({"bvh": {"builder": "magic"}})").find("bvh.builder"), std::string::npos);
     EXPECT_NE(errorOf(R"({"bvh": {"leaf_size": 0}})").find("bvh.leaf_size"), std::string::npos);

@@ -41,11 +41,13 @@ TEST_F(GpuShapes, EveryPacketShapeMatchesReference) {
     RenderSettings settings = smallSettings(197, 151);
     const FrameRequest request{true, true, false};
     const Frame cpu = renderCpu(scene_->scene, scene_->bvh, settings, request);
-    const PacketShape shapes[] = {{8, 4}, {1, 1}, {4, 8}, {5, 6}, {8, 8}, {16, 16}};
+    // The single-ray kernel's workgroup (RenderSettings::singleGroup) takes the same shapes, plus
+    // its default, 8x16.
+    const PacketShape shapes[] = {{8, 4}, {1, 1}, {4, 8}, {5, 6}, {8, 8}, {16, 16}, {8, 16}};
     for (const KernelKind kernel : {KernelKind::Packet, KernelKind::Single}) {
         for (const PacketShape shape : shapes) {
             settings.kernel = kernel;
-            settings.packet = shape;
+            (kernel == KernelKind::Single ? settings.singleGroup : settings.packet) = shape;
             const Frame gpu = tracer_->render(settings, request);
             expectMatchesReference(
                 gpu, cpu,
@@ -241,7 +243,7 @@ TEST(GpuDeepTree, StackIsSizedFromTheTree) {
     for (const KernelKind kernel : {KernelKind::Packet, KernelKind::Single}) {
         settings.kernel = kernel;
         for (const PacketShape shape : {PacketShape{8, 4}, PacketShape{16, 16}}) {
-            settings.packet = shape;
+            (kernel == KernelKind::Single ? settings.singleGroup : settings.packet) = shape;
             expectMatchesReference(tracer.render(settings, request), cpu, std::string("deep ") + toString(kernel));
         }
     }

@@ -33,7 +33,7 @@ using Clock = std::chrono::steady_clock;
 
 struct BenchFlags {
     std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
-    std::string singleGroups = toString(PacketShape{});  // the GPU single-ray kernel's workgroups
+    std::string singleGroups = toString(RenderSettings{}.singleGroup);  // the GPU single-ray kernel's workgroups
     std::string intersect;  // "robust", "fast" or a list of them (the trade suites); "": the suite's
     std::string only;       // names of the suite's scenes to run, comma-separated; empty: all
     std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
@@ -458,7 +458,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 }
             }
             RenderSettings cellSettings = settings;
-            if (cell.packet) cellSettings.packet = *cell.packet;
+            if (cell.packet) (cell.tracer->kernel() == "single" ? cellSettings.singleGroup : cellSettings.packet) = *cell.packet;
             if (cell.hybrid) cellSettings.hybrid = *cell.hybrid;
             if (std::optional<json> peer = tracer.peerRecords(cellSettings, repeats, referenceHits)) {
                 for (json record : *peer) {

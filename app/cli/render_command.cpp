@@ -397,7 +397,9 @@ CommandRunner addRenderCommand(CLI::App& app) {
         settings.pixelJitter = glm::vec2(0.0f);
 
         if (gpu || packets)
-            std::printf("kernel     %s, packet %s\n", toString(settings.kernel), toString(settings.packet).c_str());
+            std::printf("kernel     %s, %s %s\n", toString(settings.kernel),
+                        gpu && settings.kernel == KernelKind::Single ? "workgroup" : "packet",
+                        toString(gpuWorkgroup(settings)).c_str());
         if (settings.kernel == KernelKind::Hybrid)
             std::printf("hybrid     split below %u rays, visit ratio %g (0: off)\n", settings.hybrid.minRays,
                         double(settings.hybrid.visitRatio));
