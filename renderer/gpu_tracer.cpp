@@ -73,7 +73,7 @@ uint32_t viewConstant(ViewMode view) {
 // specialization constant takes, the hybrid kernel's split rules included (the other kernels keep
 // 0, one pipeline). One place for the frame's dispatches and for pipelineStatistics.
 PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries) {
-    const PacketShape group = gpuWorkgroup(settings);
+    const PacketShape group = gpuWorkgroup(settings, pass == gpu::kPassShadowShade);
     PipelineKey key{settings.kernel, group.width,         group.height, pass, statistics, viewConstant(settings.view),
                     stackEntries,    settings.intersect, settings.shadowOrder};
     if (settings.kernel == KernelKind::Hybrid) {
@@ -507,15 +507,14 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     return pipeline;
 }
 
-void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
-    if (!s.hasScene) throw Error("GPU: no scene uploaded");
-    if (settings.width == 0 || settings.height == 0)
-        throw Error("GPU: the image is empty (" + std::to_string(settings.width) + "x" +
-                    std::to_string(settings.height) + ")");
+void checkWorkgroup(const GpuTracer::State& s, const RenderSettings& settings, bool shadowPass) {
     const vk::DeviceInfo& d = s.ctx.info;
-    const PacketShape shape = gpuWorkgroup(settings);
-    const std::string name = std::string(settings.kernel == KernelKind::Single ? "workgroup " : "packet ") +
-                             std::to_string(shape.width) + "x" + std::to_string(shape.height);
+    const PacketShape shape = gpuWorkgroup(settings, shadowPass);
+    const std::string name =
+        std::string(settings.kernel != KernelKind::Single ? "packet "
+                    : shadowPass                           ? "shadow-pass workgroup "
+                                                           : "workgroup ") +
+        std::to_string(shape.width) + "x" + std::to_string(shape.height);
     if (shape.width == 0 || shape.height == 0) throw Error("GPU: " + name + " is empty");
     if (shape.rays() > d.maxWorkgroupInvocations || shape.width > d.maxWorkgroupSize[0] ||
         shape.height > d.maxWorkgroupSize[1])
@@ -527,15 +526,24 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
         throw Error("GPU: " + name + " with a stack of " + std::to_string(s.stackEntries) + " entries needs " +
                     std::to_string(shared) + " bytes of shared memory; " + d.name + " has " +
                     std::to_string(d.maxSharedMemoryBytes));
-    if (!(settings.hybrid.visitRatio >= 0.0f && settings.hybrid.visitRatio <= kMaxHybridVisitRatio))
-        throw Error("GPU: the hybrid kernel's visit ratio " + std::to_string(settings.hybrid.visitRatio) +
-                    " is not 0 (off) or a ratio up to " + std::to_string(int(kMaxHybridVisitRatio)));
     const uint64_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint64_t groupsY = (settings.height + shape.height - 1) / shape.height;
     if (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1])
         throw Error("GPU: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
                     " in " + name + "s needs " + std::to_string(groupsX) + "x" + std::to_string(groupsY) +
                     " workgroups, more than " + d.name + " dispatches");
+}
+
+void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
+    if (!s.hasScene) throw Error("GPU: no scene uploaded");
+    if (settings.width == 0 || settings.height == 0)
+        throw Error("GPU: the image is empty (" + std::to_string(settings.width) + "x" +
+                    std::to_string(settings.height) + ")");
+    checkWorkgroup(s, settings, false);
+    if (settings.shadows) checkWorkgroup(s, settings, true);
+    if (!(settings.hybrid.visitRatio >= 0.0f && settings.hybrid.visitRatio <= kMaxHybridVisitRatio))
+        throw Error("GPU: the hybrid kernel's visit ratio " + std::to_string(settings.hybrid.visitRatio) +
+                    " is not 0 (off) or a ratio up to " + std::to_string(int(kMaxHybridVisitRatio)));
 }
 
 gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings& settings,
@@ -635,11 +643,14 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     if (settings.shadows) {
         vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        key.pass = gpu::kPassShadowShade;
+        // The shadow pass's workgroup may differ from the primary pass's (the single-ray kernel).
+        key = pipelineKeyFor(settings, gpu::kPassShadowShade, statistics, s.stackEntries);
+        const PacketShape shadowShape = gpuWorkgroup(settings, true);
         if (hostClock) bindState();
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
         if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 2);
-        vkCmdDispatch(cmd, groupsX, groupsY, 1);
+        vkCmdDispatch(cmd, (settings.width + shadowShape.width - 1) / shadowShape.width,
+                      (settings.height + shadowShape.height - 1) / shadowShape.height, 1);
         if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 3);
         if (hostClock)
             hostClock->shadowSeconds = std::chrono::duration<double>(hostClock->split() - shadowStart).count();

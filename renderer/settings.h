@@ -69,10 +69,14 @@ struct RenderSettings {
     // GPU path only.
     KernelKind kernel = KernelKind::Packet;
     PacketShape packet;  // the packet and hybrid kernels' packet (one workgroup)
-    // The single-ray kernel's workgroup: each ray traces alone, the shape only groups pixels. An
-    // SM of the H200 holds at most 32 workgroups, so 32-ray workgroups capped it at 32 warps; 8x16
-    // (each 32-lane subgroup still an 8x4 tile) traced 1.03-1.14x faster there (docs/gpu.md).
+    // The single-ray kernel's workgroups, of the primary pass and of the shadow pass: each ray
+    // traces alone, the shape only groups pixels. An SM of the H200 holds at most 32 workgroups, so
+    // 32-ray workgroups capped it at 32 warps; 8x16 (each 32-lane subgroup an 8x4 tile) traced
+    // primary rays 1.03-1.12x faster there. Shadow rays run in rows (32x4: a subgroup is one row of
+    // 32 pixels): 1.14-1.32x faster than 8x16 on the scans, where they trailed the driver's ray
+    // tracing, 0.83-0.89x on Sibenik and 0.92-0.94x on Sponza, which stay far ahead of it (docs/gpu.md).
     PacketShape singleGroup{8, 16};
+    PacketShape singleShadowGroup{32, 4};
     HybridParams hybrid;
     bool collectCounters = false;  // per-ray N_TR / N_IT (statistics variant of the kernel)
     ViewMode view = ViewMode::Shaded;
@@ -81,9 +85,11 @@ struct RenderSettings {
     float heatFullScale = 0.0f;
 };
 
-// The workgroup a GPU kernel of `settings` runs in: the packet, or the single-ray kernel's group.
-inline PacketShape gpuWorkgroup(const RenderSettings& settings) {
-    return settings.kernel == KernelKind::Single ? settings.singleGroup : settings.packet;
+// The workgroup a GPU kernel of `settings` runs its primary or shadow pass in: the packet, or the
+// single-ray kernel's group of that pass.
+inline PacketShape gpuWorkgroup(const RenderSettings& settings, bool shadowPass = false) {
+    if (settings.kernel != KernelKind::Single) return settings.packet;
+    return shadowPass ? settings.singleShadowGroup : settings.singleGroup;
 }
 
 const char* toString(KernelKind kind);

@@ -119,6 +119,7 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["single_group"] = {{"width", s.singleGroup.width}, {"height", s.singleGroup.height}};
+    j["single_shadow_group"] = {{"width", s.singleShadowGroup.width}, {"height", s.singleShadowGroup.height}};
     j["hybrid"] = {{"min_rays", s.hybrid.minRays}, {"visit_ratio", s.hybrid.visitRatio}};
     j["collect_counters"] = s.collectCounters;
     j["view"] = toString(s.view);
@@ -193,11 +194,12 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         readUint(*packet, "height", "packet.", s.packet.height);
         if (s.packet.width == 0 || s.packet.height == 0) badKey("packet", "width and height must both be at least 1");
     }
-    if (const json* group = readObject(j, "single_group", "")) {
-        readUint(*group, "width", "single_group.", s.singleGroup.width);
-        readUint(*group, "height", "single_group.", s.singleGroup.height);
-        if (s.singleGroup.width == 0 || s.singleGroup.height == 0)
-            badKey("single_group", "width and height must both be at least 1");
+    for (auto [key, group] : {std::pair{"single_group", &s.singleGroup}, std::pair{"single_shadow_group", &s.singleShadowGroup}}) {
+        if (const json* g = readObject(j, key, "")) {
+            readUint(*g, "width", std::string(key) + ".", group->width);
+            readUint(*g, "height", std::string(key) + ".", group->height);
+            if (group->width == 0 || group->height == 0) badKey(key, "width and height must both be at least 1");
+        }
     }
     if (const json* hybrid = readObject(j, "hybrid", "")) {
         readUint(*hybrid, "min_rays", "hybrid.", s.hybrid.minRays);

@@ -373,6 +373,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     s.kernel = KernelKind::Single;
     s.packet = {5, 6};
     s.singleGroup = {4, 32};
+    s.singleShadowGroup = {32, 2};
     s.collectCounters = true;
     s.view = ViewMode::HeatIntersections;
     setup.bvh.builder = BvhBuilder::SahBinned;
@@ -402,6 +403,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     EXPECT_EQ(b.kernel, s.kernel);
     EXPECT_EQ(b.packet, s.packet);
     EXPECT_EQ(b.singleGroup, s.singleGroup);
+    EXPECT_EQ(b.singleShadowGroup, s.singleShadowGroup);
     EXPECT_EQ(b.collectCounters, s.collectCounters);
     EXPECT_EQ(b.view, s.view);
     EXPECT_EQ(back.bvh.builder, setup.bvh.builder);

@@ -48,6 +48,8 @@ TEST_F(GpuShapes, EveryPacketShapeMatchesReference) {
         for (const PacketShape shape : shapes) {
             settings.kernel = kernel;
             (kernel == KernelKind::Single ? settings.singleGroup : settings.packet) = shape;
+            // The shadow pass in another shape than the primary pass's.
+            settings.singleShadowGroup = PacketShape{shape.height, shape.width};
             const Frame gpu = tracer_->render(settings, request);
             expectMatchesReference(
                 gpu, cpu,

@@ -31,9 +31,15 @@ namespace {
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
+// The single-ray kernel's default workgroups as a --single-groups entry ("P" or "P/S").
+std::string defaultSingleGroups() {
+    const RenderSettings s;
+    return toString(s.singleGroup) + (s.singleGroup == s.singleShadowGroup ? "" : "/" + toString(s.singleShadowGroup));
+}
+
 struct BenchFlags {
     std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
-    std::string singleGroups = toString(RenderSettings{}.singleGroup);  // the GPU single-ray kernel's workgroups
+    std::string singleGroups = defaultSingleGroups();  // the GPU single-ray kernel's workgroups
     std::string intersect;  // "robust", "fast" or a list of them (the trade suites); "": the suite's
     std::string only;       // names of the suite's scenes to run, comma-separated; empty: all
     std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
@@ -50,11 +56,13 @@ struct BenchFlags {
 // for the hybrid kernel.
 struct Cell {
     Tracer* tracer;
-    std::optional<PacketShape> packet;
+    std::optional<PacketShape> packet;  // the single-ray kernel: its primary pass's workgroup
     std::optional<HybridParams> hybrid;
     std::string hybridMinRaysText;  // the --hybrid-min-rays entry ("1/4" or "8")
+    std::optional<PacketShape> shadowGroup;  // the single-ray kernel's shadow-pass workgroup
     std::string label() const {
         std::string text = tracer->name() + (packet ? " " + toString(*packet) : std::string());
+        if (shadowGroup) text += "/" + toString(*shadowGroup);
         if (hybrid) {
             char rules[96];
             std::snprintf(rules, sizeof rules, " K=%u (%s) visit ratio %g", hybrid->minRays, hybridMinRaysText.c_str(),
@@ -89,7 +97,10 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["device"] = s.device;
         r["driver"] = tracer.driver();
         r["kernel"] = tracer.kernel();
-        r["packet"] = packet ? json(toString(*packet)) : json(nullptr);
+        // The workgroup this pass ran in (the single-ray kernel's two passes may differ).
+        const std::optional<PacketShape>& shape =
+            std::string(kind) == "shadow" && cell.shadowGroup ? cell.shadowGroup : packet;
+        r["packet"] = shape ? json(toString(*shape)) : json(nullptr);
         r["hybrid_min_rays"] = cell.hybrid ? json(cell.hybrid->minRays) : json(nullptr);
         r["hybrid_min_rays_spec"] = cell.hybrid ? json(cell.hybridMinRaysText) : json(nullptr);
         r["hybrid_visit_ratio"] = cell.hybrid ? json(cell.hybrid->visitRatio) : json(nullptr);
@@ -252,7 +263,14 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         parsePacketShapes("--packets", given("--packets") ? f.packets : suite.packets);
     const std::vector<PacketShape> cpuPackets =
         parsePacketShapes("--cpu-packets", given("--cpu-packets") ? f.cpuPackets : suite.cpuPackets);
-    const std::vector<PacketShape> singleGroups = parsePacketShapes("--single-groups", f.singleGroups);
+    // "P" (both passes) or "P/S" (primary pass, shadow pass) per entry.
+    std::vector<std::pair<PacketShape, PacketShape>> singleGroups;
+    for (const std::string& entry : splitList(f.singleGroups)) {
+        const size_t slash = entry.find('/');
+        const PacketShape primary = parsePacketShape("--single-groups", entry.substr(0, slash));
+        singleGroups.emplace_back(
+            primary, slash == std::string::npos ? primary : parsePacketShape("--single-groups", entry.substr(slash + 1)));
+    }
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
     if (suite.scenesFor && (given("--width") || given("--height"))) suite.scenes = suite.scenesFor(width, height);
     // After scenesFor: the chosen scenes keep the cameras of this image size.
@@ -326,7 +344,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                         cells.push_back({tracer, p, HybridParams{k.resolve(p), ratio}, k.text});
         } else if (info.kernel == "single" && info.device == TracerDevice::Gpu) {
             // The single-ray kernel's workgroup: which pixels run side by side, not a packet.
-            for (const PacketShape& g : singleGroups) cells.push_back({tracer, g, std::nullopt, ""});
+            for (const auto& [primary, shadow] : singleGroups)
+                cells.push_back({tracer, primary, std::nullopt, "", shadow});
         } else if (tracer->capabilities().packetShapes) {
             for (const PacketShape& p : info.device == TracerDevice::Cpu ? cpuPackets : packets)
                 cells.push_back({tracer, p, std::nullopt, ""});
@@ -366,7 +385,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
               {"single_groups",
                [&] {
                    json list = json::array();
-                   for (const PacketShape& p : singleGroups) list.push_back(toString(p));
+                   for (const auto& [primary, shadow] : singleGroups)
+                       list.push_back(toString(primary) + (primary == shadow ? "" : "/" + toString(shadow)));
                    return list;
                }()},
               {"cpu_packets",
@@ -459,6 +479,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             }
             RenderSettings cellSettings = settings;
             if (cell.packet) (cell.tracer->kernel() == "single" ? cellSettings.singleGroup : cellSettings.packet) = *cell.packet;
+            if (cell.shadowGroup) cellSettings.singleShadowGroup = *cell.shadowGroup;
             if (cell.hybrid) cellSettings.hybrid = *cell.hybrid;
             if (std::optional<json> peer = tracer.peerRecords(cellSettings, repeats, referenceHits)) {
                 for (json record : *peer) {
@@ -585,8 +606,9 @@ CommandRunner addBenchCommand(CLI::App& app) {
                         "the suite's; quick: 8x4,5x6)");
     command->add_option("--single-groups", f.singleGroups,
                         "Workgroup shapes WxH of the GPU single-ray kernel, one cell each, e.g. "
-                        "8x4,8x8,8x16 (each ray traces alone; the shape says which pixels share a "
-                        "workgroup; its \"packet\" field in the records)")
+                        "8x4,8x16,8x16/16x8 (P/S: the primary pass in P, the shadow pass in S; each ray "
+                        "traces alone, the shape says which pixels share a workgroup; each record's "
+                        "\"packet\" is its pass's)")
         ->capture_default_str();
     command->add_option("--cpu-packets", f.cpuPackets,
                         "Packet shapes of the CPU packet tracer, e.g. 4x4,8x8,16x16,32x32 "
