@@ -74,8 +74,9 @@ uint32_t viewConstant(ViewMode view) {
 // 0, one pipeline). One place for the frame's dispatches and for pipelineStatistics.
 PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries) {
     const PacketShape group = gpuWorkgroup(settings, pass == gpu::kPassShadowShade);
-    PipelineKey key{settings.kernel, group.width,         group.height, pass, statistics, viewConstant(settings.view),
-                    stackEntries,    settings.intersect, settings.shadowOrder};
+    PipelineKey key{
+        settings.kernel, group.width,        group.height,        pass, statistics, viewConstant(settings.view),
+        stackEntries,    settings.intersect, settings.shadowOrder};
     if (settings.kernel == KernelKind::Hybrid) {
         key.hybridMinRays = settings.hybrid.minRays;
         key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
@@ -510,11 +511,10 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
 void checkWorkgroup(const GpuTracer::State& s, const RenderSettings& settings, bool shadowPass) {
     const vk::DeviceInfo& d = s.ctx.info;
     const PacketShape shape = gpuWorkgroup(settings, shadowPass);
-    const std::string name =
-        std::string(settings.kernel != KernelKind::Single ? "packet "
-                    : shadowPass                           ? "shadow-pass workgroup "
-                                                           : "workgroup ") +
-        std::to_string(shape.width) + "x" + std::to_string(shape.height);
+    const std::string name = std::string(settings.kernel != KernelKind::Single ? "packet "
+                                         : shadowPass                          ? "shadow-pass workgroup "
+                                                                               : "workgroup ") +
+                             std::to_string(shape.width) + "x" + std::to_string(shape.height);
     if (shape.width == 0 || shape.height == 0) throw Error("GPU: " + name + " is empty");
     if (shape.rays() > d.maxWorkgroupInvocations || shape.width > d.maxWorkgroupSize[0] ||
         shape.height > d.maxWorkgroupSize[1])
@@ -529,9 +529,9 @@ void checkWorkgroup(const GpuTracer::State& s, const RenderSettings& settings, b
     const uint64_t groupsX = (settings.width + shape.width - 1) / shape.width;
     const uint64_t groupsY = (settings.height + shape.height - 1) / shape.height;
     if (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1])
-        throw Error("GPU: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) +
-                    " in " + name + "s needs " + std::to_string(groupsX) + "x" + std::to_string(groupsY) +
-                    " workgroups, more than " + d.name + " dispatches");
+        throw Error("GPU: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) + " in " + name +
+                    "s needs " + std::to_string(groupsX) + "x" + std::to_string(groupsY) + " workgroups, more than " +
+                    d.name + " dispatches");
 }
 
 void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {

@@ -194,7 +194,8 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         readUint(*packet, "height", "packet.", s.packet.height);
         if (s.packet.width == 0 || s.packet.height == 0) badKey("packet", "width and height must both be at least 1");
     }
-    for (auto [key, group] : {std::pair{"single_group", &s.singleGroup}, std::pair{"single_shadow_group", &s.singleShadowGroup}}) {
+    for (auto [key, group] :
+         {std::pair{"single_group", &s.singleGroup}, std::pair{"single_shadow_group", &s.singleShadowGroup}}) {
         if (const json* g = readObject(j, key, "")) {
             readUint(*g, "width", std::string(key) + ".", group->width);
             readUint(*g, "height", std::string(key) + ".", group->height);

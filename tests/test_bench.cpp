@@ -146,8 +146,7 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         for (const char* kind : {"primary", "shadow"}) {
             EXPECT_TRUE(cells.count({scene, "cpu-reference", "", kind})) << scene << " " << kind;
             const RenderSettings defaults;
-            const PacketShape group =
-                std::string(kind) == "shadow" ? defaults.singleShadowGroup : defaults.singleGroup;
+            const PacketShape group = std::string(kind) == "shadow" ? defaults.singleShadowGroup : defaults.singleGroup;
             EXPECT_TRUE(cells.count({scene, "gpu-single", toString(group), kind})) << scene << " " << kind;
             for (const std::string& packet : packets)
                 EXPECT_TRUE(cells.count({scene, "gpu-packet", packet, kind})) << scene << " " << packet << " " << kind;

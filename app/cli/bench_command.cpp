@@ -58,7 +58,7 @@ struct Cell {
     Tracer* tracer;
     std::optional<PacketShape> packet;  // the single-ray kernel: its primary pass's workgroup
     std::optional<HybridParams> hybrid;
-    std::string hybridMinRaysText;  // the --hybrid-min-rays entry ("1/4" or "8")
+    std::string hybridMinRaysText;           // the --hybrid-min-rays entry ("1/4" or "8")
     std::optional<PacketShape> shadowGroup;  // the single-ray kernel's shadow-pass workgroup
     std::string label() const {
         std::string text = tracer->name() + (packet ? " " + toString(*packet) : std::string());
@@ -268,8 +268,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     for (const std::string& entry : splitList(f.singleGroups)) {
         const size_t slash = entry.find('/');
         const PacketShape primary = parsePacketShape("--single-groups", entry.substr(0, slash));
-        singleGroups.emplace_back(
-            primary, slash == std::string::npos ? primary : parsePacketShape("--single-groups", entry.substr(slash + 1)));
+        singleGroups.emplace_back(primary, slash == std::string::npos
+                                               ? primary
+                                               : parsePacketShape("--single-groups", entry.substr(slash + 1)));
     }
     const BvhBuildOptions bvhOptions = toBvhOptions(f.bvh);
     if (suite.scenesFor && (given("--width") || given("--height"))) suite.scenes = suite.scenesFor(width, height);
@@ -478,7 +479,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 }
             }
             RenderSettings cellSettings = settings;
-            if (cell.packet) (cell.tracer->kernel() == "single" ? cellSettings.singleGroup : cellSettings.packet) = *cell.packet;
+            if (cell.packet)
+                (cell.tracer->kernel() == "single" ? cellSettings.singleGroup : cellSettings.packet) = *cell.packet;
             if (cell.shadowGroup) cellSettings.singleShadowGroup = *cell.shadowGroup;
             if (cell.hybrid) cellSettings.hybrid = *cell.hybrid;
             if (std::optional<json> peer = tracer.peerRecords(cellSettings, repeats, referenceHits)) {
@@ -604,11 +606,12 @@ CommandRunner addBenchCommand(CLI::App& app) {
     command->add_option("--packets", f.packets,
                         "Packet shapes of the packet kernel, e.g. 8x4,4x8,5x6,8x8,16x16 (default: "
                         "the suite's; quick: 8x4,5x6)");
-    command->add_option("--single-groups", f.singleGroups,
-                        "Workgroup shapes WxH of the GPU single-ray kernel, one cell each, e.g. "
-                        "8x4,8x16,8x16/16x8 (P/S: the primary pass in P, the shadow pass in S; each ray "
-                        "traces alone, the shape says which pixels share a workgroup; each record's "
-                        "\"packet\" is its pass's)")
+    command
+        ->add_option("--single-groups", f.singleGroups,
+                     "Workgroup shapes WxH of the GPU single-ray kernel, one cell each, e.g. "
+                     "8x4,8x16,8x16/16x8 (P/S: the primary pass in P, the shadow pass in S; each ray "
+                     "traces alone, the shape says which pixels share a workgroup; each record's "
+                     "\"packet\" is its pass's)")
         ->capture_default_str();
     command->add_option("--cpu-packets", f.cpuPackets,
                         "Packet shapes of the CPU packet tracer, e.g. 4x4,8x8,16x16,32x32 "
