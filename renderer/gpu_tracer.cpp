@@ -43,9 +43,10 @@ struct PipelineKey {
     ShadowOrder shadowOrder;
     uint32_t hybridMinRays = 0;     // the hybrid kernel's split rules (0 for the other kernels)
     uint32_t hybridVisitRatio = 0;  // in 1/100
+    uint32_t packetsPerGroup = 1;   // the hybrid kernel's packets per workgroup (packetHeight: all of them)
     auto tie() const {
         return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
-                        hybridMinRays, hybridVisitRatio);
+                        hybridMinRays, hybridVisitRatio, packetsPerGroup);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -80,6 +81,7 @@ PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool s
     if (settings.kernel == KernelKind::Hybrid) {
         key.hybridMinRays = settings.hybrid.minRays;
         key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
+        key.packetsPerGroup = settings.hybrid.packetsPerGroup;
     }
     return key;
 }
@@ -476,7 +478,10 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     data.packetStackEntries = sharedStack ? key.stackEntries : 1u;
     data.rayStackEntries = packet ? 1u : hybrid ? 2u * key.stackEntries : key.stackEntries;
     data.packetIsOneSubgroup =
-        sharedStack && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight) ? VK_TRUE : VK_FALSE;
+        sharedStack && packetIsOneSubgroup(s.ctx.info, key.packetWidth, key.packetHeight / key.packetsPerGroup)
+            ? VK_TRUE
+            : VK_FALSE;
+    data.packetsPerGroup = key.packetsPerGroup;
     data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
     data.shadowOrder = key.shadowOrder == ShadowOrder::Tree     ? gpu::kShadowOrderTree
                        : key.shadowOrder == ShadowOrder::Larger ? gpu::kShadowOrderLarger
@@ -521,7 +526,12 @@ void checkWorkgroup(const GpuTracer::State& s, const RenderSettings& settings, b
         throw Error("GPU: " + name + " exceeds " + d.name + "'s workgroup limit (" +
                     std::to_string(d.maxWorkgroupInvocations) + " invocations, " +
                     std::to_string(d.maxWorkgroupSize[0]) + "x" + std::to_string(d.maxWorkgroupSize[1]) + ")");
-    const uint64_t shared = uint64_t(s.stackEntries) * 8u + kVoteBytes;
+    const uint32_t packets = settings.kernel == KernelKind::Hybrid ? settings.hybrid.packetsPerGroup : 1u;
+    if (packets > 1 && !packetIsOneSubgroup(d, settings.packet.width, settings.packet.height))
+        throw Error("GPU: " + std::to_string(packets) + " hybrid packets of " + std::to_string(settings.packet.width) +
+                    "x" + std::to_string(settings.packet.height) + " per workgroup need packets of one subgroup (" +
+                    std::to_string(d.subgroupSize) + " rays on " + d.name + ")");
+    const uint64_t shared = uint64_t(s.stackEntries) * 8u * packets + kVoteBytes;
     if (settings.kernel != KernelKind::Single && shared > d.maxSharedMemoryBytes)
         throw Error("GPU: " + name + " with a stack of " + std::to_string(s.stackEntries) + " entries needs " +
                     std::to_string(shared) + " bytes of shared memory; " + d.name + " has " +
@@ -539,6 +549,8 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
     if (settings.width == 0 || settings.height == 0)
         throw Error("GPU: the image is empty (" + std::to_string(settings.width) + "x" +
                     std::to_string(settings.height) + ")");
+    if (settings.kernel == KernelKind::Hybrid && settings.hybrid.packetsPerGroup == 0)
+        throw Error("GPU: the hybrid kernel needs at least one packet per workgroup");
     checkWorkgroup(s, settings, false);
     if (settings.shadows) checkWorkgroup(s, settings, true);
     if (!(settings.hybrid.visitRatio >= 0.0f && settings.hybrid.visitRatio <= kMaxHybridVisitRatio))

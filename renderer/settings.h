@@ -46,9 +46,12 @@ struct PacketShape {
 // rays wanted (0: the rule is off; at most kMaxHybridVisitRatio). Both are specialization constants.
 // Defaults until the H200 sweep (scripts/device-hybrid.sh) chooses them: a quarter of the default
 // 8x4 packet, visit rule off.
+// `packetsPerGroup` packets share one workgroup, stacked in y (1: one packet a workgroup, as the
+// packet kernel); more than one needs packets of exactly one subgroup.
 struct HybridParams {
     uint32_t minRays = 8;
     float visitRatio = 0.0f;
+    uint32_t packetsPerGroup = 1;
     bool operator==(const HybridParams&) const = default;
 };
 inline constexpr float kMaxHybridVisitRatio = 1000.0f;
@@ -85,9 +88,11 @@ struct RenderSettings {
     float heatFullScale = 0.0f;
 };
 
-// The workgroup a GPU kernel of `settings` runs its primary or shadow pass in: the packet, or the
-// single-ray kernel's group of that pass.
+// The workgroup a GPU kernel of `settings` runs its primary or shadow pass in: the packet (the
+// hybrid kernel's packets per group stacked in y), or the single-ray kernel's group of that pass.
 inline PacketShape gpuWorkgroup(const RenderSettings& settings, bool shadowPass = false) {
+    if (settings.kernel == KernelKind::Hybrid)
+        return PacketShape{settings.packet.width, settings.packet.height * settings.hybrid.packetsPerGroup};
     if (settings.kernel != KernelKind::Single) return settings.packet;
     return shadowPass ? settings.singleShadowGroup : settings.singleGroup;
 }

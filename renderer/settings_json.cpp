@@ -120,7 +120,9 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["single_group"] = {{"width", s.singleGroup.width}, {"height", s.singleGroup.height}};
     j["single_shadow_group"] = {{"width", s.singleShadowGroup.width}, {"height", s.singleShadowGroup.height}};
-    j["hybrid"] = {{"min_rays", s.hybrid.minRays}, {"visit_ratio", s.hybrid.visitRatio}};
+    j["hybrid"] = {{"min_rays", s.hybrid.minRays},
+                   {"visit_ratio", s.hybrid.visitRatio},
+                   {"packets_per_group", s.hybrid.packetsPerGroup}};
     j["collect_counters"] = s.collectCounters;
     j["view"] = toString(s.view);
     j["heat_full_scale"] = s.heatFullScale;
@@ -207,6 +209,8 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         readFloat(*hybrid, "visit_ratio", "hybrid.", s.hybrid.visitRatio);
         if (!(s.hybrid.visitRatio >= 0.0f && s.hybrid.visitRatio <= kMaxHybridVisitRatio))
             badKey("hybrid", "visit_ratio must be 0 (off) or a ratio up to 1000");
+        readUint(*hybrid, "packets_per_group", "hybrid.", s.hybrid.packetsPerGroup);
+        if (s.hybrid.packetsPerGroup == 0) badKey("hybrid", "packets_per_group must be at least 1");
     }
     readBool(j, "collect_counters", "", s.collectCounters);
     if (const std::string view = readString(j, "view", ""); !view.empty()) {

@@ -45,7 +45,8 @@ const uint kSpecFastIntersect = 9u;        // bool: IntersectMode::Fast (shaders
 const uint kSpecShadowOrder = 10u;         // kShadowOrder*: a shadow ray's first child (single-ray kernel)
 const uint kSpecHybridMinRays = 11u;       // hybrid kernel: split when fewer rays want the node (K)
 const uint kSpecHybridVisitRatio = 12u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
-const uint kSpecCount = 13u;
+const uint kSpecPacketsPerGroup = 13u;     // hybrid kernel: one-subgroup packets per workgroup, stacked in y
+const uint kSpecCount = 14u;
 
 // Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).
 const uint kShadowOrderNearest = 0u;
@@ -77,8 +78,9 @@ struct TraceSpecialization {
     uint shadowOrder;
     uint hybridMinRays;
     uint hybridVisitRatio;
+    uint packetsPerGroup;
 };
-RP_CHECK_SIZE(TraceSpecialization, 52);
+RP_CHECK_SIZE(TraceSpecialization, 56);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -92,6 +94,7 @@ RP_CHECK_OFFSET(TraceSpecialization, fastIntersect, 36);
 RP_CHECK_OFFSET(TraceSpecialization, shadowOrder, 40);
 RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 44);
 RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 48);
+RP_CHECK_OFFSET(TraceSpecialization, packetsPerGroup, 52);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -116,6 +119,7 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecShadowOrder, shadowOrder),
     RP_SPEC_ENTRY(kSpecHybridMinRays, hybridMinRays),
     RP_SPEC_ENTRY(kSpecHybridVisitRatio, hybridVisitRatio),
+    RP_SPEC_ENTRY(kSpecPacketsPerGroup, packetsPerGroup),
 };
 #undef RP_SPEC_ENTRY
 

@@ -51,6 +51,11 @@ layout(constant_id = kSpecShadowOrder) const uint kShadowOrder = kShadowOrderNea
 // rays pass kHybridVisitRatio / 100 times the visits those rays wanted.
 layout(constant_id = kSpecHybridMinRays) const uint kHybridMinRays = 8;
 layout(constant_id = kSpecHybridVisitRatio) const uint kHybridVisitRatio = 0;
+// Packets per workgroup, stacked in y, each exactly one subgroup (the hybrid kernel only; 1
+// otherwise). An SM holds a limited number of workgroups (32 on the H200), so packets of 32 rays,
+// one a workgroup, cap it at 32 warps; several a workgroup lift that. Each has its own part of the
+// shared stack (packetStackBase).
+layout(constant_id = kSpecPacketsPerGroup) const uint kPacketsPerGroup = 1;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
@@ -77,7 +82,9 @@ vec4 sampleLevel(GpuTexture tex, uint level, vec2 uv) {
 }
 
 // (node index, count) of the nodes the packet still has to visit; written by one invocation only.
-shared uvec2 sStack[kPacketStackEntries];
+shared uvec2 sStack[kPacketStackEntries * kPacketsPerGroup];
+// Where this invocation's packet's part of sStack starts (kPacketsPerGroup packets a workgroup).
+uint packetStackBase = 0u;
 // The packet's vote counts across subgroups, four rotating slots (see packetVote).
 shared uvec4 sVote[4];
 
@@ -223,11 +230,11 @@ PacketVote packetVote(bool leftHit, bool rightHit, bool rightFirst, bool isActiv
 // barrier (a subgroup barrier within one subgroup). Handing popped entries from one reader to the
 // others by a broadcast instead was measured slower on the H100 (docs/gpu.md).
 void pushEntry(uint slot, uvec2 entry) {
-    if (kPacketIsOneSubgroup ? subgroupElect() : gl_LocalInvocationIndex == 0u) sStack[slot] = entry;
+    if (kPacketIsOneSubgroup ? subgroupElect() : gl_LocalInvocationIndex == 0u) sStack[packetStackBase + slot] = entry;
 }
 
 uvec2 popEntry(uint slot) {
-    return sStack[slot];
+    return sStack[packetStackBase + slot];
 }
 
 // Packet traversal with a stack in shared memory, shared by the packet (report 2.2, 3.3, 3.4).
@@ -512,7 +519,11 @@ void traceHybrid(inout RayQuery q) {
     // every vote; primary rays stay active, so the root's count holds throughout.
     const bool countActive = shadowPacket && (!kPacketIsOneSubgroup || visitRule);
     if (kPacketIsOneSubgroup) {
-        if (subgroupAdd(1u) != gl_WorkGroupSize.x * gl_WorkGroupSize.y) {
+        // Packet k of the workgroup: rows [k PH, (k + 1) PH), one subgroup, as the host assumed.
+        const uint packetHeight = gl_WorkGroupSize.y / kPacketsPerGroup;
+        const uint packet = gl_LocalInvocationID.y / packetHeight;
+        packetStackBase = packet * kPacketStackEntries;
+        if (subgroupAdd(1u) != gl_WorkGroupSize.x * packetHeight || !subgroupAllEqual(packet)) {
             if (subgroupElect()) atomicOr(status, kStatusSubgroupMismatch);
             return;
         }

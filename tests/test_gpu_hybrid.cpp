@@ -195,6 +195,51 @@ TEST(GpuHybrid, DeepTreeSplitsMatchReference) {
     expectNoValidationMessages();
 }
 
+// Several one-subgroup packets in one workgroup (HybridParams::packetsPerGroup; 8x1 rows are one
+// subgroup on lavapipe): each packet traverses alone with its own part of the shared stack, so the
+// hits and the counts are those of one packet a workgroup, ray for ray, with rules that split
+// packets part-way and a count that does not divide the image (3: padding packets below it). (One
+// rule and one count: every combination is a pipeline, and each costs lavapipe about half a second.)
+TEST(GpuHybrid, SeveralPacketsPerWorkgroupTraceAsOnePacketEach) {
+    const Scene scene = randomSliverSoup(3000, 0.2f, 2.0f, 14);
+    const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
+    GpuTracer tracer(validatedContext());
+    tracer.upload(scene, bvh);
+    RenderSettings settings = settingsFor(scene, 48, 32);
+    settings.camera.eye = glm::vec3(0.3f, 0.2f, 4.5f);
+    settings.camera.at = glm::vec3(0.0f);
+    const Frame cpu = renderCpu(scene, bvh, settings, FrameRequest{true, true, false});
+    settings.kernel = KernelKind::Hybrid;
+    settings.packet = {8, 1};
+    const FrameRequest request{true, true, true};
+    for (const HybridParams rules : {HybridParams{2u, 1.5f}}) {
+        settings.hybrid = rules;
+        const Frame one = tracer.render(settings, request);
+        for (const uint32_t packets : {3u}) {
+            settings.hybrid.packetsPerGroup = packets;
+            const Frame several = tracer.render(settings, request);
+            const std::string what =
+                label(settings.packet, rules, true) + ", " + std::to_string(packets) + " a workgroup";
+            EXPECT_TRUE(sameHits(several, one)) << what;
+            EXPECT_TRUE(sameCounters(several, one)) << what;
+            EXPECT_EQ(differingPixels(several, one), 0u) << what;
+            const HitAgreement agreement = compareHits(several, cpu);
+            EXPECT_EQ(agreement.agree, agreement.rays) << what;
+            EXPECT_EQ(agreement.shadowAgree, agreement.shadowRays) << what;
+        }
+        settings.hybrid.packetsPerGroup = 1;
+    }
+    // Packets of several subgroups cannot share a workgroup (their vote needs the workgroup's
+    // barrier), nor can none.
+    settings.packet = {8, 4};
+    settings.hybrid.packetsPerGroup = 2;
+    EXPECT_THROW(tracer.render(settings), Error);
+    settings.packet = {8, 1};
+    settings.hybrid.packetsPerGroup = 0;
+    EXPECT_THROW(tracer.render(settings), Error);
+    expectNoValidationMessages();
+}
+
 TEST(GpuHybrid, VisitRatioOutOfRangeIsAnError) {
     const LoadedScene s = loadForTest("gen:default");
     GpuTracer tracer(validatedContext());

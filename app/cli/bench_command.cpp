@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <map>
 #include <memory>
@@ -44,6 +45,7 @@ struct BenchFlags {
     std::string only;       // names of the suite's scenes to run, comma-separated; empty: all
     std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
     std::string hybridVisitRatios = "0";
+    std::string hybridPacketsPerGroup = "1";
     std::string shadowOrder = "nearest";
     uint32_t width = 0, height = 0, repeat = 0;
     BvhFlags bvh;
@@ -64,9 +66,9 @@ struct Cell {
         std::string text = tracer->name() + (packet ? " " + toString(*packet) : std::string());
         if (shadowGroup) text += "/" + toString(*shadowGroup);
         if (hybrid) {
-            char rules[96];
-            std::snprintf(rules, sizeof rules, " K=%u (%s) visit ratio %g", hybrid->minRays, hybridMinRaysText.c_str(),
-                          double(hybrid->visitRatio));
+            char rules[128];
+            std::snprintf(rules, sizeof rules, " K=%u (%s) visit ratio %g, %u packet(s) a workgroup", hybrid->minRays,
+                          hybridMinRaysText.c_str(), double(hybrid->visitRatio), hybrid->packetsPerGroup);
             text += rules;
         }
         return text;
@@ -104,6 +106,7 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["hybrid_min_rays"] = cell.hybrid ? json(cell.hybrid->minRays) : json(nullptr);
         r["hybrid_min_rays_spec"] = cell.hybrid ? json(cell.hybridMinRaysText) : json(nullptr);
         r["hybrid_visit_ratio"] = cell.hybrid ? json(cell.hybrid->visitRatio) : json(nullptr);
+        r["hybrid_packets_per_group"] = cell.hybrid ? json(cell.hybrid->packetsPerGroup) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;
         r["height_px"] = s.height;
@@ -306,6 +309,14 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const bool hybridKernel = f.kernel == "all" || f.kernel == "hybrid";
     const std::vector<HybridMinRaysSpec> hybridMinRays = parseHybridMinRaysList("--hybrid-min-rays", f.hybridMinRays);
     const std::vector<float> hybridVisitRatios = parseHybridVisitRatios("--hybrid-visit-ratios", f.hybridVisitRatios);
+    std::vector<uint32_t> hybridPacketsPerGroup;
+    for (const std::string& entry : splitList(f.hybridPacketsPerGroup)) {
+        char* end = nullptr;
+        const unsigned long value = std::strtoul(entry.c_str(), &end, 10);
+        if (entry.empty() || *end != '\0' || value == 0 || value > 64)
+            throw Error("--hybrid-packets-per-group: \"" + entry + "\" is not a count from 1 to 64");
+        hybridPacketsPerGroup.push_back(uint32_t(value));
+    }
 
     std::optional<VulkanSession> session;
     json machine = {{"cpu_model", cpuModel()},  {"cpu_threads", cpuThreads()}, {"os", operatingSystem()},
@@ -342,7 +353,8 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             for (const PacketShape& p : packets)
                 for (const HybridMinRaysSpec& k : hybridMinRays)
                     for (const float ratio : hybridVisitRatios)
-                        cells.push_back({tracer, p, HybridParams{k.resolve(p), ratio}, k.text});
+                        for (const uint32_t group : hybridPacketsPerGroup)
+                            cells.push_back({tracer, p, HybridParams{k.resolve(p), ratio, group}, k.text});
         } else if (info.kernel == "single" && info.device == TracerDevice::Gpu) {
             // The single-ray kernel's workgroup: which pixels run side by side, not a packet.
             for (const auto& [primary, shadow] : singleGroups)
@@ -376,6 +388,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
               {"kernels", f.kernel},
               {"hybrid_min_rays", f.hybridMinRays},
               {"hybrid_visit_ratios", f.hybridVisitRatios},
+              {"hybrid_packets_per_group", f.hybridPacketsPerGroup},
               {"shadow_order", f.shadowOrder},
               {"packets",
                [&] {
@@ -599,6 +612,13 @@ CommandRunner addBenchCommand(CLI::App& app) {
                      "Hybrid kernel: the visit ratios to run, comma-separated (0: the rule off); the "
                      "packet also splits once its inner-node visits over its active rays pass this "
                      "multiple of the visits they wanted. One cell per packet shape, K and ratio")
+        ->capture_default_str();
+    command
+        ->add_option("--hybrid-packets-per-group", f.hybridPacketsPerGroup,
+                     "Hybrid kernel: packets per workgroup to run, comma-separated (1-64; more than 1 "
+                     "needs packets of one subgroup, e.g. 8x4 on NVIDIA, 8x1 on lavapipe): an SM holds a "
+                     "limited number of workgroups, 32 on the H200. One cell per packet shape, K, ratio "
+                     "and count")
         ->capture_default_str();
     command->add_option("--only", f.only,
                         "Run only these scenes of the suite, comma-separated names as the suite "
