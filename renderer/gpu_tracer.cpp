@@ -62,6 +62,17 @@ bool packetIsOneSubgroup(const vk::DeviceInfo& device, uint32_t width, uint32_t 
     return height == 1 || !rowsAreSubgroups;
 }
 
+// Whether `packets` packets of `width` x `height` rays, stacked in y in one workgroup, are each
+// exactly one subgroup (the hybrid kernel's packets per workgroup). Where subgroups are runs of
+// consecutive invocations (NVIDIA, AMD, Intel), a packet smaller than the subgroup would share one
+// with the next packet, so it must fill its subgroup exactly; on lavapipe each row is one.
+bool packetsAreOneSubgroupEach(const vk::DeviceInfo& device, uint32_t width, uint32_t height, uint32_t packets) {
+    if (!packetIsOneSubgroup(device, width, height)) return false;
+    if (packets == 1) return true;
+    const bool rowsAreSubgroups = device.name.find("llvmpipe") != std::string::npos;
+    return rowsAreSubgroups || uint64_t(width) * height == device.subgroupSize;
+}
+
 uint32_t viewConstant(ViewMode view) {
     switch (view) {
     case ViewMode::HeatTraversal: return gpu::kViewHeatTraversal;
@@ -527,9 +538,10 @@ void checkWorkgroup(const GpuTracer::State& s, const RenderSettings& settings, b
                     std::to_string(d.maxWorkgroupInvocations) + " invocations, " +
                     std::to_string(d.maxWorkgroupSize[0]) + "x" + std::to_string(d.maxWorkgroupSize[1]) + ")");
     const uint32_t packets = settings.kernel == KernelKind::Hybrid ? settings.hybrid.packetsPerGroup : 1u;
-    if (packets > 1 && !packetIsOneSubgroup(d, settings.packet.width, settings.packet.height))
+    if (packets > 1 && !packetsAreOneSubgroupEach(d, settings.packet.width, settings.packet.height, packets))
         throw Error("GPU: " + std::to_string(packets) + " hybrid packets of " + std::to_string(settings.packet.width) +
-                    "x" + std::to_string(settings.packet.height) + " per workgroup need packets of one subgroup (" +
+                    "x" + std::to_string(settings.packet.height) +
+                    " per workgroup need packets that are each exactly one subgroup (" +
                     std::to_string(d.subgroupSize) + " rays on " + d.name + ")");
     const uint64_t shared = uint64_t(s.stackEntries) * 8u * packets + kVoteBytes;
     if (settings.kernel != KernelKind::Single && shared > d.maxSharedMemoryBytes)

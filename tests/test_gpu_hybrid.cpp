@@ -196,7 +196,8 @@ TEST(GpuHybrid, DeepTreeSplitsMatchReference) {
 }
 
 // Several one-subgroup packets in one workgroup (HybridParams::packetsPerGroup; 8x1 rows are one
-// subgroup on lavapipe): each packet traverses alone with its own part of the shared stack, so the
+// subgroup each on lavapipe, a packet must fill its subgroup elsewhere, 8x4 on NVIDIA): each
+// packet traverses alone with its own part of the shared stack, so the
 // hits and the counts are those of one packet a workgroup, ray for ray, with rules that split
 // packets part-way and a count that does not divide the image (3: padding packets below it). (One
 // rule and one count: every combination is a pipeline, and each costs lavapipe about half a second.)
@@ -210,7 +211,9 @@ TEST(GpuHybrid, SeveralPacketsPerWorkgroupTraceAsOnePacketEach) {
     settings.camera.at = glm::vec3(0.0f);
     const Frame cpu = renderCpu(scene, bvh, settings, FrameRequest{true, true, false});
     settings.kernel = KernelKind::Hybrid;
-    settings.packet = {8, 1};
+    const vk::DeviceInfo& device = tracer.device();
+    const bool rowsAreSubgroups = device.name.find("llvmpipe") != std::string::npos;
+    settings.packet = rowsAreSubgroups ? PacketShape{8, 1} : PacketShape{8, std::max(1u, device.subgroupSize / 8)};
     const FrameRequest request{true, true, true};
     for (const HybridParams rules : {HybridParams{2u, 1.5f}}) {
         settings.hybrid = rules;
@@ -230,11 +233,16 @@ TEST(GpuHybrid, SeveralPacketsPerWorkgroupTraceAsOnePacketEach) {
         settings.hybrid.packetsPerGroup = 1;
     }
     // Packets of several subgroups cannot share a workgroup (their vote needs the workgroup's
-    // barrier), nor can none.
-    settings.packet = {8, 4};
+    // barrier), nor can packets that share a subgroup, nor can none.
+    const PacketShape oneSubgroup = settings.packet;
+    settings.packet = {16, 16};
     settings.hybrid.packetsPerGroup = 2;
     EXPECT_THROW(tracer.render(settings), Error);
-    settings.packet = {8, 1};
+    if (!rowsAreSubgroups && device.subgroupSize >= 2) {
+        settings.packet = {1, 1};
+        EXPECT_THROW(tracer.render(settings), Error);
+    }
+    settings.packet = oneSubgroup;
     settings.hybrid.packetsPerGroup = 0;
     EXPECT_THROW(tracer.render(settings), Error);
     expectNoValidationMessages();
