@@ -229,12 +229,16 @@ PacketVote packetVote(bool leftHit, bool rightHit, bool rightFirst, bool isActiv
 // The shared stack's accesses: one invocation writes, every invocation reads after the next vote's
 // barrier (a subgroup barrier within one subgroup). Handing popped entries from one reader to the
 // others by a broadcast instead was measured slower on the H100 (docs/gpu.md).
+// The packet's first stack entry: 0 (a constant) with one packet a workgroup, so that those
+// pipelines index the stack as they did before several packets could share a workgroup.
+uint stackBase() { return kPacketsPerGroup == 1u ? 0u : packetStackBase; }
+
 void pushEntry(uint slot, uvec2 entry) {
-    if (kPacketIsOneSubgroup ? subgroupElect() : gl_LocalInvocationIndex == 0u) sStack[packetStackBase + slot] = entry;
+    if (kPacketIsOneSubgroup ? subgroupElect() : gl_LocalInvocationIndex == 0u) sStack[stackBase() + slot] = entry;
 }
 
 uvec2 popEntry(uint slot) {
-    return sStack[packetStackBase + slot];
+    return sStack[stackBase() + slot];
 }
 
 // Packet traversal with a stack in shared memory, shared by the packet (report 2.2, 3.3, 3.4).

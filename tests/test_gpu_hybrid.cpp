@@ -150,7 +150,8 @@ TEST(GpuHybrid, IncoherentSoupHitsEqualReference) {
     size_t hits = 0;
     for (const HitRecord& h : cpu.hits) hits += h.prim != gpu::kNoHit;
     ASSERT_GT(hits, cpu.hits.size() / 4) << "the soup should fill much of the image";
-    expectSplitsMatchReference(tracer, settings, cpu, true, {{8, 1}, {8, 4}, {5, 6}});
+    // 8x4 is in the limits below and in the Sibenik test.
+    expectSplitsMatchReference(tracer, settings, cpu, true, {{8, 1}, {5, 6}});
     expectLimitsAreTheTwoKernels(tracer, settings, cpu, kFewShapes);
 
     // Each rule alone splits packets part-way here: N_TR lies strictly between the single-ray
