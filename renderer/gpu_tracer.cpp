@@ -56,10 +56,11 @@ struct PipelineKey {
 // subgroup on NVIDIA, AMD and Intel; lavapipe (llvmpipe) runs each row of a workgroup as its own
 // SIMD-8 subgroup (a 4x2 workgroup is two subgroups of 4 although gl_NumSubgroups says 1), so
 // there only single rows qualify. The kernel checks the promise (kStatusSubgroupMismatch).
+bool subgroupsAreRows(const vk::DeviceInfo& device) { return device.name.find("llvmpipe") != std::string::npos; }
+
 bool packetIsOneSubgroup(const vk::DeviceInfo& device, uint32_t width, uint32_t height) {
     if (uint64_t(width) * height > device.subgroupSize) return false;
-    const bool rowsAreSubgroups = device.name.find("llvmpipe") != std::string::npos;
-    return height == 1 || !rowsAreSubgroups;
+    return height == 1 || !subgroupsAreRows(device);
 }
 
 // Whether `packets` packets of `width` x `height` rays, stacked in y in one workgroup, are each
@@ -68,9 +69,15 @@ bool packetIsOneSubgroup(const vk::DeviceInfo& device, uint32_t width, uint32_t 
 // with the next packet, so it must fill its subgroup exactly; on lavapipe each row is one.
 bool packetsAreOneSubgroupEach(const vk::DeviceInfo& device, uint32_t width, uint32_t height, uint32_t packets) {
     if (!packetIsOneSubgroup(device, width, height)) return false;
-    if (packets == 1) return true;
-    const bool rowsAreSubgroups = device.name.find("llvmpipe") != std::string::npos;
-    return rowsAreSubgroups || uint64_t(width) * height == device.subgroupSize;
+    return packets == 1 || subgroupsAreRows(device) || uint64_t(width) * height == device.subgroupSize;
+}
+
+// The workgroups that cover a width x height image in `shape`s, the last column and row padded.
+struct WorkgroupCount {
+    uint64_t x, y;
+};
+WorkgroupCount workgroupCount(uint32_t width, uint32_t height, PacketShape shape) {
+    return {(uint64_t(width) + shape.width - 1) / shape.width, (uint64_t(height) + shape.height - 1) / shape.height};
 }
 
 uint32_t viewConstant(ViewMode view) {
@@ -548,11 +555,10 @@ void checkWorkgroup(const GpuTracer::State& s, const RenderSettings& settings, b
         throw Error("GPU: " + name + " with a stack of " + std::to_string(s.stackEntries) + " entries needs " +
                     std::to_string(shared) + " bytes of shared memory; " + d.name + " has " +
                     std::to_string(d.maxSharedMemoryBytes));
-    const uint64_t groupsX = (settings.width + shape.width - 1) / shape.width;
-    const uint64_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    if (groupsX > d.maxWorkgroupCount[0] || groupsY > d.maxWorkgroupCount[1])
+    const WorkgroupCount groups = workgroupCount(settings.width, settings.height, shape);
+    if (groups.x > d.maxWorkgroupCount[0] || groups.y > d.maxWorkgroupCount[1])
         throw Error("GPU: " + std::to_string(settings.width) + "x" + std::to_string(settings.height) + " in " + name +
-                    "s needs " + std::to_string(groupsX) + "x" + std::to_string(groupsY) + " workgroups, more than " +
+                    "s needs " + std::to_string(groups.x) + "x" + std::to_string(groups.y) + " workgroups, more than " +
                     d.name + " dispatches");
 }
 
@@ -579,7 +585,7 @@ gpu::GpuFrameParams frameParams(const GpuTracer::State& s, const RenderSettings&
     p.background = glm::vec4(settings.background, settings.heatFullScale);
     p.phong =
         glm::vec4(settings.phong.ambient, settings.phong.diffuse, settings.phong.specular, settings.phong.shininess);
-    const uint32_t packetsPerRow = (settings.width + gpuWorkgroup(settings).width - 1) / gpuWorkgroup(settings).width;
+    const uint32_t packetsPerRow = uint32_t(workgroupCount(settings.width, settings.height, gpuWorkgroup(settings)).x);
     p.frame =
         glm::uvec4(settings.width, settings.height,
                    (writeHits ? gpu::kFrameWriteHits : 0u) | (options.bgra ? gpu::kFrameBgra : 0u) |
@@ -639,11 +645,10 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
                       VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                       VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
 
-    const PacketShape shape = gpuWorkgroup(settings);
-    const uint32_t groupsX = (settings.width + shape.width - 1) / shape.width;
-    const uint32_t groupsY = (settings.height + shape.height - 1) / shape.height;
-    PipelineKey key = pipelineKeyFor(settings, 0u, statistics, s.stackEntries);
-    key.pass = settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade;
+    // checkSettings has held each pass's workgroup count to the device's limit.
+    const WorkgroupCount groups = workgroupCount(settings.width, settings.height, gpuWorkgroup(settings));
+    PipelineKey key = pipelineKeyFor(settings, settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade,
+                                     statistics, s.stackEntries);
     // What the dispatches use: bound here, and again after a host split, which re-opens the
     // command buffer.
     auto bindState = [&] {
@@ -656,7 +661,7 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery);
     const Clock::time_point primaryStart = hostClock ? hostClock->split() : Clock::time_point{};
     if (hostClock) bindState();
-    vkCmdDispatch(cmd, groupsX, groupsY, 1);
+    vkCmdDispatch(cmd, uint32_t(groups.x), uint32_t(groups.y), 1);
     if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 1);
     Clock::time_point shadowStart{};
     if (hostClock) {
@@ -669,12 +674,12 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         // The shadow pass's workgroup may differ from the primary pass's (the single-ray kernel).
         key = pipelineKeyFor(settings, gpu::kPassShadowShade, statistics, s.stackEntries);
-        const PacketShape shadowShape = gpuWorkgroup(settings, true);
+        const WorkgroupCount shadowGroups =
+            workgroupCount(settings.width, settings.height, gpuWorkgroup(settings, true));
         if (hostClock) bindState();
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipelineFor(s, key));
         if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 2);
-        vkCmdDispatch(cmd, (settings.width + shadowShape.width - 1) / shadowShape.width,
-                      (settings.height + shadowShape.height - 1) / shadowShape.height, 1);
+        vkCmdDispatch(cmd, uint32_t(shadowGroups.x), uint32_t(shadowGroups.y), 1);
         if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, s.queries, firstQuery + 3);
         if (hostClock)
             hostClock->shadowSeconds = std::chrono::duration<double>(hostClock->split() - shadowStart).count();

@@ -136,16 +136,23 @@ TEST(GpuHybrid, SplitPacketsMatchReferenceOnSibenik) {
 
 // Random slivers in random orientations (tests/random_geometry.h): neighbouring rays share few
 // nodes, so packets split early and often.
+Scene sliverSoup() { return randomSliverSoup(3000, 0.2f, 2.0f, 14); }
+
+// 48x32 from just outside the soup, so that it fills the image (frameScene keeps the whole box in
+// view, a small part of the image).
+RenderSettings soupSettings(const Scene& soup) {
+    RenderSettings settings = settingsFor(soup, 48, 32);
+    settings.camera.eye = glm::vec3(0.3f, 0.2f, 4.5f);
+    settings.camera.at = glm::vec3(0.0f);
+    return settings;
+}
+
 TEST(GpuHybrid, IncoherentSoupHitsEqualReference) {
-    const Scene scene = randomSliverSoup(3000, 0.2f, 2.0f, 14);
+    const Scene scene = sliverSoup();
     const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
     GpuTracer tracer(validatedContext());
     tracer.upload(scene, bvh);
-    RenderSettings settings = settingsFor(scene, 48, 32);
-    // From just outside the soup, so that it fills the image (frameScene keeps the whole box in
-    // view, a small part of the image).
-    settings.camera.eye = glm::vec3(0.3f, 0.2f, 4.5f);
-    settings.camera.at = glm::vec3(0.0f);
+    RenderSettings settings = soupSettings(scene);
     const Frame cpu = renderCpu(scene, bvh, settings, FrameRequest{true, true, false});
     size_t hits = 0;
     for (const HitRecord& h : cpu.hits) hits += h.prim != gpu::kNoHit;
@@ -203,13 +210,11 @@ TEST(GpuHybrid, DeepTreeSplitsMatchReference) {
 // packets part-way and a count that does not divide the image (3: padding packets below it). (One
 // rule and one count: every combination is a pipeline, and each costs lavapipe about half a second.)
 TEST(GpuHybrid, SeveralPacketsPerWorkgroupTraceAsOnePacketEach) {
-    const Scene scene = randomSliverSoup(3000, 0.2f, 2.0f, 14);
+    const Scene scene = sliverSoup();
     const Bvh bvh = buildBvh(scene, BvhBuildOptions{});
     GpuTracer tracer(validatedContext());
     tracer.upload(scene, bvh);
-    RenderSettings settings = settingsFor(scene, 48, 32);
-    settings.camera.eye = glm::vec3(0.3f, 0.2f, 4.5f);
-    settings.camera.at = glm::vec3(0.0f);
+    RenderSettings settings = soupSettings(scene);
     const Frame cpu = renderCpu(scene, bvh, settings, FrameRequest{true, true, false});
     settings.kernel = KernelKind::Hybrid;
     const vk::DeviceInfo& device = tracer.device();

@@ -20,7 +20,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <functional>
 #include <map>
 #include <memory>
@@ -32,15 +31,15 @@ namespace {
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-// The single-ray kernel's default workgroups as a --single-groups entry ("P" or "P/S").
-std::string defaultSingleGroups() {
-    const RenderSettings s;
-    return toString(s.singleGroup) + (s.singleGroup == s.singleShadowGroup ? "" : "/" + toString(s.singleShadowGroup));
+// A --single-groups entry: "P" when both passes run in P, else "P/S".
+std::string singleGroupsEntry(const PacketShape& primary, const PacketShape& shadow) {
+    return toString(primary) + (primary == shadow ? "" : "/" + toString(shadow));
 }
 
 struct BenchFlags {
     std::string scenes, suite = "report", device = "all", kernel = "all", packets, cpuPackets, gpu, out, sceneDir;
-    std::string singleGroups = defaultSingleGroups();  // the GPU single-ray kernel's workgroups
+    // The GPU single-ray kernel's workgroups.
+    std::string singleGroups = singleGroupsEntry(RenderSettings{}.singleGroup, RenderSettings{}.singleShadowGroup);
     std::string intersect;  // "robust", "fast" or a list of them (the trade suites); "": the suite's
     std::string only;       // names of the suite's scenes to run, comma-separated; empty: all
     std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
@@ -311,11 +310,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const std::vector<float> hybridVisitRatios = parseHybridVisitRatios("--hybrid-visit-ratios", f.hybridVisitRatios);
     std::vector<uint32_t> hybridPacketsPerGroup;
     for (const std::string& entry : splitList(f.hybridPacketsPerGroup)) {
-        char* end = nullptr;
-        const unsigned long value = std::strtoul(entry.c_str(), &end, 10);
-        if (entry.empty() || *end != '\0' || value == 0 || value > 64)
-            throw Error("--hybrid-packets-per-group: \"" + entry + "\" is not a count from 1 to 64");
-        hybridPacketsPerGroup.push_back(uint32_t(value));
+        const uint32_t count = parsePositiveCount("--hybrid-packets-per-group", entry);
+        if (count > 64) throw Error("--hybrid-packets-per-group: \"" + entry + "\" is not a count from 1 to 64");
+        hybridPacketsPerGroup.push_back(count);
     }
 
     std::optional<VulkanSession> session;
@@ -400,7 +397,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                [&] {
                    json list = json::array();
                    for (const auto& [primary, shadow] : singleGroups)
-                       list.push_back(toString(primary) + (primary == shadow ? "" : "/" + toString(shadow)));
+                       list.push_back(singleGroupsEntry(primary, shadow));
                    return list;
                }()},
               {"cpu_packets",
