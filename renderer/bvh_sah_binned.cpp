@@ -2,85 +2,157 @@
 // Hierarchies": instead of every centroid, only the boundaries of `binCount` equal bins over the
 // node's centroid bounds are split candidates, on each of the three axes. One pass drops every
 // primitive into its bin (count and box per bin), a sweep over the bins prices all candidates, and
-// one stable pass partitions the node's index range.
+// one pass partitions the node's range.
+//
+// The primitives travel as 32-byte references (box and index, Wald 2007's and Embree's PrimRef), so
+// that binning and partitioning read memory in order instead of gathering boxes and centroids
+// through an index list; the box arithmetic runs four lanes wide (GCC/Clang vector extensions,
+// SSE on x86-64, whatever the target has elsewhere).
 //
 // Parallel and deterministic: bins of large nodes are filled by a parallel reduction whose merge
 // (integer sums, box min/max) is exact and associative, so any split of the work gives the same
-// bins; large partitions run in fixed-size chunks with a prefix sum; subtrees go into fragments
-// (renderer/bvh_build.h) as in the exact builder. The tree does not depend on the thread count.
+// bins; large partitions run in fixed-size chunks (each partitioned in place, then the misplaced
+// runs swapped across the split), so the order does not depend on the scheduler; subtrees go into
+// fragments (renderer/bvh_build.h) as in the exact builder. The tree does not depend on the thread
+// count.
 #include "renderer/bvh_build.h"
 #include "renderer/error.h"
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_group.h>
 
 #include <algorithm>
-#include <array>
+#include <bit>
 #include <cfloat>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <utility>
 
 namespace raypack::bvh_detail {
 namespace {
 
+#ifndef RAYPACK_BINNED_GRAIN
+#define RAYPACK_BINNED_GRAIN 4096
+#endif
+#ifndef RAYPACK_BINNED_PARALLEL
+#define RAYPACK_BINNED_PARALLEL 16384
+#endif
 // Nodes with more primitives than this bin and partition in parallel.
-constexpr uint32_t kParallelNodeMinPrimitives = 65536;
-// Chunk of the parallel partition (fixed, so the result does not depend on the scheduler).
-constexpr uint32_t kPartitionChunk = 16384;
+constexpr uint32_t kParallelNodeMinPrimitives = RAYPACK_BINNED_PARALLEL;
+// Grain of the parallel binning and chunk of the parallel partition (fixed, so the result does not
+// depend on the scheduler).
+constexpr uint32_t kPartitionChunk = RAYPACK_BINNED_GRAIN;
 
 constexpr uint32_t kMaxBins = 256;
 
-// A bin: the primitives whose centroids fall into it, counted and bounded. No default member
-// initialisers, so a node's bins live on the stack and only the ones in use are cleared.
-struct Bin {
-    glm::vec3 lo, hi;
-    uint32_t count;
+#ifndef RAYPACK_BINNED_SMALL
+#define RAYPACK_BINNED_SMALL 4
+#endif
+// Nodes of at most this many references are split by pricing every partition (buildSmall).
+constexpr uint32_t kSmallNodeMaxPrimitives = RAYPACK_BINNED_SMALL;
+
+using Vec4 = float __attribute__((vector_size(16)));
+using Int4 = int32_t __attribute__((vector_size(16)));
+
+inline Vec4 min4(Vec4 a, Vec4 b) { return a < b ? a : b; }
+inline Vec4 max4(Vec4 a, Vec4 b) { return a > b ? a : b; }
+
+// A primitive as the builder moves it: its box, with the primitive's index in the fourth lane of
+// `lo` (as bits; that lane never takes part in arithmetic) and 0 in the fourth lane of `hi`.
+struct alignas(32) Ref {
+    Vec4 lo, hi;
+
+    uint32_t prim() const { return std::bit_cast<uint32_t>(lo[3]); }
+    // 0.5·lo + 0.5·hi as centroidOf computes it (no overflow near FLT_MAX); lane 3 is 0.
+    Vec4 centroid() const {
+        const Vec4 xyz = (Vec4)((Int4)lo & Int4{-1, -1, -1, 0});
+        return 0.5f * xyz + 0.5f * hi;
+    }
+};
+static_assert(sizeof(Ref) == 32);
+
+Ref makeRef(const Aabb& box, uint32_t prim) {
+    return {Vec4{box.lo.x, box.lo.y, box.lo.z, std::bit_cast<float>(prim)}, Vec4{box.hi.x, box.hi.y, box.hi.z, 0.0f}};
+}
+Aabb toAabb(Vec4 lo, Vec4 hi) { return {glm::vec3(lo[0], lo[1], lo[2]), glm::vec3(hi[0], hi[1], hi[2])}; }
+
+// A box as four-lane bounds (lane 3 unused). No member initialisers, so that arrays of bins cost
+// nothing until used: `Box4::empty()` is the empty box (as Aabb's).
+struct Box4 {
+    Vec4 lo, hi;
+
+    static Box4 empty() { return {Vec4{} + FLT_MAX, Vec4{} - FLT_MAX}; }
+    void grow(Vec4 point) {
+        lo = min4(lo, point);
+        hi = max4(hi, point);
+    }
+    void grow(const Box4& box) {
+        lo = min4(lo, box.lo);
+        hi = max4(hi, box.hi);
+    }
+    Aabb aabb() const { return toAabb(lo, hi); }
 };
 
-// Maps a centroid coordinate to its bin on one axis. Binning and partitioning call the same
-// function, so a primitive's side of the split is decided by the very bin that counted it.
-struct AxisBinning {
-    bool active = false;  // false when the centroids do not spread along this axis
-    float lo = 0.0f;
-    float scale = 0.0f;  // binCount / extent
-    uint32_t binCount = 0;
+// SahMeasure::halfArea of a box that is not empty (the sweeps' hot path).
+inline double halfArea(const Box4& box) {
+    const double ex = double(box.hi[0]) - double(box.lo[0]);
+    const double ey = double(box.hi[1]) - double(box.lo[1]);
+    const double ez = double(box.hi[2]) - double(box.lo[2]);
+    return ex * ey + ey * ez + ez * ex;
+}
 
-    uint32_t binOf(float coordinate) const {
-        const float position = (coordinate - lo) * scale;
+// Maps centroids to bins, all three axes at once. Binning and partitioning call the same
+// function, so a primitive's side of the split is decided by the very bin that counted it.
+struct Binning {
+    uint32_t binCount = 0;
+    bool active[3] = {false, false, false};  // false where the centroids do not spread along the axis
+    Vec4 lo{};                               // centroid bounds' lower corner (0 on inactive axes)
+    Vec4 scale{};                            // binCount / extent (0 on inactive axes: everything in bin 0)
+    Vec4 lastBin{};
+
+    bool any() const { return active[0] || active[1] || active[2]; }
+    Int4 binsOf(Vec4 centroid) const {
+        Vec4 position = (centroid - lo) * scale;
         // Clamp in float first: the last centroid lands on binCount exactly.
-        return uint32_t(std::clamp(position, 0.0f, float(binCount - 1)));
+        position = position < 0.0f ? Vec4{} : position;
+        position = position > lastBin ? lastBin : position;
+        return __builtin_convertvector(position, Int4);
     }
 };
 
-// The bins of all three axes of one node.
+// The bins of all three axes of one node: a box and a count per bin. No default member
+// initialisers, so a node's bins live on the stack and only the ones in use are cleared.
 struct BinGrid {
     uint32_t binCount;
-    Bin bins[3][kMaxBins];
+    Box4 boxes[3][kMaxBins];
+    uint32_t counts[3][kMaxBins];
 
     explicit BinGrid(uint32_t count) : binCount(count) {
-        for (auto& axisBins : bins)
-            for (uint32_t b = 0; b < count; ++b) axisBins[b] = {glm::vec3(FLT_MAX), glm::vec3(-FLT_MAX), 0};
+        for (int axis = 0; axis < 3; ++axis)
+            for (uint32_t b = 0; b < count; ++b) {
+                boxes[axis][b] = Box4::empty();
+                counts[axis][b] = 0;
+            }
     }
-    void add(const std::array<AxisBinning, 3>& binning, const Aabb& box, const glm::vec3& centroid) {
+    void add(const Binning& binning, const Ref& ref) {
+        const Int4 bins = binning.binsOf(ref.centroid());
         for (int axis = 0; axis < 3; ++axis) {
-            if (!binning[axis].active) continue;
-            Bin& bin = bins[axis][binning[axis].binOf(centroid[axis])];
-            bin.lo = glm::min(bin.lo, box.lo);
-            bin.hi = glm::max(bin.hi, box.hi);
-            ++bin.count;
+            Box4& box = boxes[axis][bins[axis]];
+            box.lo = min4(box.lo, ref.lo);
+            box.hi = max4(box.hi, ref.hi);
+            ++counts[axis][bins[axis]];
         }
     }
     // Exact (integer sums, min/max), so any order of merging gives the same bins.
     void merge(const BinGrid& other) {
         for (int axis = 0; axis < 3; ++axis)
             for (uint32_t b = 0; b < binCount; ++b) {
-                bins[axis][b].lo = glm::min(bins[axis][b].lo, other.bins[axis][b].lo);
-                bins[axis][b].hi = glm::max(bins[axis][b].hi, other.bins[axis][b].hi);
-                bins[axis][b].count += other.bins[axis][b].count;
+                boxes[axis][b].grow(other.boxes[axis][b]);
+                counts[axis][b] += other.counts[axis][b];
             }
     }
 };
@@ -88,7 +160,6 @@ struct BinGrid {
 struct Split {
     bool found = false;
     int axis = 0;
-    AxisBinning binning;                                                // of `axis`
     uint32_t lastLeftBin = 0;                                           // bins 0..lastLeftBin go left
     double weightedMeasures = std::numeric_limits<double>::infinity();  // A_L·N_L + A_R·N_R
     Aabb leftBox, rightBox;
@@ -102,21 +173,20 @@ public:
 
     Bvh build(const Aabb& rootBox) {
         const uint32_t n = uint32_t(bounds_.size());
-        centroids_ = makeLargeVector<glm::vec3>(n);
-        prims_ = makeLargeVector<uint32_t>(n);
-        spill_ = makeLargeVector<uint32_t>(n);
-        const Aabb rootCentroids = tbb::parallel_reduce(
-            tbb::blocked_range<uint32_t>(0, n, kCancelCheckInterval), Aabb{},
-            [&](const tbb::blocked_range<uint32_t>& range, Aabb box) {
+        // Not value-initialised: the pass below writes every reference (and first touches its page).
+        refs_ = std::make_unique_for_overwrite<Ref[]>(n);
+        adviseHugePages(refs_.get(), size_t(n) * sizeof(Ref));
+        const Box4 rootCentroids = tbb::parallel_reduce(
+            tbb::blocked_range<uint32_t>(0, n, kCancelCheckInterval), Box4::empty(),
+            [&](const tbb::blocked_range<uint32_t>& range, Box4 box) {
                 throwIfCancelled(progress_);
                 for (uint32_t i = range.begin(); i < range.end(); ++i) {
-                    centroids_[i] = centroidOf(bounds_[i]);
-                    prims_[i] = i;
-                    box.grow(centroids_[i]);
+                    refs_[i] = makeRef(bounds_[i], i);
+                    box.grow(refs_[i].centroid());
                 }
                 return box;
             },
-            [](Aabb a, const Aabb& b) {
+            [](Box4 a, const Box4& b) {
                 a.grow(b);
                 return a;
             });
@@ -130,7 +200,10 @@ public:
 
         Bvh bvh;
         bvh.nodes = assembleFragments(root);
-        bvh.primIndices = std::move(prims_);
+        bvh.primIndices = makeLargeVector<uint32_t>(n);
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 65536), [&](const tbb::blocked_range<uint32_t>& range) {
+            for (uint32_t i = range.begin(); i < range.end(); ++i) bvh.primIndices[i] = refs_[i].prim();
+        });
         return bvh;
     }
 
@@ -138,10 +211,12 @@ private:
     struct Work {
         uint32_t slot, begin, end;
         Aabb box;
-        Aabb centroidBox;
+        Box4 centroidBox;
     };
 
     void buildFragment(Fragment& fragment, const Work& first, tbb::task_group& tasks) {
+        // At most two subtrees of up to kFragmentMinPrimitives each stay in this fragment.
+        fragment.nodes.reserve(1 + 4 * std::min(first.end - first.begin, kFragmentMinPrimitives));
         std::vector<Work> stack{first};
         uint64_t placedSinceReport = 0;
         while (!stack.empty()) {
@@ -151,27 +226,28 @@ private:
             fragment.nodes[work.slot].lo = work.box.lo;
             fragment.nodes[work.slot].hi = work.box.hi;
 
-            Split split;
-            if (count > options_.leafSize) split = findBestSplit(work);
-            const bool median = !split.found && count > kMaxLeafPrimitives;
-            if (!split.found && !median) {
-                fragment.nodes[work.slot].index = work.begin;
-                fragment.nodes[work.slot].count = count;
-                placedSinceReport += count;
-                if (placedSinceReport >= kCancelCheckInterval) {
-                    addPlaced(progress_, std::exchange(placedSinceReport, 0));
-                    throwIfCancelled(progress_);
-                }
+            if (count <= kSmallNodeMaxPrimitives) {
+                buildSmall(fragment, work.slot, work.begin, work.end, placedSinceReport);
                 continue;
             }
-            Aabb leftCentroids, rightCentroids;
+            Split split;
+            Binning binning;
+            if (count > options_.leafSize) {
+                binning = binningOf(work.centroidBox, count);
+                if (binning.any()) split = findBestSplit(work, binning);
+            }
+            const bool median = !split.found && count > kMaxLeafPrimitives;
+            if (!split.found && !median) {
+                makeLeaf(fragment.nodes[work.slot], work.begin, count, placedSinceReport);
+                continue;
+            }
+            Box4 leftCentroids = Box4::empty(), rightCentroids = Box4::empty();
             uint32_t mid = 0;
             if (median) {
                 // The SAH refuses, but the leaf would be too large: the object median.
-                split.leftBox = split.rightBox = Aabb{};  // the refused candidate's boxes
                 mid = medianSplit(work, split.leftBox, split.rightBox, leftCentroids, rightCentroids);
             } else {
-                mid = partition(split, work, leftCentroids, rightCentroids);
+                mid = partition(split, binning, work, leftCentroids, rightCentroids);
                 RAYPACK_CHECK(mid - work.begin == split.leftCount);
             }
             const uint32_t pair = fragment.addPair();
@@ -194,86 +270,158 @@ private:
         addPlaced(progress_, placedSinceReport);
     }
 
-    // Orders prims_[begin, end) by centroid along the widest axis of the centroids' box (ties by
+    void makeLeaf(BvhNode& node, uint32_t begin, uint32_t count, uint64_t& placedSinceReport) {
+        node.index = begin;
+        node.count = count;
+        placedSinceReport += count;
+        if (placedSinceReport >= kCancelCheckInterval) {
+            addPlaced(progress_, std::exchange(placedSinceReport, 0));
+            throwIfCancelled(progress_);
+        }
+    }
+
+    // The subtree of a node of at most kSmallNodeMaxPrimitives references, whose box is already in
+    // `slot`. Every two-way partition of its references is priced (not only the bins' boundaries:
+    // with this few references that costs less than filling bins), and the cheapest is kept when
+    // it beats the leaf; ties go to the partition whose mask is lower.
+    void buildSmall(Fragment& fragment, uint32_t slot, uint32_t begin, uint32_t end, uint64_t& placedSinceReport) {
+        const uint32_t count = end - begin;
+        Ref* const refs = refs_.get() + begin;
+        const Aabb parent{fragment.nodes[slot].lo, fragment.nodes[slot].hi};
+        uint32_t leftMask = 0;
+        Box4 boxes[1u << kSmallNodeMaxPrimitives];  // of each subset of the references, by mask
+        if (count > options_.leafSize) {
+            const uint32_t full = (1u << count) - 1;
+            double measures[1u << kSmallNodeMaxPrimitives];
+            const SahMeasure measure = SahMeasure::forParent(parent);
+            boxes[0] = Box4::empty();
+            for (uint32_t mask = 1; mask <= full; ++mask) {
+                const uint32_t lowest = uint32_t(std::countr_zero(mask));
+                boxes[mask].lo = min4(boxes[mask & (mask - 1)].lo, refs[lowest].lo);
+                boxes[mask].hi = max4(boxes[mask & (mask - 1)].hi, refs[lowest].hi);
+                measures[mask] =
+                    measure.kind == SahMeasureKind::Area ? halfArea(boxes[mask]) : measure.of(boxes[mask].aabb());
+            }
+            double best = std::numeric_limits<double>::infinity();
+            for (uint32_t mask = 1; mask < full; mask += 2) {  // reference 0 always on the left
+                const double weighted = measures[mask] * double(std::popcount(mask)) +
+                                        measures[full ^ mask] * double(std::popcount(full ^ mask));
+                if (weighted < best) {
+                    best = weighted;
+                    leftMask = mask;
+                }
+            }
+            if (count > 1 && !(splitCost(best, measure.of(parent), options_) < leafCost(count, options_))) leftMask = 0;
+        }
+        if (leftMask == 0) {
+            makeLeaf(fragment.nodes[slot], begin, count, placedSinceReport);
+            return;
+        }
+        // The left subset first, each side in its present order.
+        Ref sorted[kSmallNodeMaxPrimitives];
+        uint32_t leftCount = 0;
+        for (uint32_t i = 0; i < count; ++i)
+            if (leftMask >> i & 1) sorted[leftCount++] = refs[i];
+        for (uint32_t i = 0, right = leftCount; i < count; ++i)
+            if (!(leftMask >> i & 1)) sorted[right++] = refs[i];
+        std::copy(sorted, sorted + count, refs);
+
+        const uint32_t pair = fragment.addPair();
+        fragment.nodes[slot].index = pair;
+        fragment.nodes[slot].count = 0;
+        const uint32_t rightMask = ((1u << count) - 1) ^ leftMask;
+        const Box4 childBoxes[2] = {boxes[leftMask], boxes[rightMask]};
+        const uint32_t bounds[3] = {begin, begin + leftCount, end};
+        for (uint32_t k = 0; k < 2; ++k) {
+            fragment.nodes[pair + k].lo = childBoxes[k].aabb().lo;
+            fragment.nodes[pair + k].hi = childBoxes[k].aabb().hi;
+            buildSmall(fragment, pair + k, bounds[k], bounds[k + 1], placedSinceReport);
+        }
+    }
+
+    // Orders the node's references by centroid along the widest axis of the centroids' box (ties by
     // primitive index, so the order is total and the tree deterministic) and splits at the middle;
     // returns the first right position and the halves' boxes. When every centroid coincides the
     // order is by index alone: the halves overlap, but each is half as large.
-    uint32_t medianSplit(const Work& work, Aabb& leftBox, Aabb& rightBox, Aabb& leftCentroids, Aabb& rightCentroids) {
-        const glm::vec3 extent = work.centroidBox.hi - work.centroidBox.lo;
-        const int axis = extent.x >= extent.y && extent.x >= extent.z ? 0 : extent.y >= extent.z ? 1 : 2;
+    uint32_t medianSplit(const Work& work, Aabb& leftBox, Aabb& rightBox, Box4& leftCentroids, Box4& rightCentroids) {
+        const Vec4 extent = work.centroidBox.hi - work.centroidBox.lo;
+        const int axis = extent[0] >= extent[1] && extent[0] >= extent[2] ? 0 : extent[1] >= extent[2] ? 1 : 2;
         const uint32_t mid = work.begin + (work.end - work.begin) / 2;
-        auto before = [&](uint32_t a, uint32_t b) {
-            const float ca = centroids_[a][axis], cb = centroids_[b][axis];
-            return ca < cb || (ca == cb && a < b);
+        auto before = [axis](const Ref& a, const Ref& b) {
+            const float ca = a.centroid()[axis], cb = b.centroid()[axis];
+            return ca < cb || (ca == cb && a.prim() < b.prim());
         };
-        std::nth_element(prims_.begin() + work.begin, prims_.begin() + mid, prims_.begin() + work.end, before);
-        // The two halves keep the order of their primitive indices, as the partition's stable
-        // order would (leaf contents do not depend on nth_element's internal order).
-        std::sort(prims_.begin() + work.begin, prims_.begin() + mid);
-        std::sort(prims_.begin() + mid, prims_.begin() + work.end);
+        auto byIndex = [](const Ref& a, const Ref& b) { return a.prim() < b.prim(); };
+        Ref* const refs = refs_.get();
+        std::nth_element(refs + work.begin, refs + mid, refs + work.end, before);
+        // Each half in the order of its primitive indices, so that leaf contents do not depend on
+        // nth_element's internal order.
+        std::sort(refs + work.begin, refs + mid, byIndex);
+        std::sort(refs + mid, refs + work.end, byIndex);
         throwIfCancelled(progress_);
+        Box4 left = Box4::empty(), right = Box4::empty();
         for (uint32_t i = work.begin; i < work.end; ++i) {
-            const uint32_t prim = prims_[i];
-            (i < mid ? leftBox : rightBox).grow(bounds_[prim]);
-            (i < mid ? leftCentroids : rightCentroids).grow(centroids_[prim]);
+            const Ref& ref = refs[i];
+            Box4& box = i < mid ? left : right;
+            box.lo = min4(box.lo, ref.lo);
+            box.hi = max4(box.hi, ref.hi);
+            (i < mid ? leftCentroids : rightCentroids).grow(ref.centroid());
         }
+        leftBox = left.aabb();
+        rightBox = right.aabb();
         return mid;
     }
 
     // A node of N primitives gets min(binCount, N) bins per axis: more bins than primitives only
     // repeat candidates, and evaluating 3·binCount bins dominated the time of the many small nodes.
-    std::array<AxisBinning, 3> binningOf(const Aabb& centroidBox, uint32_t primitiveCount) const {
-        const uint32_t binCount = std::max(2u, std::min(options_.binCount, primitiveCount));
-        std::array<AxisBinning, 3> binning;
+    Binning binningOf(const Box4& centroidBox, uint32_t primitiveCount) const {
+        Binning binning;
+        binning.binCount = std::max(2u, std::min(options_.binCount, uint32_t(4.0f + 0.05f * float(primitiveCount))));
         for (int axis = 0; axis < 3; ++axis) {
             const float extent = centroidBox.hi[axis] - centroidBox.lo[axis];
-            const float scale = float(binCount) / extent;
+            const float scale = float(binning.binCount) / extent;
             // Inactive when the centroids coincide on this axis, or when the extent is so small
             // (subnormal) or so large (overflowing) that the scale is not a usable finite number.
-            if (extent > 0.0f && std::isfinite(extent) && std::isfinite(scale) && scale > 0.0f)
-                binning[axis] = {true, centroidBox.lo[axis], scale, binCount};
+            if (extent > 0.0f && std::isfinite(extent) && std::isfinite(scale) && scale > 0.0f) {
+                binning.active[axis] = true;
+                binning.lo[axis] = centroidBox.lo[axis];
+                binning.scale[axis] = scale;
+            }
+            binning.lastBin[axis] = float(binning.binCount - 1);
         }
         return binning;
     }
 
-    void fillBins(const std::array<AxisBinning, 3>& binning, uint32_t begin, uint32_t end, BinGrid& grid) const {
+    void fillBins(const Binning& binning, uint32_t begin, uint32_t end, BinGrid& grid) const {
         for (uint32_t chunk = begin; chunk < end; chunk += kCancelCheckInterval) {
             throwIfCancelled(progress_);
             const uint32_t chunkEnd = std::min(end, chunk + kCancelCheckInterval);
-            for (uint32_t i = chunk; i < chunkEnd; ++i) {
-                const uint32_t prim = prims_[i];
-                grid.add(binning, bounds_[prim], centroids_[prim]);
-            }
+            for (uint32_t i = chunk; i < chunkEnd; ++i) grid.add(binning, refs_[i]);
         }
     }
 
     // Parallel filling of a large node's bins (tbb::parallel_reduce's splitting body).
     struct BinFiller {
         const SahBinnedBuilder& builder;
-        const std::array<AxisBinning, 3>& binning;
+        const Binning& binning;
         std::unique_ptr<BinGrid> grid;
-        BinFiller(const SahBinnedBuilder& b, const std::array<AxisBinning, 3>& axes, uint32_t count)
-            : builder(b), binning(axes), grid(std::make_unique<BinGrid>(count)) {}
-        BinFiller(BinFiller& other, tbb::split) : BinFiller(other.builder, other.binning, other.grid->binCount) {}
+        BinFiller(const SahBinnedBuilder& b, const Binning& axes)
+            : builder(b), binning(axes), grid(std::make_unique<BinGrid>(axes.binCount)) {}
+        BinFiller(BinFiller& other, tbb::split) : BinFiller(other.builder, other.binning) {}
         void operator()(const tbb::blocked_range<uint32_t>& range) {
             builder.fillBins(binning, range.begin(), range.end(), *grid);
         }
         void join(const BinFiller& other) { grid->merge(*other.grid); }
     };
 
-    Split findBestSplit(const Work& work) const {
+    Split findBestSplit(const Work& work, const Binning& binning) const {
         const uint32_t total = work.end - work.begin;
-        const std::array<AxisBinning, 3> binning = binningOf(work.centroidBox, total);
-        if (!binning[0].active && !binning[1].active && !binning[2].active) return {};  // one point
-        const uint32_t binCount = binning[0].active   ? binning[0].binCount
-                                  : binning[1].active ? binning[1].binCount
-                                                      : binning[2].binCount;
-
-        BinGrid localGrid(binCount);
+        const uint32_t binCount = binning.binCount;
+        BinGrid localGrid(total > kParallelNodeMinPrimitives ? 0 : binCount);
         std::unique_ptr<BinGrid> parallelGrid;
         if (total > kParallelNodeMinPrimitives) {
-            BinFiller filler(*this, binning, binCount);
-            tbb::parallel_reduce(tbb::blocked_range<uint32_t>(work.begin, work.end, kCancelCheckInterval), filler);
+            BinFiller filler(*this, binning);
+            tbb::parallel_reduce(tbb::blocked_range<uint32_t>(work.begin, work.end, kPartitionChunk), filler);
             throwIfInterrupted(progress_);
             parallelGrid = std::move(filler.grid);
         } else {
@@ -283,127 +431,168 @@ private:
 
         const SahMeasure measure = SahMeasure::forParent(work.box);
         Split best;
-        double leftMeasure[kMaxBins];
-        Bin leftBoxes[kMaxBins];                // only lo and hi used
-        for (int axis = 0; axis < 3; ++axis) {  // strict < below: ties go to the lower axis
-            if (!binning[axis].active) continue;
-            const Bin* bins = grid.bins[axis];
-            Aabb box;
-            for (uint32_t b = 0; b + 1 < binCount; ++b) {
-                box.grow(Aabb{bins[b].lo, bins[b].hi});
-                leftBoxes[b] = {box.lo, box.hi, 0};
-                leftMeasure[b] = measure.of(box);
-            }
-            Aabb rightBox;
-            uint32_t rightCount = 0;
-            for (uint32_t b = binCount - 1; b >= 1; --b) {  // split between bins b - 1 and b
-                rightBox.grow(Aabb{bins[b].lo, bins[b].hi});
-                rightCount += bins[b].count;
-                const uint32_t leftCount = total - rightCount;
-                if (rightCount == 0 || leftCount == 0) continue;
-                const double weighted =
-                    leftMeasure[b - 1] * double(leftCount) + measure.of(rightBox) * double(rightCount);
-                if (weighted < best.weightedMeasures || (weighted == best.weightedMeasures && axis == best.axis)) {
-                    best.weightedMeasures = weighted;
-                    best.axis = axis;
-                    best.binning = binning[axis];
-                    best.lastLeftBin = b - 1;
-                    best.leftBox = Aabb{leftBoxes[b - 1].lo, leftBoxes[b - 1].hi};
-                    best.rightBox = rightBox;
-                    best.leftCount = leftCount;
-                }
-            }
-        }
+        if (measure.kind == SahMeasureKind::Area)
+            sweepBins(grid, binning, best, [](const Box4& box) { return halfArea(box); });
+        else
+            sweepBins(grid, binning, best, [&](const Box4& box) { return measure.of(box.aabb()); });
         if (best.weightedMeasures == std::numeric_limits<double>::infinity()) return {};
         const double cost = splitCost(best.weightedMeasures, measure.of(work.box), options_);
         best.found = cost < leafCost(total, options_);
         return best;
     }
 
-    // Stable partition of prims_[begin, end) by bin; returns the first right position and the
-    // children's centroid boxes. Chunked, with the chunks' offsets from a prefix sum, so the serial
-    // and the parallel path give the same order.
-    uint32_t partition(const Split& split, const Work& work, Aabb& leftCentroids, Aabb& rightCentroids) {
-        const AxisBinning& binning = split.binning;
-        auto goesLeft = [&](uint32_t prim) { return binning.binOf(centroids_[prim][split.axis]) <= split.lastLeftBin; };
-        const uint32_t count = work.end - work.begin;
-        if (count <= kParallelNodeMinPrimitives) {
-            uint32_t leftEnd = work.begin, spillEnd = work.begin;
-            for (uint32_t i = work.begin; i < work.end; ++i) {
-                const uint32_t prim = prims_[i];
-                if (goesLeft(prim)) {
-                    prims_[leftEnd++] = prim;  // leftEnd <= i: in place
-                    leftCentroids.grow(centroids_[prim]);
-                } else {
-                    spill_[spillEnd++] = prim;
-                    rightCentroids.grow(centroids_[prim]);
+    // Prices every boundary between bins on the active axes and keeps the cheapest in `best`: ties
+    // go to the lower axis, then the lower boundary. `measureOf` is only asked about boxes that hold
+    // primitives.
+    template <typename Measure>
+    static void sweepBins(const BinGrid& grid, const Binning& binning, Split& best, Measure measureOf) {
+        const uint32_t binCount = binning.binCount;
+        double rightMeasure[kMaxBins];  // of bins b..binCount-1, where they hold primitives
+        uint32_t rightCount[kMaxBins];
+        Box4 rightBoxes[kMaxBins];
+        for (int axis = 0; axis < 3; ++axis) {
+            if (!binning.active[axis]) continue;
+            const Box4* boxes = grid.boxes[axis];
+            const uint32_t* counts = grid.counts[axis];
+            Box4 right = Box4::empty();
+            uint32_t rightTotal = 0;
+            for (uint32_t b = binCount - 1; b >= 1; --b) {
+                right.grow(boxes[b]);
+                rightTotal += counts[b];
+                rightBoxes[b] = right;
+                rightCount[b] = rightTotal;
+                rightMeasure[b] = rightTotal ? measureOf(right) : 0.0;
+            }
+            Box4 left = Box4::empty();
+            uint32_t leftCount = 0;
+            for (uint32_t b = 1; b < binCount; ++b) {  // split between bins b - 1 and b
+                left.grow(boxes[b - 1]);
+                leftCount += counts[b - 1];
+                if (leftCount == 0 || rightCount[b] == 0) continue;
+                const double weighted = measureOf(left) * double(leftCount) + rightMeasure[b] * double(rightCount[b]);
+                if (weighted < best.weightedMeasures) {
+                    best.weightedMeasures = weighted;
+                    best.axis = axis;
+                    best.lastLeftBin = b - 1;
+                    best.leftBox = left.aabb();
+                    best.rightBox = rightBoxes[b].aabb();
+                    best.leftCount = leftCount;
                 }
             }
-            std::memcpy(&prims_[leftEnd], &spill_[work.begin], (spillEnd - work.begin) * sizeof(uint32_t));
-            return leftEnd;
         }
+    }
+
+    // Partitions refs_[begin, end) in place by the split's bin: the references that go left first.
+    // Returns the first right position and grows the children's centroid boxes. Large nodes
+    // partition fixed-size chunks in parallel, then swap the misplaced runs across the split; both
+    // paths depend on the node's contents only, never on the schedule.
+    uint32_t partition(const Split& split, const Binning& binning, const Work& work, Box4& leftCentroids,
+                       Box4& rightCentroids) {
+        const uint32_t count = work.end - work.begin;
+        if (count <= kParallelNodeMinPrimitives)
+            return partitionRange(split, binning, work.begin, work.end, leftCentroids, rightCentroids);
 
         const uint32_t chunkCount = (count + kPartitionChunk - 1) / kPartitionChunk;
         struct Chunk {
-            uint32_t leftCount = 0;
-            uint32_t leftOffset = 0, rightOffset = 0;
-            Aabb leftCentroids, rightCentroids;
+            uint32_t begin, end, mid;
+            Box4 leftCentroids = Box4::empty(), rightCentroids = Box4::empty();
         };
         std::vector<Chunk> chunks(chunkCount);
-        auto chunkRange = [&](uint32_t c) {
-            const uint32_t from = work.begin + c * kPartitionChunk;
-            return std::pair{from, std::min(work.end, from + kPartitionChunk)};
-        };
         tbb::parallel_for(uint32_t(0), chunkCount, [&](uint32_t c) {
             throwIfCancelled(progress_);
-            const auto [from, to] = chunkRange(c);
-            for (uint32_t i = from; i < to; ++i) {
-                const uint32_t prim = prims_[i];
-                if (goesLeft(prim)) {
-                    ++chunks[c].leftCount;
-                    chunks[c].leftCentroids.grow(centroids_[prim]);
-                } else {
-                    chunks[c].rightCentroids.grow(centroids_[prim]);
-                }
-            }
+            Chunk& chunk = chunks[c];
+            chunk.begin = work.begin + c * kPartitionChunk;
+            chunk.end = std::min(work.end, chunk.begin + kPartitionChunk);
+            chunk.mid =
+                partitionRange(split, binning, chunk.begin, chunk.end, chunk.leftCentroids, chunk.rightCentroids);
         });
         throwIfInterrupted(progress_);
+
+        // Each chunk is [lefts | rights]. Below the split position the chunks' right runs are
+        // misplaced, above it their left runs; both total the same count. The k-th misplaced right
+        // reference swaps with the k-th misplaced left one.
         uint32_t leftTotal = 0;
-        for (const Chunk& chunk : chunks) leftTotal += chunk.leftCount;
-        uint32_t leftOffset = work.begin, rightOffset = work.begin + leftTotal;
-        for (uint32_t c = 0; c < chunkCount; ++c) {
-            const auto [from, to] = chunkRange(c);
-            chunks[c].leftOffset = leftOffset;
-            chunks[c].rightOffset = rightOffset;
-            leftOffset += chunks[c].leftCount;
-            rightOffset += (to - from) - chunks[c].leftCount;
-            leftCentroids.grow(chunks[c].leftCentroids);
-            rightCentroids.grow(chunks[c].rightCentroids);
+        for (const Chunk& chunk : chunks) {
+            leftTotal += chunk.mid - chunk.begin;
+            leftCentroids.grow(chunk.leftCentroids);
+            rightCentroids.grow(chunk.rightCentroids);
         }
-        tbb::parallel_for(uint32_t(0), chunkCount, [&](uint32_t c) {
-            throwIfCancelled(progress_);
-            const auto [from, to] = chunkRange(c);
-            uint32_t left = chunks[c].leftOffset, right = chunks[c].rightOffset;
-            for (uint32_t i = from; i < to; ++i) {
-                const uint32_t prim = prims_[i];
-                spill_[goesLeft(prim) ? left++ : right++] = prim;
+        const uint32_t splitPosition = work.begin + leftTotal;
+        struct Run {
+            uint32_t begin, end;
+        };
+        // Where the k-th reference of a misplaced sequence lies, and how many follow it in its run.
+        struct Runs {
+            std::vector<Run> runs;
+            std::vector<uint64_t> offsets{0};  // of each run in the sequence; the total last
+            void add(Run run) {
+                if (run.begin >= run.end) return;
+                runs.push_back(run);
+                offsets.push_back(offsets.back() + (run.end - run.begin));
+            }
+            std::pair<uint32_t, uint32_t> locate(uint64_t k) const {
+                const size_t r = size_t(std::upper_bound(offsets.begin(), offsets.end(), k) - offsets.begin()) - 1;
+                const uint32_t position = uint32_t(runs[r].begin + (k - offsets[r]));
+                return {position, runs[r].end - position};
+            }
+        };
+        Runs wrongRights, wrongLefts;
+        for (const Chunk& chunk : chunks) {
+            wrongRights.add({chunk.mid, std::min(chunk.end, splitPosition)});
+            wrongLefts.add({std::max(chunk.begin, splitPosition), chunk.mid});
+        }
+        const uint64_t misplaced = wrongRights.offsets.back();
+        RAYPACK_CHECK(misplaced == wrongLefts.offsets.back());
+        const uint64_t pieceCount = (misplaced + kPartitionChunk - 1) / kPartitionChunk;
+        Ref* const refs = refs_.get();
+        tbb::parallel_for(uint64_t(0), pieceCount, [&](uint64_t piece) {
+            const uint64_t to = std::min(misplaced, (piece + 1) * kPartitionChunk);
+            for (uint64_t k = piece * kPartitionChunk; k < to;) {
+                const auto [right, rightRemaining] = wrongRights.locate(k);
+                const auto [left, leftRemaining] = wrongLefts.locate(k);
+                const uint32_t stretch = uint32_t(std::min({to - k, uint64_t(rightRemaining), uint64_t(leftRemaining)}));
+                std::swap_ranges(refs + right, refs + right + stretch, refs + left);
+                k += stretch;
             }
         });
         throwIfInterrupted(progress_);
-        tbb::parallel_for(uint32_t(0), chunkCount, [&](uint32_t c) {
-            const auto [from, to] = chunkRange(c);
-            std::memcpy(&prims_[from], &spill_[from], (to - from) * sizeof(uint32_t));
-        });
-        throwIfInterrupted(progress_);
-        return work.begin + leftTotal;
+        return splitPosition;
+    }
+
+    // Serial in-place partition of refs_[begin, end) (Hoare's two scans); returns the first right
+    // position.
+    uint32_t partitionRange(const Split& split, const Binning& binning, uint32_t begin, uint32_t end,
+                            Box4& leftCentroids, Box4& rightCentroids) {
+        const int axis = split.axis;
+        const int32_t lastLeftBin = int32_t(split.lastLeftBin);
+        Ref* left = refs_.get() + begin;
+        Ref* right = refs_.get() + end;
+        for (;;) {
+            for (; left < right; ++left) {
+                const Vec4 centroid = left->centroid();
+                if (binning.binsOf(centroid)[axis] > lastLeftBin) break;
+                leftCentroids.grow(centroid);
+            }
+            for (; left < right; --right) {
+                const Vec4 centroid = right[-1].centroid();
+                if (binning.binsOf(centroid)[axis] <= lastLeftBin) break;
+                rightCentroids.grow(centroid);
+            }
+            if (left == right) break;
+            // *left goes right and right[-1] goes left: swap them into place.
+            std::swap(*left, right[-1]);
+            leftCentroids.grow(left->centroid());
+            rightCentroids.grow(right[-1].centroid());
+            ++left;
+            --right;
+        }
+        return uint32_t(left - refs_.get());
     }
 
     std::span<const Aabb> bounds_;
     const BvhBuildOptions& options_;
     BuildProgress* progress_;
-    std::vector<glm::vec3> centroids_;  // by primitive index
-    std::vector<uint32_t> prims_;       // a node owns a range of this
-    std::vector<uint32_t> spill_;       // partition scratch, same ranges as prims_
+    std::unique_ptr<Ref[]> refs_;  // one per primitive; a node owns a range of this
 };
 
 }  // namespace
