@@ -48,6 +48,11 @@ constexpr uint32_t kParallelNodeMinPrimitives = RAYPACK_BINNED_PARALLEL;
 constexpr uint32_t kPartitionChunk = RAYPACK_BINNED_GRAIN;
 
 constexpr uint32_t kMaxBins = 256;
+// Subtrees of more references than this are built by tasks of their own.
+#ifndef RAYPACK_BINNED_TASK
+#define RAYPACK_BINNED_TASK 4096
+#endif
+constexpr uint32_t kTaskMinPrimitives = RAYPACK_BINNED_TASK;
 
 #ifndef RAYPACK_BINNED_SMALL
 #define RAYPACK_BINNED_SMALL 4
@@ -192,14 +197,23 @@ public:
             });
         throwIfInterrupted(progress_);
 
-        Fragment root;
-        root.nodes.resize(1);
+        // A subtree of k references has at most k - 1 inner nodes, so it can own 2(k - 1) slots
+        // for its children's pairs before any thread builds it: the tree is laid out depth first
+        // (a node's pair, the left subtree's pairs, the right subtree's) in 2n - 1 slots, whichever
+        // thread builds which part. Leaves of more than one reference leave some of their
+        // subtree's slots unused; compact() closes those gaps. Not value-initialised: only the
+        // slots in use are written and read.
+        arena_ = std::make_unique_for_overwrite<BvhNode[]>(2 * size_t(n) - 1);
+        adviseHugePages(arena_.get(), (2 * size_t(n) - 1) * sizeof(BvhNode));
+        pairUsed_ = makeLargeVector<uint8_t>(n);
+        arena_[0].lo = rootBox.lo;
+        arena_[0].hi = rootBox.hi;
         tbb::task_group tasks;
-        buildFragment(root, {0, 0, n, rootBox, rootCentroids}, tasks);
+        buildSubtree({0, 1, 0, n, rootCentroids}, tasks);
         tasks.wait();  // rethrows BuildCancelled from any task
 
         Bvh bvh;
-        bvh.nodes = assembleFragments(root);
+        bvh.nodes = compact();
         bvh.primIndices = makeLargeVector<uint32_t>(n);
         tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 65536), [&](const tbb::blocked_range<uint32_t>& range) {
             for (uint32_t i = range.begin(); i < range.end(); ++i) bvh.primIndices[i] = refs_[i].prim();
@@ -208,37 +222,36 @@ public:
     }
 
 private:
+    // A node to build: its slot in arena_ (its box is written there already), the first slot its
+    // subtree's pairs may use, and its references.
     struct Work {
-        uint32_t slot, begin, end;
-        Aabb box;
+        uint32_t slot, pairBase, begin, end;
         Box4 centroidBox;
     };
 
-    void buildFragment(Fragment& fragment, const Work& first, tbb::task_group& tasks) {
-        // At most two subtrees of up to kFragmentMinPrimitives each stay in this fragment.
-        fragment.nodes.reserve(1 + 4 * std::min(first.end - first.begin, kFragmentMinPrimitives));
+    // Builds the subtree of `first` depth first; subtrees of more than kTaskMinPrimitives
+    // references become tasks of their own.
+    void buildSubtree(const Work& first, tbb::task_group& tasks) {
         std::vector<Work> stack{first};
         uint64_t placedSinceReport = 0;
         while (!stack.empty()) {
             const Work work = stack.back();
             stack.pop_back();
             const uint32_t count = work.end - work.begin;
-            fragment.nodes[work.slot].lo = work.box.lo;
-            fragment.nodes[work.slot].hi = work.box.hi;
-
             if (count <= kSmallNodeMaxPrimitives) {
-                buildSmall(fragment, work.slot, work.begin, work.end, placedSinceReport);
+                buildSmall(work.slot, work.pairBase, work.begin, work.end, placedSinceReport);
                 continue;
             }
+            const Aabb box{arena_[work.slot].lo, arena_[work.slot].hi};
             Split split;
             Binning binning;
             if (count > options_.leafSize) {
                 binning = binningOf(work.centroidBox, count);
-                if (binning.any()) split = findBestSplit(work, binning);
+                if (binning.any()) split = findBestSplit(work, box, binning);
             }
             const bool median = !split.found && count > kMaxLeafPrimitives;
             if (!split.found && !median) {
-                makeLeaf(fragment.nodes[work.slot], work.begin, count, placedSinceReport);
+                makeLeaf(arena_[work.slot], work.begin, count, placedSinceReport);
                 continue;
             }
             Box4 leftCentroids = Box4::empty(), rightCentroids = Box4::empty();
@@ -250,24 +263,73 @@ private:
                 mid = partition(split, binning, work, leftCentroids, rightCentroids);
                 RAYPACK_CHECK(mid - work.begin == split.leftCount);
             }
-            const uint32_t pair = fragment.addPair();
-            fragment.nodes[work.slot].index = pair;
-            fragment.nodes[work.slot].count = 0;
-            const Work children[2] = {{pair, work.begin, mid, split.leftBox, leftCentroids},
-                                      {pair + 1, mid, work.end, split.rightBox, rightCentroids}};
+            const uint32_t pair = makeInner(work.slot, work.pairBase, split.leftBox, split.rightBox);
+            const Work children[2] = {{pair, pair + 2, work.begin, mid, leftCentroids},
+                                      {pair + 1, pair + 2 * (mid - work.begin), mid, work.end, rightCentroids}};
             for (int k = 1; k >= 0; --k) {  // left on top of the stack: depth first, left first
                 const Work& child = children[k];
-                if (child.end - child.begin > kFragmentMinPrimitives) {
-                    Fragment& own = fragment.link(child.slot);
-                    Work root = child;
-                    root.slot = 0;
-                    tasks.run([this, &own, root, &tasks] { buildFragment(own, root, tasks); });
-                } else {
+                if (child.end - child.begin > kTaskMinPrimitives)
+                    tasks.run([this, child, &tasks] { buildSubtree(child, tasks); });
+                else
                     stack.push_back(child);
-                }
             }
         }
         addPlaced(progress_, placedSinceReport);
+    }
+
+    // Makes the node in `slot` an inner node whose children take slots `pair` and `pair` + 1,
+    // writes their boxes and returns `pair`. The left child's subtree may use the slots from
+    // pair + 2 on, for up to 2(k - 1) nodes if it holds k references; the right one's follow.
+    uint32_t makeInner(uint32_t slot, uint32_t pair, const Aabb& leftBox, const Aabb& rightBox) {
+        pairUsed_[pairIndex(pair)] = 1;
+        arena_[slot].index = pair;
+        arena_[slot].count = 0;
+        arena_[pair].lo = leftBox.lo;
+        arena_[pair].hi = leftBox.hi;
+        arena_[pair + 1].lo = rightBox.lo;
+        arena_[pair + 1].hi = rightBox.hi;
+        return pair;
+    }
+
+    static uint32_t pairIndex(uint32_t slot) { return (slot - 1) / 2; }
+
+    // The tree without the arena's unused pairs, in the arena's order (depth first). A pair's new
+    // slot counts the pairs in use before it.
+    std::vector<BvhNode> compact() {
+        const uint32_t n = uint32_t(pairUsed_.size());  // pairs 0..n-2 (slots 1..2n-2)
+        constexpr uint32_t kBlock = 65536;
+        const uint32_t blockCount = (n + kBlock - 1) / kBlock;
+        std::vector<uint32_t> splitsBefore(blockCount + 1, 0);  // per block of positions
+        tbb::parallel_for(uint32_t(0), blockCount, [&](uint32_t block) {
+            const uint32_t from = block * kBlock, to = std::min(n, from + kBlock);
+            uint32_t splits = 0;
+            for (uint32_t k = from; k < to; ++k) splits += pairUsed_[k];
+            splitsBefore[block + 1] = splits;
+        });
+        for (uint32_t block = 0; block < blockCount; ++block) splitsBefore[block + 1] += splitsBefore[block];
+        // newPair[k]: the new slot of the pair in use at arena slots 2k + 1 and 2k + 2.
+        std::unique_ptr<uint32_t[]> newPair = std::make_unique_for_overwrite<uint32_t[]>(n);
+        tbb::parallel_for(uint32_t(0), blockCount, [&](uint32_t block) {
+            const uint32_t from = block * kBlock, to = std::min(n, from + kBlock);
+            uint32_t splits = splitsBefore[block];
+            for (uint32_t k = from; k < to; ++k)
+                if (pairUsed_[k]) newPair[k] = 1 + 2 * splits++;
+        });
+        std::vector<BvhNode> nodes = makeLargeVector<BvhNode>(1 + 2 * size_t(splitsBefore[blockCount]));
+        auto moved = [&](BvhNode node) {
+            if (node.count == 0) node.index = newPair[pairIndex(node.index)];
+            return node;
+        };
+        nodes[0] = moved(arena_[0]);
+        tbb::parallel_for(uint32_t(0), blockCount, [&](uint32_t block) {
+            const uint32_t from = block * kBlock, to = std::min(n, from + kBlock);
+            for (uint32_t k = from; k < to; ++k) {
+                if (!pairUsed_[k]) continue;
+                nodes[newPair[k]] = moved(arena_[2 * k + 1]);
+                nodes[newPair[k] + 1] = moved(arena_[2 * k + 2]);
+            }
+        });
+        return nodes;
     }
 
     void makeLeaf(BvhNode& node, uint32_t begin, uint32_t count, uint64_t& placedSinceReport) {
@@ -284,10 +346,10 @@ private:
     // `slot`. Every two-way partition of its references is priced (not only the bins' boundaries:
     // with this few references that costs less than filling bins), and the cheapest is kept when
     // it beats the leaf; ties go to the partition whose mask is lower.
-    void buildSmall(Fragment& fragment, uint32_t slot, uint32_t begin, uint32_t end, uint64_t& placedSinceReport) {
+    void buildSmall(uint32_t slot, uint32_t pairBase, uint32_t begin, uint32_t end, uint64_t& placedSinceReport) {
         const uint32_t count = end - begin;
         Ref* const refs = refs_.get() + begin;
-        const Aabb parent{fragment.nodes[slot].lo, fragment.nodes[slot].hi};
+        const Aabb parent{arena_[slot].lo, arena_[slot].hi};
         uint32_t leftMask = 0;
         Box4 boxes[1u << kSmallNodeMaxPrimitives];  // of each subset of the references, by mask
         if (count > options_.leafSize) {
@@ -314,7 +376,7 @@ private:
             if (count > 1 && !(splitCost(best, measure.of(parent), options_) < leafCost(count, options_))) leftMask = 0;
         }
         if (leftMask == 0) {
-            makeLeaf(fragment.nodes[slot], begin, count, placedSinceReport);
+            makeLeaf(arena_[slot], begin, count, placedSinceReport);
             return;
         }
         // The left subset first, each side in its present order.
@@ -326,17 +388,11 @@ private:
             if (!(leftMask >> i & 1)) sorted[right++] = refs[i];
         std::copy(sorted, sorted + count, refs);
 
-        const uint32_t pair = fragment.addPair();
-        fragment.nodes[slot].index = pair;
-        fragment.nodes[slot].count = 0;
+        const uint32_t mid = begin + leftCount;
         const uint32_t rightMask = ((1u << count) - 1) ^ leftMask;
-        const Box4 childBoxes[2] = {boxes[leftMask], boxes[rightMask]};
-        const uint32_t bounds[3] = {begin, begin + leftCount, end};
-        for (uint32_t k = 0; k < 2; ++k) {
-            fragment.nodes[pair + k].lo = childBoxes[k].aabb().lo;
-            fragment.nodes[pair + k].hi = childBoxes[k].aabb().hi;
-            buildSmall(fragment, pair + k, bounds[k], bounds[k + 1], placedSinceReport);
-        }
+        const uint32_t pair = makeInner(slot, pairBase, boxes[leftMask].aabb(), boxes[rightMask].aabb());
+        buildSmall(pair, pair + 2, begin, mid, placedSinceReport);
+        buildSmall(pair + 1, pair + 2 * leftCount, mid, end, placedSinceReport);
     }
 
     // Orders the node's references by centroid along the widest axis of the centroids' box (ties by
@@ -414,7 +470,7 @@ private:
         void join(const BinFiller& other) { grid->merge(*other.grid); }
     };
 
-    Split findBestSplit(const Work& work, const Binning& binning) const {
+    Split findBestSplit(const Work& work, const Aabb& box, const Binning& binning) const {
         const uint32_t total = work.end - work.begin;
         const uint32_t binCount = binning.binCount;
         BinGrid localGrid(total > kParallelNodeMinPrimitives ? 0 : binCount);
@@ -429,14 +485,14 @@ private:
         }
         const BinGrid& grid = parallelGrid ? *parallelGrid : localGrid;
 
-        const SahMeasure measure = SahMeasure::forParent(work.box);
+        const SahMeasure measure = SahMeasure::forParent(box);
         Split best;
         if (measure.kind == SahMeasureKind::Area)
             sweepBins(grid, binning, best, [](const Box4& box) { return halfArea(box); });
         else
             sweepBins(grid, binning, best, [&](const Box4& box) { return measure.of(box.aabb()); });
         if (best.weightedMeasures == std::numeric_limits<double>::infinity()) return {};
-        const double cost = splitCost(best.weightedMeasures, measure.of(work.box), options_);
+        const double cost = splitCost(best.weightedMeasures, measure.of(box), options_);
         best.found = cost < leafCost(total, options_);
         return best;
     }
@@ -592,7 +648,9 @@ private:
     std::span<const Aabb> bounds_;
     const BvhBuildOptions& options_;
     BuildProgress* progress_;
-    std::unique_ptr<Ref[]> refs_;  // one per primitive; a node owns a range of this
+    std::unique_ptr<Ref[]> refs_;       // one per primitive; a node owns a range of this
+    std::unique_ptr<BvhNode[]> arena_;  // 2n - 1 slots: the root, then n - 1 pairs (see build)
+    std::vector<uint8_t> pairUsed_;     // 1 for each pair of arena_ that holds two children
 };
 
 }  // namespace
