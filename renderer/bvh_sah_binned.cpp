@@ -215,7 +215,7 @@ public:
         Bvh bvh;
         bvh.nodes = compact();
         bvh.primIndices = makeLargeVector<uint32_t>(n);
-        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 65536), [&](const tbb::blocked_range<uint32_t>& range) {
+        tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 16384), [&](const tbb::blocked_range<uint32_t>& range) {
             for (uint32_t i = range.begin(); i < range.end(); ++i) bvh.primIndices[i] = refs_[i].prim();
         });
         return bvh;
@@ -294,40 +294,52 @@ private:
     static uint32_t pairIndex(uint32_t slot) { return (slot - 1) / 2; }
 
     // The tree without the arena's unused pairs, in the arena's order (depth first). A pair's new
-    // slot counts the pairs in use before it.
+    // slot counts the pairs in use before it: one bit per pair, and a count per 64 of them.
     std::vector<BvhNode> compact() {
-        const uint32_t n = uint32_t(pairUsed_.size());  // pairs 0..n-2 (slots 1..2n-2)
-        constexpr uint32_t kBlock = 65536;
-        const uint32_t blockCount = (n + kBlock - 1) / kBlock;
-        std::vector<uint32_t> splitsBefore(blockCount + 1, 0);  // per block of positions
-        tbb::parallel_for(uint32_t(0), blockCount, [&](uint32_t block) {
-            const uint32_t from = block * kBlock, to = std::min(n, from + kBlock);
-            uint32_t splits = 0;
-            for (uint32_t k = from; k < to; ++k) splits += pairUsed_[k];
-            splitsBefore[block + 1] = splits;
+        const uint32_t pairs = uint32_t(pairUsed_.size());  // arena slots 2k + 1 and 2k + 2
+        const uint32_t wordCount = (pairs + 63) / 64;
+        constexpr uint32_t kWordsPerBlock = 256;
+        const uint32_t blockCount = (wordCount + kWordsPerBlock - 1) / kWordsPerBlock;
+        std::unique_ptr<uint64_t[]> usedBits = std::make_unique_for_overwrite<uint64_t[]>(wordCount);
+        std::unique_ptr<uint32_t[]> usedBefore = std::make_unique_for_overwrite<uint32_t[]>(wordCount);  // by word
+        std::vector<uint32_t> blockUsed(blockCount + 1, 0);
+        auto forBlocks = [&](auto&& body) {
+            tbb::parallel_for(uint32_t(0), blockCount, [&](uint32_t block) {
+                body(block, block * kWordsPerBlock, std::min(wordCount, (block + 1) * kWordsPerBlock));
+            });
+        };
+        forBlocks([&](uint32_t block, uint32_t from, uint32_t to) {
+            uint32_t used = 0;
+            for (uint32_t word = from; word < to; ++word) {
+                uint64_t bits = 0;
+                for (uint32_t k = word * 64, end = std::min(pairs, k + 64); k < end; ++k)
+                    bits |= uint64_t(pairUsed_[k]) << (k % 64);
+                usedBits[word] = bits;
+                usedBefore[word] = used;  // within the block, for now
+                used += uint32_t(std::popcount(bits));
+            }
+            blockUsed[block + 1] = used;
         });
-        for (uint32_t block = 0; block < blockCount; ++block) splitsBefore[block + 1] += splitsBefore[block];
-        // newPair[k]: the new slot of the pair in use at arena slots 2k + 1 and 2k + 2.
-        std::unique_ptr<uint32_t[]> newPair = std::make_unique_for_overwrite<uint32_t[]>(n);
-        tbb::parallel_for(uint32_t(0), blockCount, [&](uint32_t block) {
-            const uint32_t from = block * kBlock, to = std::min(n, from + kBlock);
-            uint32_t splits = splitsBefore[block];
-            for (uint32_t k = from; k < to; ++k)
-                if (pairUsed_[k]) newPair[k] = 1 + 2 * splits++;
-        });
-        std::vector<BvhNode> nodes = makeLargeVector<BvhNode>(1 + 2 * size_t(splitsBefore[blockCount]));
+        for (uint32_t block = 0; block < blockCount; ++block) blockUsed[block + 1] += blockUsed[block];
+        auto newSlot = [&](uint32_t pair) {
+            const uint32_t word = pair / 64;
+            const uint64_t below = usedBits[word] & ((uint64_t(1) << (pair % 64)) - 1);
+            return 1 + 2 * (blockUsed[word / kWordsPerBlock] + usedBefore[word] + uint32_t(std::popcount(below)));
+        };
         auto moved = [&](BvhNode node) {
-            if (node.count == 0) node.index = newPair[pairIndex(node.index)];
+            if (node.count == 0) node.index = newSlot(pairIndex(node.index));
             return node;
         };
+        std::vector<BvhNode> nodes = makeLargeVector<BvhNode>(1 + 2 * size_t(blockUsed[blockCount]));
         nodes[0] = moved(arena_[0]);
-        tbb::parallel_for(uint32_t(0), blockCount, [&](uint32_t block) {
-            const uint32_t from = block * kBlock, to = std::min(n, from + kBlock);
-            for (uint32_t k = from; k < to; ++k) {
-                if (!pairUsed_[k]) continue;
-                nodes[newPair[k]] = moved(arena_[2 * k + 1]);
-                nodes[newPair[k] + 1] = moved(arena_[2 * k + 2]);
-            }
+        forBlocks([&](uint32_t, uint32_t from, uint32_t to) {
+            for (uint32_t word = from; word < to; ++word)
+                for (uint64_t bits = usedBits[word]; bits != 0; bits &= bits - 1) {
+                    const uint32_t pair = word * 64 + uint32_t(std::countr_zero(bits));
+                    const uint32_t slot = newSlot(pair);
+                    nodes[slot] = moved(arena_[2 * pair + 1]);
+                    nodes[slot + 1] = moved(arena_[2 * pair + 2]);
+                }
         });
         return nodes;
     }
