@@ -5,7 +5,11 @@
 #include "renderer/bvh.h"
 #include "renderer/huge_pages.h"
 
+#include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_group.h>
+
+#include <algorithm>
+#include <type_traits>
 
 #include <cstdint>
 #include <cstring>
@@ -120,13 +124,28 @@ std::vector<BvhNode> assembleFragments(Fragment& root);
 // Subtrees with more primitives than this get a fragment (and a task) of their own.
 inline constexpr uint32_t kFragmentMinPrimitives = 4096;
 
+// makeLargeVector's first writes: vectors of at least this many bytes, in pieces of a huge page.
+inline constexpr size_t kParallelFirstTouchBytes = size_t(8) << 20;
+inline constexpr size_t kFirstTouchPiece = size_t(2) << 20;
+
 // A vector of `count` value-initialised elements whose storage is advised to use huge pages before
-// it is first written (renderer/huge_pages.h).
+// it is first written (renderer/huge_pages.h). The kernel clears a fresh page when it is first
+// written; for large vectors the pages are first written by all threads (one byte each) before the
+// elements are initialised, so that the clearing does not run on one thread.
 template <typename T>
 std::vector<T> makeLargeVector(size_t count, const T& value = T()) {
+    static_assert(std::is_trivially_copyable_v<T>);
     std::vector<T> vector;
     vector.reserve(count);
-    adviseHugePages(vector.data(), count * sizeof(T));
+    const size_t bytes = count * sizeof(T);
+    adviseHugePages(vector.data(), bytes);
+    if (bytes >= kParallelFirstTouchBytes) {
+        unsigned char* const storage = reinterpret_cast<unsigned char*>(vector.data());
+        tbb::parallel_for(size_t(0), (bytes + kFirstTouchPiece - 1) / kFirstTouchPiece, [&](size_t piece) {
+            for (size_t at = piece * kFirstTouchPiece; at < std::min(bytes, (piece + 1) * kFirstTouchPiece); at += 4096)
+                storage[at] = 0;
+        });
+    }
     vector.resize(count, value);
     return vector;
 }
