@@ -19,7 +19,7 @@ namespace raypack {
 
 namespace bvh_detail {
 
-std::vector<BvhNode> assembleFragments(Fragment& root) {
+BvhNodes assembleFragments(Fragment& root) {
     // Depth-first placement: each fragment's non-root nodes get a contiguous block; its root goes to
     // the slot its parent reserved for it (0 for the whole tree's root).
     struct Placement {
@@ -37,7 +37,7 @@ std::vector<BvhNode> assembleFragments(Fragment& root) {
     };
     place(place, root, 0);
 
-    std::vector<BvhNode> nodes = makeLargeVector<BvhNode>(next);
+    BvhNodes nodes = makeNodeArray(next);
     tbb::parallel_for(size_t(0), placements.size(), [&](size_t p) {
         const Placement& placement = placements[p];
         const std::vector<BvhNode>& local = placement.fragment->nodes;

@@ -10,6 +10,8 @@
 #include <optional>
 #include <span>
 #include <string_view>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace raypack {
@@ -107,8 +109,31 @@ struct BvhStats {
     uint64_t primitives = 0;
 };
 
+// std::allocator, except that a resize or a sized construction leaves trivial elements as they are
+// (default-initialised) instead of zeroing them: the builders write every node they make, and zeroing
+// tens of megabytes first is a serial pass over fresh memory.
+template <typename T>
+struct UninitializedAllocator : std::allocator<T> {
+    template <typename U>
+    struct rebind {
+        using other = UninitializedAllocator<U>;
+    };
+    UninitializedAllocator() = default;
+    template <typename U>
+    UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
+    template <typename U>
+    void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+        ::new (static_cast<void*>(p)) U;
+    }
+    template <typename U, typename... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+using BvhNodes = std::vector<BvhNode, UninitializedAllocator<BvhNode>>;
+
 struct Bvh {
-    std::vector<BvhNode> nodes;
+    BvhNodes nodes;
     // Leaf ranges index this; entries are triangle indices (file order). A partitioning builder
     // lists each triangle once; SahSplit may list one in several leaves (never twice in one leaf).
     std::vector<uint32_t> primIndices;

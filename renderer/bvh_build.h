@@ -119,7 +119,7 @@ struct Fragment {
 // Splices a fragment tree into one node array: the root fragment first (its root at 0), then every
 // child fragment without its root, in depth-first order of the links; a child's root takes its
 // placeholder's slot. Copies in parallel; the result does not depend on how the copy is scheduled.
-std::vector<BvhNode> assembleFragments(Fragment& root);
+BvhNodes assembleFragments(Fragment& root);
 
 // Subtrees with more primitives than this get a fragment (and a task) of their own.
 inline constexpr uint32_t kFragmentMinPrimitives = 4096;
@@ -128,27 +128,30 @@ inline constexpr uint32_t kFragmentMinPrimitives = 4096;
 inline constexpr size_t kParallelFirstTouchBytes = size_t(8) << 20;
 inline constexpr size_t kFirstTouchPiece = size_t(2) << 20;
 
-// A vector of `count` value-initialised elements whose storage is advised to use huge pages before
-// it is first written (renderer/huge_pages.h). The kernel clears a fresh page when it is first
-// written; for large vectors the pages are first written by all threads (one byte each) before the
-// elements are initialised, so that the clearing does not run on one thread.
-template <typename T>
-std::vector<T> makeLargeVector(size_t count, const T& value = T()) {
+// A vector of `count` elements whose storage is advised to use huge pages before it is first written
+// (renderer/huge_pages.h). With std::allocator the elements are value-initialised; the kernel clears
+// a fresh page when it is first written, so for large vectors the pages are first written by all
+// threads (one byte each) before that, and the clearing does not run on one thread. With
+// UninitializedAllocator (BvhNodes) the elements are left for the caller to write.
+template <typename T, typename Allocator = std::allocator<T>>
+std::vector<T, Allocator> makeLargeVector(size_t count) {
     static_assert(std::is_trivially_copyable_v<T>);
-    std::vector<T> vector;
+    std::vector<T, Allocator> vector;
     vector.reserve(count);
     const size_t bytes = count * sizeof(T);
     adviseHugePages(vector.data(), bytes);
-    if (bytes >= kParallelFirstTouchBytes) {
+    if (std::is_same_v<Allocator, std::allocator<T>> && bytes >= kParallelFirstTouchBytes) {
         unsigned char* const storage = reinterpret_cast<unsigned char*>(vector.data());
         tbb::parallel_for(size_t(0), (bytes + kFirstTouchPiece - 1) / kFirstTouchPiece, [&](size_t piece) {
             for (size_t at = piece * kFirstTouchPiece; at < std::min(bytes, (piece + 1) * kFirstTouchPiece); at += 4096)
                 storage[at] = 0;
         });
     }
-    vector.resize(count, value);
+    vector.resize(count);
     return vector;
 }
+// `count` nodes for a builder to write, every one of them.
+inline BvhNodes makeNodeArray(size_t count) { return makeLargeVector<BvhNode, UninitializedAllocator<BvhNode>>(count); }
 
 // Throws raypack::Error when the options are out of range.
 void validateOptions(const BvhBuildOptions& options);

@@ -295,7 +295,7 @@ private:
 
     // The tree without the arena's unused pairs, in the arena's order (depth first). A pair's new
     // slot counts the pairs in use before it: one bit per pair, and a count per 64 of them.
-    std::vector<BvhNode> compact() {
+    BvhNodes compact() {
         const uint32_t pairs = uint32_t(pairUsed_.size());  // arena slots 2k + 1 and 2k + 2
         const uint32_t wordCount = (pairs + 63) / 64;
         constexpr uint32_t kWordsPerBlock = 256;
@@ -330,7 +330,7 @@ private:
             if (node.count == 0) node.index = newSlot(pairIndex(node.index));
             return node;
         };
-        std::vector<BvhNode> nodes = makeLargeVector<BvhNode>(1 + 2 * size_t(blockUsed[blockCount]));
+        BvhNodes nodes = makeNodeArray(1 + 2 * size_t(blockUsed[blockCount]));
         nodes[0] = moved(arena_[0]);
         forBlocks([&](uint32_t, uint32_t from, uint32_t to) {
             for (uint32_t word = from; word < to; ++word)

@@ -781,7 +781,7 @@ private:
         RAYPACK_CHECK(prims < uint64_t(UINT32_MAX));
 
         Bvh bvh;
-        bvh.nodes = makeLargeVector<BvhNode>(next);
+        bvh.nodes = makeNodeArray(next);
         bvh.primIndices = makeLargeVector<uint32_t>(size_t(prims));
         tbb::parallel_for(size_t(0), placements.size(), [&](size_t p) {
             const Placement& placement = placements[p];

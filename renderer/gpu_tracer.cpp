@@ -247,7 +247,7 @@ void dropScene(GpuTracer::State& s, bool keepTables) {
 GpuTracer::UploadTimings uploadTables(GpuTracer::State& s, const Scene& scene) {
     const auto start = Clock::now();
     Bvh none;  // counts of the scene alone: no tree yet
-    none.nodes.resize(1);
+    none.nodes.assign(1, BvhNode{});
     vk::StagedUpload staging(s.ctx, s.pool);
     GpuLayoutTargets targets;
     writeGpuMaterials(scene, stageSceneTables(s, staging, scene, gpuLayoutCounts(scene, none), targets), targets);
