@@ -128,10 +128,21 @@ inline constexpr uint32_t kFragmentMinPrimitives = 4096;
 inline constexpr size_t kParallelFirstTouchBytes = size_t(8) << 20;
 inline constexpr size_t kFirstTouchPiece = size_t(2) << 20;
 
+// Writes one byte of every page of [data, data + bytes) from all threads, when that is at least
+// kParallelFirstTouchBytes: the kernel clears a fresh page when it is first written, and this way
+// not on one thread. The bytes written are 0; the storage is raw (about to be initialised).
+inline void touchPagesInParallel(void* data, size_t bytes) {
+    if (bytes < kParallelFirstTouchBytes) return;
+    unsigned char* const storage = static_cast<unsigned char*>(data);
+    tbb::parallel_for(size_t(0), (bytes + kFirstTouchPiece - 1) / kFirstTouchPiece, [&](size_t piece) {
+        for (size_t at = piece * kFirstTouchPiece; at < std::min(bytes, (piece + 1) * kFirstTouchPiece); at += 4096)
+            storage[at] = 0;
+    });
+}
+
 // A vector of `count` elements whose storage is advised to use huge pages before it is first written
-// (renderer/huge_pages.h). With std::allocator the elements are value-initialised; the kernel clears
-// a fresh page when it is first written, so for large vectors the pages are first written by all
-// threads (one byte each) before that, and the clearing does not run on one thread. With
+// (renderer/huge_pages.h). With std::allocator the elements are value-initialised, after
+// touchPagesInParallel. With
 // UninitializedAllocator (BvhNodes) the elements are left for the caller to write.
 template <typename T, typename Allocator = std::allocator<T>>
 std::vector<T, Allocator> makeLargeVector(size_t count) {
@@ -140,13 +151,7 @@ std::vector<T, Allocator> makeLargeVector(size_t count) {
     vector.reserve(count);
     const size_t bytes = count * sizeof(T);
     adviseHugePages(vector.data(), bytes);
-    if (std::is_same_v<Allocator, std::allocator<T>> && bytes >= kParallelFirstTouchBytes) {
-        unsigned char* const storage = reinterpret_cast<unsigned char*>(vector.data());
-        tbb::parallel_for(size_t(0), (bytes + kFirstTouchPiece - 1) / kFirstTouchPiece, [&](size_t piece) {
-            for (size_t at = piece * kFirstTouchPiece; at < std::min(bytes, (piece + 1) * kFirstTouchPiece); at += 4096)
-                storage[at] = 0;
-        });
-    }
+    if (std::is_same_v<Allocator, std::allocator<T>>) touchPagesInParallel(vector.data(), bytes);
     vector.resize(count);
     return vector;
 }

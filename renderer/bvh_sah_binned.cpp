@@ -50,7 +50,7 @@ constexpr uint32_t kPartitionChunk = RAYPACK_BINNED_GRAIN;
 constexpr uint32_t kMaxBins = 256;
 // Subtrees of more references than this are built by tasks of their own.
 #ifndef RAYPACK_BINNED_TASK
-#define RAYPACK_BINNED_TASK 4096
+#define RAYPACK_BINNED_TASK 1024
 #endif
 constexpr uint32_t kTaskMinPrimitives = RAYPACK_BINNED_TASK;
 
@@ -205,6 +205,15 @@ public:
         // slots in use are written and read.
         arena_ = std::make_unique_for_overwrite<BvhNode[]>(2 * size_t(n) - 1);
         adviseHugePages(arena_.get(), (2 * size_t(n) - 1) * sizeof(BvhNode));
+#ifdef RAYPACK_BINNED_PREFAULT
+        {
+            unsigned char* st = reinterpret_cast<unsigned char*>(arena_.get());
+            const size_t bytes = (2 * size_t(n) - 1) * sizeof(BvhNode);
+            tbb::parallel_for(size_t(0), (bytes + 262143) / 262144, [&](size_t piece) {
+                for (size_t at = piece * 262144; at < std::min(bytes, (piece + 1) * 262144); at += 4096) st[at] = 0;
+            });
+        }
+#endif
         pairUsed_ = makeLargeVector<uint8_t>(n);
         arena_[0].lo = rootBox.lo;
         arena_[0].hi = rootBox.hi;

@@ -7,6 +7,7 @@
 #include "renderer/settings_json.h"
 #include "renderer/settings_text.h"
 
+#include <algorithm>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -189,6 +190,27 @@ TEST(Bench, EmbreeAgreesWithTheReferenceOnHitDistances) {
     EXPECT_EQ(embreeRecords, 16u + intersect16Records);
 }
 
+// --build-repeat builds each tree several times: T_B is the median of the runs it lists.
+TEST(Bench, BuildRepeatReportsTheMedianOfItsRuns) {
+    const fs::path out = scratch() / "build-repeat.json";
+    const CliResult r = runCli(
+        "bench --device cpu --no-embree --scenes gen:terrain:20k --builder sah-binned --width 8 --height 8 "
+        "--repeat 1 --build-repeat 3 --out " +
+        quoted(out));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    const json results = readJsonFile(out.string());
+    size_t checked = 0;
+    for (const json& record : results.at("records")) {
+        std::vector<double> runs = record.at("t_b_runs_s").get<std::vector<double>>();
+        ASSERT_EQ(runs.size(), 3u) << record.dump();
+        for (double seconds : runs) EXPECT_GT(seconds, 0.0);
+        std::sort(runs.begin(), runs.end());
+        EXPECT_DOUBLE_EQ(record.at("t_b_s").get<double>(), runs[1]);
+        ++checked;
+    }
+    EXPECT_GT(checked, 0u);
+}
+
 TEST(Bench, ReportScriptWritesTablesAndFigures) {
     const json& results = quickResults();
     ASSERT_TRUE(results.is_object());
@@ -350,6 +372,8 @@ TEST(Bench, BadArgumentsGiveOneClearLineAndExitCodeTwo) {
              {"bench --suite trade-quick --builder sah-exact", "--builder"},
              {"bench --suite quick --intersect robust,fast", "--intersect"},
              {"bench --suite trade-quick --intersect sloppy", "sloppy"},
+             {"bench --suite trade-quick --build-repeat 3", "--build-repeat"},
+             {"bench --scenes gen:terrain:1k --builder gpu-lbvh --build-repeat 3", "--build-repeat"},
          }) {
         const CliResult r = runCli(args);
         EXPECT_EQ(r.exitCode, 2) << args << ":\n" << r.output;

@@ -13,6 +13,7 @@
 #include "renderer/measure/agreement.h"
 #include "renderer/measure/machine.h"
 #include "renderer/measure/protocol.h"
+#include "renderer/measure/spread.h"
 #include "renderer/settings_json.h"
 #include "renderer/settings_text.h"
 #include "renderer/tracers/registry.h"
@@ -47,6 +48,7 @@ struct BenchFlags {
     std::string hybridPacketsPerGroup = "1";
     std::string shadowOrder = "nearest";
     uint32_t width = 0, height = 0, repeat = 0;
+    uint32_t buildRepeat = 1;  // builds per scene (raypack's CPU builders and Embree); T_B is the median
     BvhFlags bvh;
     bool noEmbree = false;
     bool noDriverRt = false;
@@ -300,6 +302,10 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         throw Error("bench --suite " + suite.name +
                     ": the suite builds every builder and leaf size itself; "
                     "--builder, --leaf-size and --bins do not apply");
+    if (f.buildRepeat > 1 && (suite.trade || isGpuBvhBuilder(bvhOptions.builder)))
+        throw Error("--build-repeat: repeats CPU builds outside the trade suites only (got " +
+                    (suite.trade ? "suite " + suite.name : std::string("builder ") + toString(bvhOptions.builder)) +
+                    ")");
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
     const ShadowOrder shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
@@ -329,6 +335,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     }
     TracerEnvironment environment;
     environment.vulkan = session ? &session->context : nullptr;
+    environment.buildRepeats = f.buildRepeat;
 
     // The tracers the flags ask for, in the registry's order, each with its packet shapes.
     json skipped = json::array();
@@ -458,7 +465,14 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         std::fprintf(stderr, "bench: loading %s (%s) and building its BVH\n", benchScene.name.c_str(),
                      benchScene.spec.c_str());
         const LoadedScene loaded = loadSceneTimed(benchScene.spec);
-        const Bvh bvh = buildSceneBvh(loaded.scene, bvhOptions, f.gpu);
+        std::vector<double> buildRuns;
+        Bvh bvh = buildSceneBvh(loaded.scene, bvhOptions, f.gpu);
+        buildRuns.push_back(bvh.stats.buildSeconds);
+        for (uint32_t r = 1; r < f.buildRepeat; ++r) {
+            bvh = buildSceneBvh(loaded.scene, bvhOptions, f.gpu);  // the same tree: the builders are deterministic
+            buildRuns.push_back(bvh.stats.buildSeconds);
+        }
+        bvh.stats.buildSeconds = spreadOf(buildRuns).median;
         RenderSettings settings;
         settings.width = width;
         settings.height = height;
@@ -467,6 +481,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         settings.shadowOrder = shadowOrder;
         json scene = sceneFields(benchScene, loaded, bvh, bvhOptions, settings.camera);
         scene["intersect"] = toString(settings.intersect);
+        if (f.buildRepeat > 1) scene["t_b_runs_s"] = buildRuns;
 
         // The first frame tracer's hits (the CPU reference's, or without it the first GPU cell's)
         // are what the others are compared with.
@@ -639,6 +654,11 @@ CommandRunner addBenchCommand(CLI::App& app) {
         ->check(CLI::Range(1u, 16384u));
     command->add_option("--repeat", f.repeat, "Timed runs per cell after the warm-up (default: the suite's; report 5)")
         ->check(CLI::Range(1u, 1000u));
+    command->add_option("--build-repeat", f.buildRepeat,
+                        "Builds of each scene's tree, back to back, by raypack's CPU builder and by Embree "
+                        "(each quality); t_b_s is the median, t_b_runs_s lists raypack's (default 1)")
+        ->check(CLI::Range(1u, 100u))
+        ->capture_default_str();
     command->add_option("--out", f.out, "Results file (default: bench-SUITE.json)");
     command->add_option("--gpu", f.gpu, "Vulkan device: index or case-insensitive name substring");
     command->add_flag("--no-embree", f.noEmbree, "Do not run the Embree peer");

@@ -30,7 +30,7 @@ const std::vector<Row>& rows() {
          [](const TracerEnvironment&) {
              return embreeBuiltIn() ? std::string() : std::string("Embree: this raypack-cli was built without Embree");
          },
-         [](const TracerEnvironment&) { return makeEmbreeTracer(); }},
+         [](const TracerEnvironment& environment) { return makeEmbreeTracer(environment.buildRepeats); }},
         {"gpu-packet", TracerDevice::Gpu, "packet", needsVulkan,
          [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Packet); }},
         {"gpu-single", TracerDevice::Gpu, "single", needsVulkan,

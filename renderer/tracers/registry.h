@@ -25,6 +25,9 @@ struct TracerEnvironment {
     // The GPU tracers' device, owned by the caller, outliving the tracers; nullptr: none. The
     // driver's ray tracing needs it created with VulkanContextOptions::enableRayTracing.
     const vk::VulkanContext* vulkan = nullptr;
+    // Peers that build their own tree (Embree) build it this many times, back to back, and report
+    // the median build time (bench --build-repeat).
+    uint32_t buildRepeats = 1;
 };
 
 struct TracerInfo {

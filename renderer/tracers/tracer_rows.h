@@ -18,8 +18,9 @@ std::unique_ptr<Tracer> makeCpuPacketTracer();
 std::unique_ptr<Tracer> makeGpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel);
 // Throws RtPeerUnsupported where `context` cannot run the driver's ray tracing.
 std::unique_ptr<Tracer> makeDriverRtTracer(const vk::VulkanContext& context);
-// Throws raypack::Error in a build without Embree.
-std::unique_ptr<Tracer> makeEmbreeTracer();
+// Throws raypack::Error in a build without Embree. Each quality's tree is built `buildRepeats`
+// times; its build time is the median.
+std::unique_ptr<Tracer> makeEmbreeTracer(uint32_t buildRepeats = 1);
 bool embreeBuiltIn();
 std::string embreeBuildVersion();  // "3.13.5"; "" without Embree
 
