@@ -35,30 +35,17 @@
 namespace raypack::bvh_detail {
 namespace {
 
-#ifndef RAYPACK_BINNED_GRAIN
-#define RAYPACK_BINNED_GRAIN 4096
-#endif
-#ifndef RAYPACK_BINNED_PARALLEL
-#define RAYPACK_BINNED_PARALLEL 16384
-#endif
-// Nodes with more primitives than this bin and partition in parallel.
-constexpr uint32_t kParallelNodeMinPrimitives = RAYPACK_BINNED_PARALLEL;
-// Grain of the parallel binning and chunk of the parallel partition (fixed, so the result does not
-// depend on the scheduler).
-constexpr uint32_t kPartitionChunk = RAYPACK_BINNED_GRAIN;
+// The thresholds of the parallel work, measured on the H200 machine's 16 threads (2026-12-02,
+// docs/bvh.md): nodes with more references than this bin and partition in parallel...
+constexpr uint32_t kParallelNodeMinPrimitives = 16384;
+// ...in pieces of this many references (fixed, so the result does not depend on the scheduler);
+constexpr uint32_t kPartitionChunk = 4096;
+// subtrees of more references than this are built by tasks of their own.
+constexpr uint32_t kTaskMinPrimitives = 1024;
 
 constexpr uint32_t kMaxBins = 256;
-// Subtrees of more references than this are built by tasks of their own.
-#ifndef RAYPACK_BINNED_TASK
-#define RAYPACK_BINNED_TASK 1024
-#endif
-constexpr uint32_t kTaskMinPrimitives = RAYPACK_BINNED_TASK;
-
-#ifndef RAYPACK_BINNED_SMALL
-#define RAYPACK_BINNED_SMALL 4
-#endif
 // Nodes of at most this many references are split by pricing every partition (buildSmall).
-constexpr uint32_t kSmallNodeMaxPrimitives = RAYPACK_BINNED_SMALL;
+constexpr uint32_t kSmallNodeMaxPrimitives = 4;
 
 using Vec4 = float __attribute__((vector_size(16)));
 using Int4 = int32_t __attribute__((vector_size(16)));
@@ -205,15 +192,6 @@ public:
         // slots in use are written and read.
         arena_ = std::make_unique_for_overwrite<BvhNode[]>(2 * size_t(n) - 1);
         adviseHugePages(arena_.get(), (2 * size_t(n) - 1) * sizeof(BvhNode));
-#ifdef RAYPACK_BINNED_PREFAULT
-        {
-            unsigned char* st = reinterpret_cast<unsigned char*>(arena_.get());
-            const size_t bytes = (2 * size_t(n) - 1) * sizeof(BvhNode);
-            tbb::parallel_for(size_t(0), (bytes + 262143) / 262144, [&](size_t piece) {
-                for (size_t at = piece * 262144; at < std::min(bytes, (piece + 1) * 262144); at += 4096) st[at] = 0;
-            });
-        }
-#endif
         pairUsed_ = makeLargeVector<uint8_t>(n);
         arena_[0].lo = rootBox.lo;
         arena_[0].hi = rootBox.hi;
@@ -627,7 +605,8 @@ private:
             for (uint64_t k = piece * kPartitionChunk; k < to;) {
                 const auto [right, rightRemaining] = wrongRights.locate(k);
                 const auto [left, leftRemaining] = wrongLefts.locate(k);
-                const uint32_t stretch = uint32_t(std::min({to - k, uint64_t(rightRemaining), uint64_t(leftRemaining)}));
+                const uint32_t stretch =
+                    uint32_t(std::min({to - k, uint64_t(rightRemaining), uint64_t(leftRemaining)}));
                 std::swap_ranges(refs + right, refs + right + stretch, refs + left);
                 k += stretch;
             }

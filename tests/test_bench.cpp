@@ -7,8 +7,8 @@
 #include "renderer/settings_json.h"
 #include "renderer/settings_text.h"
 
-#include <algorithm>
 #include <gtest/gtest.h>
+#include <algorithm>
 #include <nlohmann/json.hpp>
 
 #include <cmath>

@@ -654,9 +654,10 @@ CommandRunner addBenchCommand(CLI::App& app) {
         ->check(CLI::Range(1u, 16384u));
     command->add_option("--repeat", f.repeat, "Timed runs per cell after the warm-up (default: the suite's; report 5)")
         ->check(CLI::Range(1u, 1000u));
-    command->add_option("--build-repeat", f.buildRepeat,
-                        "Builds of each scene's tree, back to back, by raypack's CPU builder and by Embree "
-                        "(each quality); t_b_s is the median, t_b_runs_s lists raypack's (default 1)")
+    command
+        ->add_option("--build-repeat", f.buildRepeat,
+                     "Builds of each scene's tree, back to back, by raypack's CPU builder and by Embree "
+                     "(each quality); t_b_s is the median, t_b_runs_s lists raypack's (default 1)")
         ->check(CLI::Range(1u, 100u))
         ->capture_default_str();
     command->add_option("--out", f.out, "Results file (default: bench-SUITE.json)");
