@@ -1,8 +1,12 @@
 #!/bin/bash
 # Issue 13: build rate of sah-binned against Embree's medium build on the H200 machine's CPU (all
 # its threads), in one run: the bench's T_B (raypack, buildBvh) and Embree's rtcCommitScene time
-# (RTC_BUILD_QUALITY_MEDIUM), both per scene, repeated and interleaved; medians and ratios.
-# With dev/bin/raypack-cli-old (a build of main before the change) also the old sah-binned.
+# (RTC_BUILD_QUALITY_MEDIUM), both per scene, each built BUILD_REPEAT times back to back in the
+# same process (bench --build-repeat: T_B is the median, so that neither is measured cold while
+# the other is warm), the runs repeated and interleaved; medians and ratios. The SAH cost of each
+# tree against sah-exact's comes from one sah-exact run (EXACT=0 skips it).
+# With dev/bin/raypack-cli-old (a raypack-cli with --build-repeat and the sah-binned builder before
+# the change) also the old sah-binned.
 #
 # Prepare the carried bundle here (scenes are not on the device):
 #   scripts/device-bundle.sh dev build/raypack-cli            # + cp OLD_BUILD/raypack-cli dev/bin/raypack-cli-old
@@ -14,7 +18,8 @@
 # Budget: about 4 minutes with REPEATS=5 (the 13M dragon is subdivided on load, each run).
 set -u
 OUT=${OUT:-/tmp/build-rate}
-REPEATS=${REPEATS:-5}
+REPEATS=${REPEATS:-2}
+BUILD_REPEAT=${BUILD_REPEAT:-5}
 S=${SCENES:-dev/scenes}
 export LD_LIBRARY_PATH=$PWD/dev/lib:${LD_LIBRARY_PATH:-}
 mkdir -p "$OUT"
@@ -22,14 +27,20 @@ scenes="$S/sibenik/sibenik_geom_75284.ply,$S/dabrovic_sponza/sponza.obj,$S/confe
 scenes+=",$S/stanford/armadillo_decimated_99976.obj,$S/stanford/dragon_vrip_res2.ply"
 scenes+=",gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"
 scenes=${SCENE_LIST:-$scenes}  # override for a short trial run
-common=(bench --scenes "$scenes" --device cpu --width 16 --height 16 --repeat 1 --builder sah-binned)
+common=(bench --scenes "$scenes" --device cpu --width 16 --height 16 --repeat 1 --no-driver-rt)
 nproc >"$OUT/build-rate.txt"
+if [ "${EXACT:-1}" != 0 ]; then
+  dev/bin/raypack-cli "${common[@]}" --builder sah-exact --no-embree --out "$OUT/build-rate-exact-1.json" >/dev/null \
+    2>>"$OUT/stderr.txt" || echo "FAILED sah-exact run" | tee -a "$OUT/build-rate.txt"
+fi
+common+=(--builder sah-binned)
 for i in $(seq 1 "$REPEATS"); do
   # New binary with Embree (medium and high are built; only medium is compared).
-  dev/bin/raypack-cli "${common[@]}" --out "$OUT/build-rate-new-$i.json" >/dev/null 2>>"$OUT/stderr.txt" ||
+  dev/bin/raypack-cli "${common[@]}" --build-repeat "$BUILD_REPEAT" --out "$OUT/build-rate-new-$i.json" >/dev/null \
+    2>>"$OUT/stderr.txt" ||
     echo "FAILED new run $i" | tee -a "$OUT/build-rate.txt"
   if [ -x dev/bin/raypack-cli-old ]; then
-    dev/bin/raypack-cli-old "${common[@]}" --no-embree --out "$OUT/build-rate-old-$i.json" >/dev/null \
+    dev/bin/raypack-cli-old "${common[@]}" --build-repeat "$BUILD_REPEAT" --no-embree --out "$OUT/build-rate-old-$i.json" >/dev/null \
       2>>"$OUT/stderr.txt" || echo "FAILED old run $i" | tee -a "$OUT/build-rate.txt"
   fi
 done
@@ -49,15 +60,18 @@ def times(kind):
                 continue
             seen.add(key)
             result.setdefault(scene, {}).setdefault(key[1], []).append((r["t_b_s"], r.get("triangles")))
+            if tracer != "embree": sah.setdefault(kind, {})[scene] = r.get("sah_cost", float("nan"))
     return result
-new, old = times("new"), times("old")
-print(f"{'scene':60s} {'tris':>10s} {'new Mtri/s':>10s} {'embree':>10s} {'old':>10s} {'new/embree':>10s} {'new/old':>8s} (medians)")
+sah = {}
+new, old, exact = times("new"), times("old"), times("exact")
+print(f"{'scene':60s} {'tris':>10s} {'new Mtri/s':>10s} {'embree':>10s} {'old':>10s} {'new/embree':>10s} {'new/old':>8s} {'SAH/exact':>9s} (medians)")
 for scene, by in new.items():
     tris = by["raypack"][0][1]
     med = lambda xs: statistics.median(t for t, _ in xs)
     n, e = med(by["raypack"]), med(by.get("embree", [(float("nan"), 0)]))
     o = med(old[scene]["raypack"]) if scene in old else float("nan")
     rate = lambda s: tris / s / 1e6
-    print(f"{scene[-60:]:60s} {tris:10d} {rate(n):10.2f} {rate(e):10.2f} {rate(o):10.2f} {e / n:10.2f} {o / n:8.2f}")
+    ratio = sah.get("new", {}).get(scene, float("nan")) / sah.get("exact", {}).get(scene, float("nan"))
+    print(f"{scene[-60:]:60s} {tris:10d} {rate(n):10.2f} {rate(e):10.2f} {rate(o):10.2f} {e / n:10.2f} {o / n:8.2f} {ratio:9.4f}")
 EOF
 cat "$OUT/build-rate.txt"
