@@ -42,6 +42,8 @@ constexpr uint32_t kParallelNodeMinPrimitives = 16384;
 constexpr uint32_t kPartitionChunk = 4096;
 // subtrees of more references than this are built by tasks of their own.
 constexpr uint32_t kTaskMinPrimitives = 1024;
+// Nodes of at least this many references fill their bins in two grids (fillBins).
+constexpr uint32_t kTwoGridMinPrimitives = 64;
 // Ranges of at most this many references partition through a per-thread buffer (partitionRange).
 constexpr uint32_t kBranchlessPartitionMax = 4096;
 
@@ -449,12 +451,24 @@ private:
         return binning;
     }
 
+    // Ranges of at least kTwoGridMinPrimitives fill two grids, the even and the odd references, and
+    // merge them: neighbouring references (neighbours in the mesh) often fall into the same bins,
+    // and with one grid each update would wait for the previous one's store.
     void fillBins(const Binning& binning, uint32_t begin, uint32_t end, BinGrid& grid) const {
+        const bool twoGrids = end - begin >= kTwoGridMinPrimitives;
+        BinGrid odd(twoGrids ? binning.binCount : 0);
         for (uint32_t chunk = begin; chunk < end; chunk += kCancelCheckInterval) {
             throwIfCancelled(progress_);
             const uint32_t chunkEnd = std::min(end, chunk + kCancelCheckInterval);
-            for (uint32_t i = chunk; i < chunkEnd; ++i) grid.add(binning, refs_[i]);
+            uint32_t i = chunk;
+            if (twoGrids)
+                for (; i + 1 < chunkEnd; i += 2) {
+                    grid.add(binning, refs_[i]);
+                    odd.add(binning, refs_[i + 1]);
+                }
+            for (; i < chunkEnd; ++i) grid.add(binning, refs_[i]);
         }
+        if (twoGrids) grid.merge(odd);
     }
 
     // Parallel filling of a large node's bins (tbb::parallel_reduce's splitting body).
