@@ -73,7 +73,7 @@ struct BvhBuildOptions {
     uint32_t leafSize = 1;          // a node with at most this many primitives becomes a leaf
     float traversalCost = 1.0f;     // C_trav of the SAH
     float intersectionCost = 2.0f;  // C_isect of the SAH
-    uint32_t binCount = 32;         // SahBinned only: bins per axis, 2..256
+    uint32_t binCount = 32;         // SahBinned only: most bins per axis (min(this, 4 + N/20) for N), 2..256
     // SahSplit only. Spatial splits are tried at a node when its best object split's children
     // overlap by more than splitAlpha × the root's surface area (Stich et al. 2009, section 4.3;
     // 1e-5 is the paper's value); 0 tries them everywhere. Must be finite, 0..1.

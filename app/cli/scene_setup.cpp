@@ -42,7 +42,10 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
         .add_option("--builder", flags.builder,
                     "BVH builder: " + builders + " (gpu-lbvh builds on the Vulkan device, docs/bvh.md)")
         ->capture_default_str();
-    command.add_option("--bins", flags.binCount, "Bins per axis of the binned SAH builder (sah-binned only), 2..256")
+    command
+        .add_option("--bins", flags.binCount,
+                    "Most bins per axis of the binned SAH builder (sah-binned only; a node of N triangles uses "
+                    "min(this, 4 + N/20)), 2..256")
         ->check(CLI::Range(2u, 256u))
         ->capture_default_str();
     command
