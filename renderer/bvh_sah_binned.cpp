@@ -15,11 +15,6 @@
 // misplaced runs swapped across the split), so the order does not depend on the scheduler; every
 // subtree owns its slots of one node array before it is built (build(), compact()), whichever
 // task builds it. The tree does not depend on the thread count.
-// GCC notes that passing 32-byte-aligned values (Ref) changed ABI in GCC 4.6; these functions are
-// all internal to this file.
-#if defined(__GNUC__) && !defined(__clang__)
-#pragma GCC diagnostic ignored "-Wpsabi"
-#endif
 #include "renderer/bvh_build.h"
 #include "renderer/error.h"
 
@@ -420,17 +415,25 @@ private:
         const Vec4 extent = work.centroidBox.hi - work.centroidBox.lo;
         const int axis = extent[0] >= extent[1] && extent[0] >= extent[2] ? 0 : extent[1] >= extent[2] ? 1 : 2;
         const uint32_t mid = work.begin + (work.end - work.begin) / 2;
-        auto before = [axis](const Ref& a, const Ref& b) {
-            const float ca = a.centroid()[axis], cb = b.centroid()[axis];
-            return ca < cb || (ca == cb && a.prim() < b.prim());
-        };
-        auto byIndex = [](const Ref& a, const Ref& b) { return a.prim() < b.prim(); };
         Ref* const refs = refs_.get();
-        std::nth_element(refs + work.begin, refs + mid, refs + work.end, before);
+        // Positions are ordered, then the references gathered (sorting 32-byte-aligned values
+        // would pass them by value through the standard library's heap functions).
+        std::vector<uint32_t> order(work.end - work.begin);
+        for (uint32_t i = 0; i < order.size(); ++i) order[i] = work.begin + i;
+        auto before = [&](uint32_t a, uint32_t b) {
+            const float ca = refs[a].centroid()[axis], cb = refs[b].centroid()[axis];
+            return ca < cb || (ca == cb && refs[a].prim() < refs[b].prim());
+        };
+        auto byIndex = [&](uint32_t a, uint32_t b) { return refs[a].prim() < refs[b].prim(); };
+        const auto half = order.begin() + (mid - work.begin);
+        std::nth_element(order.begin(), half, order.end(), before);
         // Each half in the order of its primitive indices, so that leaf contents do not depend on
         // nth_element's internal order.
-        std::sort(refs + work.begin, refs + mid, byIndex);
-        std::sort(refs + mid, refs + work.end, byIndex);
+        std::sort(order.begin(), half, byIndex);
+        std::sort(half, order.end(), byIndex);
+        std::vector<Ref> gathered(order.size());
+        for (uint32_t i = 0; i < order.size(); ++i) gathered[i] = refs[order[i]];
+        std::copy(gathered.begin(), gathered.end(), refs + work.begin);
         throwIfCancelled(progress_);
         Box4 left = Box4::empty(), right = Box4::empty();
         for (uint32_t i = work.begin; i < work.end; ++i) {
