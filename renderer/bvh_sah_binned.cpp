@@ -99,6 +99,11 @@ struct Box4 {
         lo = min4(lo, box.lo);
         hi = max4(hi, box.hi);
     }
+    // By a reference's box (lane 3 of `lo` takes the index bits; it is never read).
+    void grow(const Ref& ref) {
+        lo = min4(lo, ref.lo);
+        hi = max4(hi, ref.hi);
+    }
     Aabb aabb() const { return toAabb(lo, hi); }
 };
 
@@ -146,9 +151,7 @@ struct BinGrid {
     void add(const Binning& binning, const Ref& ref) {
         const Int4 bins = binning.binsOf(ref.centroid());
         for (int axis = 0; axis < 3; ++axis) {
-            Box4& box = boxes[axis][bins[axis]];
-            box.lo = min4(box.lo, ref.lo);
-            box.hi = max4(box.hi, ref.hi);
+            boxes[axis][bins[axis]].grow(ref);
             ++counts[axis][bins[axis]];
         }
     }
@@ -371,8 +374,8 @@ private:
             boxes[0] = Box4::empty();
             for (uint32_t mask = 1; mask <= full; ++mask) {
                 const uint32_t lowest = uint32_t(std::countr_zero(mask));
-                boxes[mask].lo = min4(boxes[mask & (mask - 1)].lo, refs[lowest].lo);
-                boxes[mask].hi = max4(boxes[mask & (mask - 1)].hi, refs[lowest].hi);
+                boxes[mask] = boxes[mask & (mask - 1)];
+                boxes[mask].grow(refs[lowest]);
                 measures[mask] =
                     measure.kind == SahMeasureKind::Area ? halfArea(boxes[mask]) : measure.of(boxes[mask].aabb());
             }
@@ -437,11 +440,8 @@ private:
         throwIfCancelled(progress_);
         Box4 left = Box4::empty(), right = Box4::empty();
         for (uint32_t i = work.begin; i < work.end; ++i) {
-            const Ref& ref = refs[i];
-            Box4& box = i < mid ? left : right;
-            box.lo = min4(box.lo, ref.lo);
-            box.hi = max4(box.hi, ref.hi);
-            (i < mid ? leftCentroids : rightCentroids).grow(ref.centroid());
+            (i < mid ? left : right).grow(refs[i]);
+            (i < mid ? leftCentroids : rightCentroids).grow(refs[i].centroid());
         }
         leftBox = left.aabb();
         rightBox = right.aabb();
