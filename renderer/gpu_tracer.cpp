@@ -4,6 +4,7 @@
 #include "renderer/error.h"
 #include "renderer/gpu_bvh.h"
 #include "renderer/gpu_layout.h"
+#include "renderer/gpu_wide.h"
 #include "renderer/measure/spread.h"
 #include "shaders/bindings.h"
 #include "shaders/gpu_types.h"
@@ -44,9 +45,10 @@ struct PipelineKey {
     uint32_t hybridMinRays = 0;     // the hybrid kernel's split rules (0 for the other kernels)
     uint32_t hybridVisitRatio = 0;  // in 1/100
     uint32_t packetsPerGroup = 1;   // the hybrid kernel's packets per workgroup (packetHeight: all of them)
+    bool wideBvh = false;           // the single-ray kernel over the compressed 8-wide tree
     auto tie() const {
         return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
-                        hybridMinRays, hybridVisitRatio, packetsPerGroup);
+                        hybridMinRays, hybridVisitRatio, packetsPerGroup, wideBvh);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -101,6 +103,7 @@ PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool s
         key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
         key.packetsPerGroup = settings.hybrid.packetsPerGroup;
     }
+    key.wideBvh = settings.kernel == KernelKind::Single && settings.bvhWidth == 8;
     return key;
 }
 
@@ -131,6 +134,7 @@ struct GpuTracer::State {
     bool hasScene = false, hasNormals = false, hasMaterials = false, hasUvs = false, hasColors = false;
     bool hostTimedPasses = false;  // setHostTimedPasses
     uint32_t stackEntries = 1;
+    uint32_t bvhWidth = 2;  // the traced tree: binary, or the compressed 8-wide one (upload)
     Aabb sceneBounds;
     // buildOnDevice's builder (made on first use); it keeps the scene's vertex arrays while only
     // the tree changes.
@@ -266,6 +270,7 @@ GpuTracer::UploadTimings uploadTables(GpuTracer::State& s, const Scene& scene) {
 void installTree(GpuTracer::State& s, std::unique_ptr<GpuTree> tree, uint32_t stackEntries, bool sameScene) {
     const Scene& scene = *tree->scene;
     s.stackEntries = stackEntries;
+    s.bvhWidth = 2;  // upload() sets the wide tree's width after this
     s.tree = std::move(tree);
     if (!sameScene) s.sceneBounds = scene.bounds();
     s.hasScene = true;
@@ -274,11 +279,16 @@ void installTree(GpuTracer::State& s, std::unique_ptr<GpuTree> tree, uint32_t st
 
 }  // namespace
 
-double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
+double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) {
     State& s = *state_;
     const auto start = Clock::now();
+    if (bvhWidth != 2 && bvhWidth != 8)
+        throw Error("GPU: a BVH of width " + std::to_string(bvhWidth) + " is not traced (2 or 8)");
     const GpuLayoutCounts counts = gpuLayoutCounts(scene, bvh);
-    const uint32_t entries = stackEntriesFor(s, gpuTreeDepth(bvh));
+    // The compressed 8-wide tree is made here from the binary one (part of T_CU's conversion); its
+    // rays push at most one node group per wide level.
+    const GpuWideTree wide = bvhWidth == 8 ? makeGpuWideTree(scene, bvh) : GpuWideTree{};
+    const uint32_t entries = stackEntriesFor(s, bvhWidth == 8 ? wide.maxDepth : gpuTreeDepth(bvh));
 
     dropScene(s, /*keepTables=*/false);
     auto tree = std::make_unique<GpuTree>(s.ctx);
@@ -293,8 +303,10 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     vk::StagedUpload staging(s.ctx, s.pool);
     GpuLayoutTargets targets;
     const GpuLayoutCounts written = stageSceneTables(s, staging, scene, counts, targets);
-    targets.nodes =
-        static_cast<gpu::GpuNode*>(staging.add(tree->nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes"));
+    void* nodes = bvhWidth == 8
+                      ? staging.add(tree->nodes, wide.nodes.size() * sizeof(gpu::GpuWideNode), "8-wide BVH nodes")
+                      : staging.add(tree->nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes");
+    if (bvhWidth == 2) targets.nodes = static_cast<gpu::GpuNode*>(nodes);
     targets.triangles = static_cast<gpu::GpuTriangle*>(
         staging.add(tree->triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles"));
     if (s.hasNormals)
@@ -307,7 +319,13 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
         targets.colors = static_cast<gpu::GpuTriangleColors*>(
             staging.add(tree->colors, counts.triangles * sizeof(gpu::GpuTriangleColors), "vertex colours"));
     const auto converted = Clock::now();
-    writeGpuLayout(scene, bvh, written, targets);
+    if (bvhWidth == 8) {
+        std::memcpy(nodes, wide.nodes.data(), wide.nodes.size() * sizeof(gpu::GpuWideNode));
+        writeGpuTriangles(scene, wide.order, written, targets);
+        writeGpuMaterials(scene, written, targets);
+    } else {
+        writeGpuLayout(scene, bvh, written, targets);
+    }
     const auto transferStart = Clock::now();
     s.lastUpload.allocationSeconds = std::chrono::duration<double>(converted - start).count();
     s.lastUpload.conversionSeconds = std::chrono::duration<double>(transferStart - converted).count();
@@ -315,6 +333,7 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh) {
     s.lastUpload.transferSeconds = secondsSince(transferStart);
     s.tablesScene = &scene;
     installTree(s, std::move(tree), entries, /*sameScene=*/false);
+    s.bvhWidth = bvhWidth;
     return secondsSince(start);
 }
 
@@ -367,6 +386,7 @@ void GpuTracer::setRetiredTreeSink(std::function<void(std::unique_ptr<GpuTree>)>
 Bvh GpuTracer::downloadBvh() const {
     const State& s = *state_;
     if (!s.hasScene) throw Error("GPU: no scene uploaded");
+    if (s.bvhWidth != 2) throw Error("GPU: the traced tree is the 8-wide one made at upload; its binary tree is the host's");
     return downloadGpuTree(*s.tree);
 }
 
@@ -500,6 +520,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
             ? VK_TRUE
             : VK_FALSE;
     data.packetsPerGroup = key.packetsPerGroup;
+    data.wideBvh = key.wideBvh ? VK_TRUE : VK_FALSE;
     data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
     data.shadowOrder = key.shadowOrder == ShadowOrder::Tree     ? gpu::kShadowOrderTree
                        : key.shadowOrder == ShadowOrder::Larger ? gpu::kShadowOrderLarger
@@ -571,6 +592,15 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
         throw Error("GPU: the hybrid kernel needs at least one packet per workgroup");
     checkWorkgroup(s, settings, false);
     if (settings.shadows) checkWorkgroup(s, settings, true);
+    if (settings.bvhWidth != s.bvhWidth)
+        throw Error("GPU: the uploaded BVH is " + std::to_string(s.bvhWidth) + "-wide, the settings ask for width " +
+                    std::to_string(settings.bvhWidth) + " (upload with that width)");
+    if (settings.bvhWidth == 8 && settings.kernel != KernelKind::Single)
+        throw Error(std::string("GPU: the 8-wide BVH is traced by the single-ray kernel only, not by the ") +
+                    toString(settings.kernel) + " kernel");
+    if (settings.bvhWidth == 8 && settings.shadowOrder != ShadowOrder::Nearest)
+        throw Error("GPU: the 8-wide BVH orders every ray's children by its octant; --shadow-order " +
+                    std::string(toString(settings.shadowOrder)) + " applies to the binary tree");
     if (!(settings.hybrid.visitRatio >= 0.0f && settings.hybrid.visitRatio <= kMaxHybridVisitRatio))
         throw Error("GPU: the hybrid kernel's visit ratio " + std::to_string(settings.hybrid.visitRatio) +
                     " is not 0 (off) or a ratio up to " + std::to_string(int(kMaxHybridVisitRatio)));

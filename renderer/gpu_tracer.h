@@ -44,7 +44,10 @@ public:
     // idle). Returns T_CU: seconds for conversion, creation and upload, measured on the host.
     // Throws raypack::Error when the device is out of memory or the tree is too deep for the
     // stack the device's shared memory can hold.
-    double upload(const Scene& scene, const Bvh& bvh);
+    // `bvhWidth` 8 uploads the compressed 8-wide tree made from `bvh` (makeGpuWideTree,
+    // renderer/gpu_wide.h), which the single-ray kernel traces with RenderSettings::bvhWidth 8; 2
+    // the binary tree itself. The device builds (buildOnDevice, adopt) are binary trees.
+    double upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth = 2);
     // Where the last upload's T_CU went (issue 13): creating the device and staging buffers, writing
     // the layout into the staging memory (writeGpuLayout, page faults of fresh memory included; or
     // straight into mapped device memory, vk::StagedUpload), and the copies to the device. After a

@@ -81,6 +81,10 @@ struct RenderSettings {
     PacketShape singleGroup{8, 16};
     PacketShape singleShadowGroup{32, 4};
     HybridParams hybrid;
+    // The tree the single-ray kernel traces: 2, the binary BVH as built, or 8, the compressed 8-wide
+    // tree made from it at upload (Ylitie et al. 2017; the tracer gpu-cwbvh, docs/gpu.md). The
+    // packet and hybrid kernels trace the binary tree.
+    uint32_t bvhWidth = 2;
     bool collectCounters = false;  // per-ray N_TR / N_IT (statistics variant of the kernel)
     ViewMode view = ViewMode::Shaded;
     // The count shown as full red in the heat maps; 0: the view's default (256 nodes, 128 tests;

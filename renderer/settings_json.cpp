@@ -123,6 +123,7 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["hybrid"] = {{"min_rays", s.hybrid.minRays},
                    {"visit_ratio", s.hybrid.visitRatio},
                    {"packets_per_group", s.hybrid.packetsPerGroup}};
+    j["bvh_width"] = s.bvhWidth;
     j["collect_counters"] = s.collectCounters;
     j["view"] = toString(s.view);
     j["heat_full_scale"] = s.heatFullScale;
@@ -212,6 +213,8 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         readUint(*hybrid, "packets_per_group", "hybrid.", s.hybrid.packetsPerGroup);
         if (s.hybrid.packetsPerGroup == 0) badKey("hybrid", "packets_per_group must be at least 1");
     }
+    readUint(j, "bvh_width", "", s.bvhWidth);
+    if (s.bvhWidth != 2 && s.bvhWidth != 8) badKey("bvh_width", "must be 2 (the binary tree) or 8 (the compressed 8-wide tree)");
     readBool(j, "collect_counters", "", s.collectCounters);
     if (const std::string view = readString(j, "view", ""); !view.empty()) {
         const auto parsed = parseViewMode(view);

@@ -46,7 +46,8 @@ const uint kSpecShadowOrder = 10u;         // kShadowOrder*: a shadow ray's firs
 const uint kSpecHybridMinRays = 11u;       // hybrid kernel: split when fewer rays want the node (K)
 const uint kSpecHybridVisitRatio = 12u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
 const uint kSpecPacketsPerGroup = 13u;     // hybrid kernel: one-subgroup packets per workgroup, stacked in y
-const uint kSpecCount = 14u;
+const uint kSpecWideBvh = 14u;            // bool: the single-ray kernel traces the compressed 8-wide tree
+const uint kSpecCount = 15u;
 
 // Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).
 const uint kShadowOrderNearest = 0u;
@@ -79,8 +80,9 @@ struct TraceSpecialization {
     uint hybridMinRays;
     uint hybridVisitRatio;
     uint packetsPerGroup;
+    uint wideBvh;  // VkBool32
 };
-RP_CHECK_SIZE(TraceSpecialization, 56);
+RP_CHECK_SIZE(TraceSpecialization, 60);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -95,6 +97,7 @@ RP_CHECK_OFFSET(TraceSpecialization, shadowOrder, 40);
 RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 44);
 RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 48);
 RP_CHECK_OFFSET(TraceSpecialization, packetsPerGroup, 52);
+RP_CHECK_OFFSET(TraceSpecialization, wideBvh, 56);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -120,6 +123,7 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecHybridMinRays, hybridMinRays),
     RP_SPEC_ENTRY(kSpecHybridVisitRatio, hybridVisitRatio),
     RP_SPEC_ENTRY(kSpecPacketsPerGroup, packetsPerGroup),
+    RP_SPEC_ENTRY(kSpecWideBvh, wideBvh),
 };
 #undef RP_SPEC_ENTRY
 

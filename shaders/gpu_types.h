@@ -24,6 +24,45 @@ struct GpuNode {
 RP_CHECK_SIZE(GpuNode, 32);
 RP_CHECK_OFFSET(GpuNode, hi, 16);
 
+// 80 bytes: a node of the compressed 8-wide tree (Ylitie, Karras and Laine 2017, "Efficient
+// Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs"), which the single-ray kernel
+// traces with RenderSettings::bvhWidth 8 (the tracer gpu-cwbvh; made from the binary tree at upload
+// by makeGpuWideTree, renderer/gpu_wide.h; decoded by shaders/wide_node.h). Up to eight children, each box quantized to 8 bits per
+// plane on a grid of the node's own: child i spans, on axis a,
+//   [origin[a] + scale[a] * qlo[a][i], origin[a] + scale[a] * qhi[a][i]]
+// with scale[a] = 2^(exponent[a] - 127), evaluated as one exact product and one rounded float sum,
+// which the host checked to contain the child's box (so the conservative slab test on the decoded
+// box is conservative for the child too).
+//   origin.xyz: the grid's origin (the node box's low corner)
+//   origin.w (uint bits): byte 0, 1, 2 the biased exponents of x, y, z; byte 3 the inner-child mask
+//             (bit i: child slot i is an inner node)
+//   index.x: wide node index of the first inner child; the inner children are consecutive in slot
+//            order (slot i's node is index.x + the number of inner slots below i)
+//   index.y: leaf-order index of the node's first triangle: every leaf child's triangles lie within
+//            the 24 after it
+//   index.z, index.w: the slots' meta bytes (slot i in byte i % 4 of z for i < 4, else of w):
+//            0 an empty slot; an inner child 0x20 | (24 + i); a leaf of n (1 to 3) triangles
+//            ((1 << n) - 1) << 5 | k, its triangles index.y + k .. index.y + k + n - 1
+//   quant[0]: qlo x of slots 0-3, 4-7 (x, y), qlo y of slots 0-3, 4-7 (z, w); a slot's byte as in index
+//   quant[1]: qlo z (x, y), qhi x (z, w)
+//   quant[2]: qhi y (x, y), qhi z (z, w)
+// The slots are ordered by direction: slot s holds the child that a ray of octant s (bit a set:
+// negative direction on axis a) meets first, so a ray of octant o that visits the slots in the
+// order s ^ o for s = 0, 1, ..., 7 meets the children roughly front to back (rayOctant,
+// shaders/wide_node.h). Node 0 is the root, which
+// the kernel enters without a box test; an empty scene's root has no children.
+struct GpuWideNode {
+    vec4 origin;
+    uvec4 index;
+    uvec4 quant[3];
+};
+RP_CHECK_SIZE(GpuWideNode, 80);
+RP_CHECK_OFFSET(GpuWideNode, index, 16);
+RP_CHECK_OFFSET(GpuWideNode, quant, 32);
+const uint kWideInnerMeta = 0x20u;   // an inner child's meta byte: kWideInnerMeta | (24 + slot)
+const uint kWideMaxLeafTriangles = 3u;
+const uint kWideNodeTriangles = 24u;  // triangles a node's leaf children hold at most
+
 // 48 bytes: the three corners, gathered in leaf order so that a leaf's triangles are contiguous
 // and the watertight test (Woop, Benthin, Wald 2013) reads its vertices without an index fetch.
 //   v0.w (uint bits): the triangle's index in file order (HitRecord::prim)

@@ -18,12 +18,14 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_vote : require
+#extension GL_EXT_control_flow_attributes : require
 
 #include "bindings.h"
 #include "gpu_types.h"
 #include "frame_types.h"
 #include "intersect.h"
 #include "shading.h"
+#include "wide_node.h"
 
 // Packet shape PW x PH: one workgroup is one packet covering a PW x PH tile, one invocation a ray.
 layout(local_size_x_id = kSpecPacketWidth, local_size_y_id = kSpecPacketHeight, local_size_z = 1) in;
@@ -56,10 +58,15 @@ layout(constant_id = kSpecHybridVisitRatio) const uint kHybridVisitRatio = 0;
 // one a workgroup, cap it at 32 warps; several a workgroup lift that. Each has its own part of the
 // shared stack (packetStackBase).
 layout(constant_id = kSpecPacketsPerGroup) const uint kPacketsPerGroup = 1;
+// The single-ray kernel traces the compressed 8-wide tree (GpuWideNode, traceWide) that the host
+// uploaded instead of the binary one (RenderSettings::bvhWidth 8).
+layout(constant_id = kSpecWideBvh) const bool kWideBvh = false;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
 layout(std430, set = 0, binding = kBindNodes) readonly buffer Nodes { GpuNode nodes[]; };
+// The same binding seen as the compressed 8-wide tree's nodes (kWideBvh): a pipeline reads one or the other.
+layout(std430, set = 0, binding = kBindNodes) readonly buffer WideNodes { GpuWideNode wideNodes[]; };
 layout(std430, set = 0, binding = kBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = kBindNormals) readonly buffer Normals { GpuTriangleNormals normals[]; };
 layout(std430, set = 0, binding = kBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
@@ -448,6 +455,75 @@ void traceSingle(inout RayQuery q) {
     if (startSingle(q, current)) singleRayLoop(q, current, steps);
 }
 
+// The single-ray traversal of the compressed 8-wide tree (Ylitie, Karras and Laine 2017, their
+// algorithm without postponed triangles): a node's eight child boxes are decoded and tested, the hit
+// inner children become one node group (the first child's index, the hit slots as bits 24 + (slot ^
+// octant), and the node's inner mask in the low byte) and the hit leaves one triangle group (the
+// node's first triangle and a bit per triangle). The triangles are tested at once; the node group
+// hands out its children lowest bit first (front to back for the ray's octant), and a group with
+// children left waits on the ray's stack while the ray descends, one entry per level at most (the
+// host sizes the stack from the wide tree's depth). Nothing is sorted: the order comes from the
+// slots (GpuWideNode). The root is entered without a box test (an empty scene's has no children).
+void traceWide(inout RayQuery q) {
+    if (!q.isActive) return;
+    const uint octant = rayOctant(q.ray.dir);
+    uvec2 group = uvec2(0u, (1u << (24u + octant)) | 1u);  // the root, as inner slot 0 of base 0
+    uint triangleBase = 0u, triangleHits = 0u;
+    uint stackSize = 0u;
+    uint steps = 0u;
+    while (true) {
+        if (group.y > 0x00FFFFFFu) {
+            const uint bit = findLSB(group.y >> 24u);
+            group.y &= ~(1u << (24u + bit));
+            const uint slot = bit ^ octant;
+            const uint child = group.x + bitCount(group.y & ((1u << slot) - 1u) & 0xFFu);
+            if (group.y > 0x00FFFFFFu) {
+                if (stackSize == kRayStackEntries) {
+                    atomicOr(status, kStatusStackOverflow);
+                    return;
+                }
+                rayStack[stackSize++] = group;
+            }
+            if (++steps > kMaxTraversalSteps) {
+                atomicOr(status, kStatusTraversalTruncated);
+                return;
+            }
+            if (kStatistics) q.nodes += 1u;
+            const GpuWideNode node = wideNodes[child];
+            const vec3 scale = wideScales(node);
+            const uint innerMask = floatBitsToUint(node.origin.w) >> 24u;
+            uint innerHits = 0u;
+            triangleHits = 0u;
+            [[unroll]] for (uint i = 0u; i < 8u; ++i) {
+                const uint meta = wideMeta(node, i);
+                if (meta == 0u) continue;
+                vec3 lo, hi;
+                wideChildBox(node, scale, i, lo, hi);
+                float entry;
+                if (!boxTest(q.ray, lo, hi, q.tmax, entry)) continue;
+                if ((innerMask & (1u << i)) != 0u) innerHits |= 1u << (24u + (i ^ octant));
+                else triangleHits |= (meta >> 5u) << (meta & 31u);
+            }
+            group = uvec2(node.index.x, innerHits | innerMask);
+            triangleBase = node.index.y;
+        }
+        while (triangleHits != 0u) {
+            const uint k = findLSB(triangleHits);
+            triangleHits &= triangleHits - 1u;
+            if (++steps > kMaxTraversalSteps) {
+                atomicOr(status, kStatusTraversalTruncated);
+                return;
+            }
+            intersectLeaf(q, triangleBase + k, 1u);
+            if (!q.isActive) return;  // a shadow ray's occluder
+        }
+        if (group.y <= 0x00FFFFFFu) {
+            if (stackSize == 0u) return;
+            group = rayStack[--stackSize];
+        }
+    }
+}
+
 // The hybrid kernel's vote: packetVote's counts plus `wanting`, the active rays that want the node
 // being visited (its box was hit when it was entered or pushed), which both split rules read. The
 // same four rotating slots as packetVote, the fourth component of each slot (packetVote leaves it
@@ -662,6 +738,7 @@ void traceHybrid(inout RayQuery q) {
 void trace(inout RayQuery q) {
     if (kKernel == kKernelPacket) tracePacket(q);
     else if (kKernel == kKernelHybrid) traceHybrid(q);
+    else if (kWideBvh) traceWide(q);
     else traceSingle(q);
 }
 

@@ -41,6 +41,7 @@ struct RenderFlags {
     std::string view = "shaded";
     std::string intersect = "robust";
     std::string shadowOrder = "nearest";
+    uint32_t bvhWidth = 2;
     std::string out, hits, json, from;
     uint32_t repeat = 1;
     uint32_t spp = 1;
@@ -52,7 +53,7 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio, *plocRadius;
+        *hybridMinRays, *hybridVisitRatio, *plocRadius, *bvhWidth;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -89,6 +90,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.view)) s.view = requireViewMode("--view", f.view);
     if (given(o.intersect)) s.intersect = requireIntersectMode("--intersect", f.intersect);
     if (given(o.shadowOrder)) s.shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
+    if (given(o.bvhWidth)) s.bvhWidth = f.bvhWidth;
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
     if (given(o.bins)) setup.bvh.binCount = f.bvh.binCount;
@@ -241,6 +243,12 @@ CommandRunner addRenderCommand(CLI::App& app) {
                                      "area); the shadows are the same, the work differs (docs/gpu.md)")
                         ->check(CLI::IsMember({"nearest", "tree", "larger"}))
                         ->capture_default_str();
+    o.bvhWidth = command
+                     ->add_option("--bvh-width", f.bvhWidth,
+                                  "GPU --kernel single: trace the binary BVH (2) or the compressed 8-wide tree made "
+                                  "from it at upload (8; Ylitie et al. 2017, the tracer gpu-cwbvh, docs/gpu.md)")
+                     ->check(CLI::IsMember({2u, 8u}))
+                     ->capture_default_str();
     command->add_option("--out", f.out,
                         "Write the image to this file: PNG for .png, JPEG (quality 95) for .jpg or "
                         ".jpeg; any other extension is refused before rendering");
@@ -301,6 +309,10 @@ CommandRunner addRenderCommand(CLI::App& app) {
         if (settings.kernel != KernelKind::Hybrid &&
             (given(options->hybridMinRays) || given(options->hybridVisitRatio)))
             throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
+        if (settings.bvhWidth != 2 && (cpu || settings.kernel != KernelKind::Single))
+            throw Error("--bvh-width 8 applies to --device gpu --kernel single only");
+        if (settings.bvhWidth != 2 && settings.shadowOrder != ShadowOrder::Nearest)
+            throw Error("--bvh-width 8 orders the children by each ray's octant; --shadow-order applies to the binary tree");
         if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--shadow-order applies to --device gpu --kernel single only");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
@@ -322,7 +334,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         // A device builder on --device gpu builds in the GPU tracer's own buffers (issue 13: no tree
         // on the host, no second Vulkan device, no download and upload again). The start view
         // traces the tree on the host, so without a camera the tree is built and downloaded first.
-        const bool buildInTracer = gpu && isGpuBvhBuilder(setup.bvh.builder) && cameraGiven;
+        const bool buildInTracer = gpu && isGpuBvhBuilder(setup.bvh.builder) && cameraGiven && settings.bvhWidth == 2;
         std::optional<Bvh> bvh;
         if (!buildInTracer) bvh = buildSceneBvh(loaded.scene, setup.bvh, f.gpu);
         if (!cameraGiven) {
@@ -342,6 +354,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         const bool packets = settings.kernel == KernelKind::Packet;
         const char* gpuTracer = packets                                 ? "gpu-packet"
                                 : settings.kernel == KernelKind::Hybrid ? "gpu-hybrid"
+                                : settings.bvhWidth == 8                ? "gpu-cwbvh"
                                                                         : "gpu-single";
         std::optional<VulkanSession> session;
         TracerEnvironment environment;
@@ -400,6 +413,8 @@ CommandRunner addRenderCommand(CLI::App& app) {
             std::printf("kernel     %s, %s %s\n", toString(settings.kernel),
                         gpu && settings.kernel == KernelKind::Single ? "workgroup" : "packet",
                         toString(gpuWorkgroup(settings)).c_str());
+        if (gpu && settings.bvhWidth == 8)
+            std::printf("tree       compressed 8-wide (Ylitie et al. 2017), made from the binary BVH at upload\n");
         if (settings.kernel == KernelKind::Hybrid)
             std::printf("hybrid     split below %u rays, visit ratio %g (0: off)\n", settings.hybrid.minRays,
                         double(settings.hybrid.visitRatio));

@@ -2,7 +2,9 @@
 // shared-stack packet traversal (Gunther, Popov, Seidel 2007) of RenderSettings::packet,
 // "gpu-single", one ray per invocation (Aila and Laine 2009), and "gpu-hybrid", the packet until
 // it is incoherent and then single rays (Benthin et al. 2012; RenderSettings::hybrid), on the same
-// node layout. One file for all: they differ in the kernel the GpuTracer is told to dispatch.
+// node layout; and "gpu-cwbvh", the single-ray kernel over the compressed 8-wide tree made at upload
+// (Ylitie et al. 2017; RenderSettings::bvhWidth 8). One file for all: they differ in the kernel the
+// GpuTracer is told to dispatch and the tree it uploads.
 #include "renderer/error.h"
 #include "renderer/gpu_tracer.h"
 #include "renderer/tracers/tracer_rows.h"
@@ -12,10 +14,12 @@ namespace {
 
 class GpuKernelTracer final : public Tracer {
 public:
-    GpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel)
-        : tracer_(std::make_unique<GpuTracer>(context)), kernel_(kernel) {}
+    GpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel, uint32_t bvhWidth)
+        : tracer_(std::make_unique<GpuTracer>(context)), kernel_(kernel), bvhWidth_(bvhWidth) {}
 
-    std::string name() const override { return std::string("gpu-") + toString(kernel_); }
+    std::string name() const override {
+        return bvhWidth_ == 8 ? "gpu-cwbvh" : std::string("gpu-") + toString(kernel_);
+    }
     std::string kernel() const override { return toString(kernel_); }
     TracerDevice device() const override { return TracerDevice::Gpu; }
     std::string describe(const RenderSettings&) const override { return vk::describe(tracer_->device()); }
@@ -29,7 +33,7 @@ public:
     }
     Preparation prepare(const Scene& scene, const Bvh& bvh) override {
         Preparation p;
-        p.seconds = tracer_->upload(scene, bvh);
+        p.seconds = tracer_->upload(scene, bvh, bvhWidth_);
         p.bytes = tracer_->sceneBytes();
         p.isUpload = true;
         const GpuTracer::UploadTimings split = tracer_->lastUploadTimings();
@@ -40,6 +44,8 @@ public:
     }
     std::optional<DeviceBuildPreparation> prepareWithDeviceBuild(const Scene& scene,
                                                                  const BvhBuildOptions& options) override {
+        // The device builders write the binary tree; the 8-wide one is made from a host tree.
+        if (bvhWidth_ != 2) return std::nullopt;
         const GpuTracer::DeviceBuild built = tracer_->buildOnDevice(scene, options);
         DeviceBuildPreparation p;
         p.preparation.seconds = built.uploadSeconds;
@@ -73,16 +79,18 @@ public:
 private:
     RenderSettings withKernel(RenderSettings settings) const {
         settings.kernel = kernel_;
+        settings.bvhWidth = bvhWidth_;
         return settings;
     }
     std::unique_ptr<GpuTracer> tracer_;
     KernelKind kernel_;
+    uint32_t bvhWidth_;
 };
 
 }  // namespace
 
-std::unique_ptr<Tracer> makeGpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel) {
-    return std::make_unique<GpuKernelTracer>(context, kernel);
+std::unique_ptr<Tracer> makeGpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel, uint32_t bvhWidth) {
+    return std::make_unique<GpuKernelTracer>(context, kernel, bvhWidth);
 }
 
 }  // namespace raypack

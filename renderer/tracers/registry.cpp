@@ -35,6 +35,8 @@ const std::vector<Row>& rows() {
          [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Packet); }},
         {"gpu-single", TracerDevice::Gpu, "single", needsVulkan,
          [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Single); }},
+        {"gpu-cwbvh", TracerDevice::Gpu, "single", needsVulkan,
+         [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Single, 8); }},
         {"gpu-hybrid", TracerDevice::Gpu, "hybrid", needsVulkan,
          [](const TracerEnvironment& e) { return makeGpuKernelTracer(*e.vulkan, KernelKind::Hybrid); }},
         {"driver-rt", TracerDevice::Gpu, "vkCmdTraceRaysKHR",

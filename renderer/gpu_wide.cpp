@@ -1,0 +1,278 @@
+#include "renderer/gpu_wide.h"
+
+#include "renderer/error.h"
+#include "shaders/wide_node.h"
+
+#include <algorithm>
+#include <array>
+#include <cfloat>
+#include <cmath>
+#include <string>
+
+namespace raypack {
+namespace {
+
+constexpr uint32_t kWidth = 8;
+constexpr uint32_t kRange = UINT32_MAX;  // Source::node of a range of references, not a binary node
+// The grid's exponents: scale 2^e stays normal, and 255 * 2^e finite.
+constexpr int kMinExponent = -126;
+constexpr int kMaxExponent = 120;
+
+// What a child slot holds before it is written: a binary node (its leaf range in first/count when
+// it is a leaf) or a part of a leaf's range (node kRange), with its box.
+struct Source {
+    Aabb box;
+    uint32_t node = kRange;
+    uint32_t first = 0, count = 0;
+};
+
+class Collapser {
+public:
+    Collapser(const Scene& scene, const Bvh& bvh) : scene_(scene), bvh_(bvh) {}
+
+    GpuWideTree run() {
+        GpuWideTree tree;
+        tree.order.reserve(bvh_.primIndices.size());
+        tree.nodes.emplace_back();
+        const BvhNode& root = bvh_.nodes[0];
+        const Source rootSource = binarySource(0);
+        struct Work {
+            uint32_t wide;
+            Source source;
+            uint32_t depth;
+        };
+        std::vector<Work> work;
+        if (root.isLeaf() && root.count == 0) {
+            tree.nodes[0] = emptyNode();  // an empty scene: a root with no children
+            return tree;
+        }
+        work.push_back({0u, rootSource, 0u});
+        while (!work.empty()) {
+            const Work item = work.back();
+            work.pop_back();
+            tree.maxDepth = std::max(tree.maxDepth, item.depth);
+            std::vector<Source> children = collapse(item.source);
+            const std::array<int, kWidth> slots = assignSlots(item.source, children);
+            gpu::GpuWideNode node = emptyNode();
+            Aabb box;
+            for (const Source& c : children) box.grow(c.box);
+            const std::array<int, 3> exponents = quantize(box, children, slots, node);
+            node.origin = glm::vec4(box.lo, 0.0f);
+            uint32_t innerMask = 0;
+            const uint32_t firstChild = uint32_t(tree.nodes.size());
+            const uint32_t firstTriangle = uint32_t(tree.order.size());
+            node.index.x = firstChild;
+            node.index.y = firstTriangle;
+            uint32_t innerCount = 0;
+            for (uint32_t slot = 0; slot < kWidth; ++slot) {
+                if (slots[slot] < 0) continue;
+                const Source& c = children[size_t(slots[slot])];
+                uint32_t meta;
+                if (isInner(c)) {
+                    innerMask |= 1u << slot;
+                    meta = gpu::kWideInnerMeta | (24u + slot);
+                    work.push_back({firstChild + innerCount, c, item.depth + 1});
+                    ++innerCount;
+                    ++tree.innerSlots;
+                } else {
+                    const uint32_t offset = uint32_t(tree.order.size()) - firstTriangle;
+                    for (uint32_t k = 0; k < c.count; ++k) tree.order.push_back(bvh_.primIndices[c.first + k]);
+                    meta = (((1u << c.count) - 1u) << 5u) | offset;
+                    ++tree.leafSlots;
+                }
+                (slot < 4 ? node.index.z : node.index.w) |= meta << (8u * (slot & 3u));
+            }
+            RAYPACK_CHECK(tree.order.size() - firstTriangle <= gpu::kWideNodeTriangles);
+            const uint32_t bits = uint32_t(exponents[0] + 127) | uint32_t(exponents[1] + 127) << 8u |
+                                  uint32_t(exponents[2] + 127) << 16u | innerMask << 24u;
+            node.origin.w = glm::uintBitsToFloat(bits);
+            tree.nodes.resize(tree.nodes.size() + innerCount);
+            tree.nodes[item.wide] = node;
+            // The children are filled depth first, the lowest slot next (it was pushed first, so
+            // reverse the ones just pushed): deterministic, and a subtree's nodes stay together.
+            std::reverse(work.end() - innerCount, work.end());
+        }
+        RAYPACK_CHECK(tree.order.size() == bvh_.primIndices.size());
+        return tree;
+    }
+
+private:
+    static gpu::GpuWideNode emptyNode() {
+        gpu::GpuWideNode n{};
+        const uint32_t unitScale = 127u | 127u << 8u | 127u << 16u;
+        n.origin = glm::vec4(0.0f, 0.0f, 0.0f, glm::uintBitsToFloat(unitScale));
+        return n;
+    }
+
+    Source binarySource(uint32_t index) const {
+        const BvhNode& n = bvh_.nodes[index];
+        Source s;
+        s.node = index;
+        s.box.lo = n.lo;
+        s.box.hi = n.hi;
+        if (n.isLeaf()) {
+            s.first = n.index;
+            s.count = n.count;
+        }
+        return s;
+    }
+
+    bool isBinaryInner(const Source& s) const { return s.node != kRange && !bvh_.nodes[s.node].isLeaf(); }
+    // An inner child of a wide node: what a leaf slot cannot hold.
+    bool isInner(const Source& s) const { return isBinaryInner(s) || s.count > gpu::kWideMaxLeafTriangles; }
+
+    // The references [first, first + count) as a source: their triangles' box, clipped to `within`
+    // (a spatial-split leaf bounds only the parts of its triangles inside its box; those parts are
+    // all this leaf has to find).
+    Source rangeSource(uint32_t first, uint32_t count, const Aabb& within) const {
+        Source s;
+        s.first = first;
+        s.count = count;
+        for (uint32_t k = first; k < first + count; ++k) s.box.grow(scene_.triangleBounds(bvh_.primIndices[k]));
+        s.box.lo = glm::max(s.box.lo, within.lo);
+        s.box.hi = glm::min(s.box.hi, within.hi);
+        return s;
+    }
+
+    std::array<Source, 2> open(const Source& s) const {
+        if (isBinaryInner(s)) {
+            const uint32_t left = bvh_.nodes[s.node].index;
+            return {binarySource(left), binarySource(left + 1)};
+        }
+        const uint32_t half = s.count / 2;
+        return {rangeSource(s.first, half, s.box), rangeSource(s.first + half, s.count - half, s.box)};
+    }
+
+    // The node's children: its own two halves, then the largest openable child opened until there
+    // are eight or none is left to open. A source that is itself a leaf of at most three triangles
+    // (a small root) is the node's only child.
+    std::vector<Source> collapse(const Source& s) const {
+        std::vector<Source> children;
+        if (!isInner(s)) {
+            children.push_back(s);
+            return children;
+        }
+        const std::array<Source, 2> halves = open(s);
+        children.assign(halves.begin(), halves.end());
+        while (children.size() < kWidth) {
+            int widest = -1;
+            float widestArea = -1.0f;
+            for (size_t c = 0; c < children.size(); ++c) {
+                if (!isInner(children[c])) continue;
+                const float area = children[c].box.area();
+                if (area > widestArea) {
+                    widest = int(c);
+                    widestArea = area;
+                }
+            }
+            if (widest < 0) break;
+            const std::array<Source, 2> opened = open(children[size_t(widest)]);
+            children[size_t(widest)] = opened[0];
+            children.push_back(opened[1]);
+        }
+        return children;
+    }
+
+    // slots[s]: the child in slot s, or -1. Slot s should hold the child that comes first for a ray
+    // of octant s (shaders/wide_node.h, rayOctant): the lowest projection of its centre, relative to
+    // the parent's, on the octant's sign vector. Greedy over every (child, slot) pair, cheapest first.
+    static std::array<int, kWidth> assignSlots(const Source& parent, const std::vector<Source>& children) {
+        std::array<int, kWidth> slots;
+        slots.fill(-1);
+        struct Pair {
+            float cost;
+            uint32_t child, slot;
+        };
+        std::vector<Pair> pairs;
+        const glm::vec3 centre = parent.box.center();
+        for (uint32_t c = 0; c < children.size(); ++c) {
+            const glm::vec3 d = children[c].box.center() - centre;
+            for (uint32_t s = 0; s < kWidth; ++s) {
+                const glm::vec3 sign((s & 1u) ? -1.0f : 1.0f, (s & 2u) ? -1.0f : 1.0f, (s & 4u) ? -1.0f : 1.0f);
+                pairs.push_back({glm::dot(d, sign), c, s});
+            }
+        }
+        std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+            if (a.cost != b.cost) return a.cost < b.cost;
+            return a.child != b.child ? a.child < b.child : a.slot < b.slot;
+        });
+        std::array<bool, kWidth> placed{};
+        for (const Pair& p : pairs) {
+            if (placed[p.child] || slots[p.slot] >= 0) continue;
+            slots[p.slot] = int(p.child);
+            placed[p.child] = true;
+        }
+        return slots;
+    }
+
+    // A decoded plane as the device may see it: the value itself, or 0 where the device flushes a
+    // subnormal result. A conservative plane must be conservative both ways.
+    static bool coversLow(float decoded, float lo) {
+        const float flushed = std::fabs(decoded) < FLT_MIN ? 0.0f : decoded;
+        return std::isfinite(decoded) && decoded <= lo && flushed <= lo;
+    }
+    static bool coversHigh(float decoded, float hi) {
+        const float flushed = std::fabs(decoded) < FLT_MIN ? 0.0f : decoded;
+        return std::isfinite(decoded) && decoded >= hi && flushed >= hi;
+    }
+
+    // Writes every child's quantized planes into `node`'s quant words and returns the exponent of
+    // each axis: the finest grid (from the smallest e with 255 * 2^e >= the extent up) on which the
+    // decoding of shaders/wide_node.h contains each child's box.
+    static std::array<int, 3> quantize(const Aabb& box, const std::vector<Source>& children,
+                                       const std::array<int, kWidth>& slots, gpu::GpuWideNode& node) {
+        std::array<int, 3> exponents{};
+        for (int axis = 0; axis < 3; ++axis) {
+            const float origin = box.lo[axis];
+            const double extent = double(box.hi[axis]) - double(origin);
+            int e = kMinExponent;
+            if (extent > 0.0) e = std::max(kMinExponent, int(std::ceil(std::log2(extent / 255.0))));
+            std::array<uint32_t, kWidth> qlo{}, qhi{};
+            for (;; ++e) {
+                if (e > kMaxExponent)
+                    throw Error("GPU: the 8-wide tree cannot quantize a node spanning " + std::to_string(extent) +
+                                " on axis " + std::to_string(axis) + " (beyond the float range)");
+                const float scale = gpu::wideScale(uint32_t(e + 127));
+                bool fits = true;
+                for (uint32_t slot = 0; slot < kWidth && fits; ++slot) {
+                    if (slots[slot] < 0) continue;
+                    const Aabb& b = children[size_t(slots[slot])].box;
+                    const float lo = b.lo[axis], hi = b.hi[axis];
+                    const double low = std::floor((double(lo) - double(origin)) / double(scale));
+                    uint32_t l = uint32_t(std::clamp(low, 0.0, 255.0));
+                    while (l > 0 && !coversLow(gpu::wideDecode(origin, scale, l), lo)) --l;
+                    const double high = std::ceil((double(hi) - double(origin)) / double(scale));
+                    uint32_t h = uint32_t(std::clamp(high, 0.0, 255.0));
+                    while (h < 255 && !coversHigh(gpu::wideDecode(origin, scale, h), hi)) ++h;
+                    fits = coversLow(gpu::wideDecode(origin, scale, l), lo) &&
+                           coversHigh(gpu::wideDecode(origin, scale, h), hi);
+                    qlo[slot] = l;
+                    qhi[slot] = h;
+                }
+                if (fits) break;
+            }
+            exponents[size_t(axis)] = e;
+            // quant[0] = (lo x, lo y), quant[1] = (lo z, hi x), quant[2] = (hi y, hi z), each a pair
+            // of words for slots 0-3 and 4-7.
+            const int loPlane = axis, hiPlane = 3 + axis;
+            for (uint32_t slot = 0; slot < kWidth; ++slot) {
+                const uint32_t shift = 8u * (slot & 3u), half = slot < 4 ? 0u : 1u;
+                node.quant[loPlane / 2][2 * (loPlane % 2) + half] |= qlo[slot] << shift;
+                node.quant[hiPlane / 2][2 * (hiPlane % 2) + half] |= qhi[slot] << shift;
+            }
+        }
+        return exponents;
+    }
+
+    const Scene& scene_;
+    const Bvh& bvh_;
+};
+
+}  // namespace
+
+GpuWideTree makeGpuWideTree(const Scene& scene, const Bvh& bvh) {
+    RAYPACK_CHECK(!bvh.nodes.empty());
+    return Collapser(scene, bvh).run();
+}
+
+}  // namespace raypack
