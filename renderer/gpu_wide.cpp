@@ -205,13 +205,23 @@ private:
         return slots;
     }
 
-    // A decoded plane as the device may see it: the value itself, or 0 where the device flushes a
-    // subnormal result. A conservative plane must be conservative both ways.
-    static bool coversLow(float decoded, float lo) {
+    // Whether plane q of the grid (origin, scale) lies at or below `lo` (coversLow) or at or above
+    // `hi` (coversHigh) both ways the kernel reads it (shaders/wide_node.h): as the exact real
+    // origin + scale * q, which the fused slab test uses, and as its rounded float decoding (also
+    // with a subnormal result flushed to 0, as a device may), which the decoded-box path tests. The
+    // real one is judged in double: scale * q is exact there and the difference of two floats is
+    // rounded once (relative error at most 2^-53), so a margin of 2^-50 of it decides safely.
+    static bool coversLow(float origin, float scale, uint32_t q, float lo) {
+        const double gap = double(lo) - double(origin);  // >= 0: the origin is the lowest plane
+        if (double(scale) * q > gap - std::fabs(gap) * 0x1p-50) return false;
+        const float decoded = gpu::wideDecode(origin, scale, q);
         const float flushed = std::fabs(decoded) < FLT_MIN ? 0.0f : decoded;
         return std::isfinite(decoded) && decoded <= lo && flushed <= lo;
     }
-    static bool coversHigh(float decoded, float hi) {
+    static bool coversHigh(float origin, float scale, uint32_t q, float hi) {
+        const double gap = double(hi) - double(origin);
+        if (double(scale) * q < gap + std::fabs(gap) * 0x1p-50) return false;
+        const float decoded = gpu::wideDecode(origin, scale, q);
         const float flushed = std::fabs(decoded) < FLT_MIN ? 0.0f : decoded;
         return std::isfinite(decoded) && decoded >= hi && flushed >= hi;
     }
@@ -240,12 +250,11 @@ private:
                     const float lo = b.lo[axis], hi = b.hi[axis];
                     const double low = std::floor((double(lo) - double(origin)) / double(scale));
                     uint32_t l = uint32_t(std::clamp(low, 0.0, 255.0));
-                    while (l > 0 && !coversLow(gpu::wideDecode(origin, scale, l), lo)) --l;
+                    while (l > 0 && !coversLow(origin, scale, l, lo)) --l;
                     const double high = std::ceil((double(hi) - double(origin)) / double(scale));
                     uint32_t h = uint32_t(std::clamp(high, 0.0, 255.0));
-                    while (h < 255 && !coversHigh(gpu::wideDecode(origin, scale, h), hi)) ++h;
-                    fits = coversLow(gpu::wideDecode(origin, scale, l), lo) &&
-                           coversHigh(gpu::wideDecode(origin, scale, h), hi);
+                    while (h < 255 && !coversHigh(origin, scale, h, hi)) ++h;
+                    fits = coversLow(origin, scale, l, lo) && coversHigh(origin, scale, h, hi);
                     qlo[slot] = l;
                     qhi[slot] = h;
                 }

@@ -455,11 +455,67 @@ void traceSingle(inout RayQuery q) {
     if (startSingle(q, current)) singleRayLoop(q, current, steps);
 }
 
+// The children of `node` that the ray meets: the inner ones as bits 24 + (slot ^ octant) of the
+// result, with the node's inner mask in its low byte (traceWide's node group), the leaves' triangles
+// as bits of triangleHits (bit k: the node's first triangle + k). The slab test is the grid's fused
+// form made conservative by its error bound (shaders/wide_node.h, kWideSlabError), or for rays
+// parallel to an axis and nodes of huge distances the decoded box and the slab test of
+// shaders/intersect.h; the box test's tmax is the closest hit's, widened as there.
+uint wideNodeHits(RayQuery q, GpuWideNode node, uint octant, out uint triangleHits) {
+    const vec3 scale = wideScales(node);
+    const uint innerMask = floatBitsToUint(node.origin.w) >> 24u;
+    uint innerHits = 0u;
+    triangleHits = 0u;
+    const vec3 a = scale * q.ray.invDir;
+    const vec3 b = (node.origin.xyz - q.ray.org) * q.ray.invDir;
+    const vec3 reach = abs(b) + 255.0f * abs(a);
+    if (!q.ray.anyParallel && max(max(reach.x, reach.y), reach.z) < kWideFastLimit) {
+        const vec3 error = kFastIntersect ? vec3(0.0f) : reach * kWideSlabError;
+        const vec3 bNear = b - error;
+        const vec3 bFar = b + error;
+        const float tmax = kFastIntersect ? q.tmax : q.tmax * kBoxTmaxWiden;
+        // Each axis's near plane is the low one where the ray runs forwards on it, else the high one.
+        const bool negX = (octant & 1u) != 0u, negY = (octant & 2u) != 0u, negZ = (octant & 4u) != 0u;
+        const uvec2 nearX = negX ? node.quant[1].zw : node.quant[0].xy;
+        const uvec2 farX = negX ? node.quant[0].xy : node.quant[1].zw;
+        const uvec2 nearY = negY ? node.quant[2].xy : node.quant[0].zw;
+        const uvec2 farY = negY ? node.quant[0].zw : node.quant[2].xy;
+        const uvec2 nearZ = negZ ? node.quant[2].zw : node.quant[1].xy;
+        const uvec2 farZ = negZ ? node.quant[1].xy : node.quant[2].zw;
+        [[unroll]] for (uint i = 0u; i < 8u; ++i) {
+            const uint meta = wideMeta(node, i);
+            const float nx = fma(float(wideSlotValue(nearX.x, nearX.y, i)), a.x, bNear.x);
+            const float ny = fma(float(wideSlotValue(nearY.x, nearY.y, i)), a.y, bNear.y);
+            const float nz = fma(float(wideSlotValue(nearZ.x, nearZ.y, i)), a.z, bNear.z);
+            const float fx = fma(float(wideSlotValue(farX.x, farX.y, i)), a.x, bFar.x);
+            const float fy = fma(float(wideSlotValue(farY.x, farY.y, i)), a.y, bFar.y);
+            const float fz = fma(float(wideSlotValue(farZ.x, farZ.y, i)), a.z, bFar.z);
+            const float tNear = max(max(nx, ny), max(nz, 0.0f));
+            const float tFar = min(min(fx, fy), min(fz, tmax));
+            if (meta == 0u || tNear > tFar) continue;
+            if ((innerMask & (1u << i)) != 0u) innerHits |= 1u << (24u + (i ^ octant));
+            else triangleHits |= (meta >> 5u) << (meta & 31u);
+        }
+    } else {
+        [[unroll]] for (uint i = 0u; i < 8u; ++i) {
+            const uint meta = wideMeta(node, i);
+            if (meta == 0u) continue;
+            vec3 lo, hi;
+            wideChildBox(node, scale, i, lo, hi);
+            float entry;
+            if (!boxTest(q.ray, lo, hi, q.tmax, entry)) continue;
+            if ((innerMask & (1u << i)) != 0u) innerHits |= 1u << (24u + (i ^ octant));
+            else triangleHits |= (meta >> 5u) << (meta & 31u);
+        }
+    }
+    return innerHits | innerMask;
+}
+
 // The single-ray traversal of the compressed 8-wide tree (Ylitie, Karras and Laine 2017, their
 // algorithm without postponed triangles): a node's eight child boxes are decoded and tested, the hit
 // inner children become one node group (the first child's index, the hit slots as bits 24 + (slot ^
 // octant), and the node's inner mask in the low byte) and the hit leaves one triangle group (the
-// node's first triangle and a bit per triangle). The triangles are tested at once; the node group
+// node's first triangle and a bit per triangle; wideNodeHits). The triangles are tested at once; the node group
 // hands out its children lowest bit first (front to back for the ray's octant), and a group with
 // children left waits on the ray's stack while the ray descends, one entry per level at most (the
 // host sizes the stack from the wide tree's depth). Nothing is sorted: the order comes from the
@@ -490,21 +546,7 @@ void traceWide(inout RayQuery q) {
             }
             if (kStatistics) q.nodes += 1u;
             const GpuWideNode node = wideNodes[child];
-            const vec3 scale = wideScales(node);
-            const uint innerMask = floatBitsToUint(node.origin.w) >> 24u;
-            uint innerHits = 0u;
-            triangleHits = 0u;
-            [[unroll]] for (uint i = 0u; i < 8u; ++i) {
-                const uint meta = wideMeta(node, i);
-                if (meta == 0u) continue;
-                vec3 lo, hi;
-                wideChildBox(node, scale, i, lo, hi);
-                float entry;
-                if (!boxTest(q.ray, lo, hi, q.tmax, entry)) continue;
-                if ((innerMask & (1u << i)) != 0u) innerHits |= 1u << (24u + (i ^ octant));
-                else triangleHits |= (meta >> 5u) << (meta & 31u);
-            }
-            group = uvec2(node.index.x, innerHits | innerMask);
+            group = uvec2(node.index.x, wideNodeHits(q, node, octant, triangleHits));
             triangleBase = node.index.y;
         }
         while (triangleHits != 0u) {

@@ -48,6 +48,23 @@ RP_FUNC void wideChildBox(GpuWideNode n, vec3 scale, uint slot, RP_OUT(vec3) lo,
     hi.z = wideDecode(n.origin.z, scale.z, wideSlotValue(n.quant[2].z, n.quant[2].w, slot));
 }
 
+// The slab test of a node's children in the grid's own terms (Ylitie et al. 2017's form): per node
+// and axis a = scale * invDir (exact: scale is a power of two) and b = (origin - org) * invDir, per
+// child plane t = q * a + b, one fused multiply-add instead of a decode, a subtraction and a
+// product. It is made conservative by an absolute bound on its rounding, per node and axis:
+//   E = (|b| + 255 |a|) * kWideSlabError,
+// subtracted from the near planes' distances and added to the far planes'. The exact distance of a
+// plane is (origin + scale * q - org) / dir; the computed one carries the rounding of origin - org,
+// of its product with invDir, of the fused multiply-add and of b - E, and invDir's own error (a
+// GPU's division may be off by 2.5 ulp, Vulkan's bound): about 11 u (|b| + 255 |a|) in all, u =
+// 2^-24. kWideSlabError is 2^-19 = 32 u. The host quantized every box so that the exact real
+// planes origin + scale * q contain the child's box (renderer/gpu_wide.cpp), so a ray that meets the
+// child meets the widened slabs. Rays parallel to an axis (invDir 0) and nodes whose distances
+// reach kWideFastLimit (where 255 |a| could overflow) take the decoded box and the slab test of
+// shaders/intersect.h instead (the kernel's wideChildBox path).
+const float kWideSlabError = 1.9073486328125e-06f;  // 2^-19
+const float kWideFastLimit = 1.0e30f;
+
 // A ray's octant: bit a set when its direction is negative on axis a. The kernel visits the slots
 // of a node in the order s ^ octant, s = 0, 1, ..., 7 (GpuWideNode: roughly front to back).
 RP_FUNC uint rayOctant(vec3 dir) {
