@@ -20,7 +20,7 @@ source scripts/device-env.sh > "$out/env.log" 2>&1
 cli=.device/bin/raypack-cli
 repeat=${REPEAT:-10}
 budget=${BUDGET_S:-480}
-runs=${RUNS:-report-1 report-2 split2 scaling}
+runs=${RUNS:-report-1 report-2 groups split2 scaling}
 start=$(date +%s)
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv >> "$out/env.log" 2>&1
 for scene in sibenik/sibenik_geom_75284.ply dabrovic_sponza/sponza.obj conference/conference_geom.ply \
@@ -46,6 +46,7 @@ for r in $runs; do
   case $r in
     report-1) run report-1 report --pipeline-statistics ;;
     report-2) run report-2 report --no-driver-rt ;;
+    groups) run groups report --no-driver-rt --single-groups "${GROUPS_LIST:-8x16/32x4,8x8/8x8,16x8/16x8,8x4/32x4}" ;;
     split2) run split2 report --builder sah-split --leaf-size 2 ;;
     scaling) run scaling scaling --no-driver-rt ;;
   esac
@@ -53,32 +54,38 @@ done
 python3 - "$out" > "$out/cwbvh.md" <<'PY'
 import json, os, sys
 out = sys.argv[1]
-def rec(run, tracer, scene, kind):
+def rec(run, tracer, scene, kind, packet=None):
     for r in run["records"]:
-        if r.get("tracer") == tracer and r.get("scene") == scene and r.get("ray_kind") == kind:
+        if r.get("tracer") == tracer and r.get("scene") == scene and r.get("ray_kind") == kind and \
+                (packet is None or r.get("packet") == packet):
             return r
     return None
-for name in ("report-1", "report-2", "split2", "scaling"):
+for name in ("report-1", "report-2", "groups", "split2", "scaling"):
     path = os.path.join(out, name + ".json")
     if not os.path.exists(path):
         print(f"## {name}: missing\n"); continue
     run = json.load(open(path))
     print(f"## {name}\n\ndate {run['date']}, {run['machine'].get('gpu')}, {run['machine'].get('gpu_driver')}, "
           f"command: {run['command']}\n")
-    print("| scene | rays | binary Mrays/s | 8-wide Mrays/s | 8-wide / binary | 8-wide / driver RT | binary / driver RT | N_TR binary / 8-wide | N_IT binary / 8-wide |")
-    print("|---|---|---:|---:|---:|---:|---:|---:|---:|")
+    print("| scene | rays | workgroup | binary Mrays/s | 8-wide Mrays/s | 8-wide / binary | 8-wide / driver RT | binary / driver RT | N_TR binary / 8-wide | N_IT binary / 8-wide |")
+    print("|---|---|---|---:|---:|---:|---:|---:|---:|---:|")
     scenes = []
     for r in run["records"]:
         if r.get("scene") not in scenes: scenes.append(r.get("scene"))
     for scene in scenes:
         for kind in ("primary", "shadow"):
-            s, w = rec(run, "gpu-single", scene, kind), rec(run, "gpu-cwbvh", scene, kind)
+          packets = []
+          for r in run["records"]:
+              if r.get("scene") == scene and r.get("ray_kind") == kind and r.get("tracer") == "gpu-single" and r.get("packet") not in packets:
+                  packets.append(r.get("packet"))
+          for packet in packets:
+            s, w = rec(run, "gpu-single", scene, kind, packet), rec(run, "gpu-cwbvh", scene, kind, packet)
             if not s or not w: continue
             ms, mw = s["perf_mrays_s"], w["perf_mrays_s"]
             rt = rec(run, "driver-rt", scene, kind)
             rtw = f"{mw / rt['perf_mrays_s']:.3f}" if rt and rt.get("perf_mrays_s") else "-"
             rts = f"{ms / rt['perf_mrays_s']:.3f}" if rt and rt.get("perf_mrays_s") else "-"
-            print(f"| {scene} | {kind} | {ms:.0f} | {mw:.0f} | {mw / ms:.3f} | {rtw} | {rts} | "
+            print(f"| {scene} | {kind} | {packet} | {ms:.0f} | {mw:.0f} | {mw / ms:.3f} | {rtw} | {rts} | "
                   f"{s.get('n_tr_nodes_per_ray') or 0:.1f} / {w.get('n_tr_nodes_per_ray') or 0:.1f} | "
                   f"{s.get('n_it_tests_per_ray') or 0:.2f} / {w.get('n_it_tests_per_ray') or 0:.2f} |")
     print()
