@@ -386,7 +386,8 @@ void GpuTracer::setRetiredTreeSink(std::function<void(std::unique_ptr<GpuTree>)>
 Bvh GpuTracer::downloadBvh() const {
     const State& s = *state_;
     if (!s.hasScene) throw Error("GPU: no scene uploaded");
-    if (s.bvhWidth != 2) throw Error("GPU: the traced tree is the 8-wide one made at upload; its binary tree is the host's");
+    if (s.bvhWidth != 2)
+        throw Error("GPU: the traced tree is the 8-wide one made at upload; its binary tree is the host's");
     return downloadGpuTree(*s.tree);
 }
 

@@ -57,7 +57,7 @@ public:
             Aabb box;
             for (const Source& c : children) box.grow(c.box);
             const std::array<int, 3> exponents = quantize(box, children, slots, node);
-            node.origin = glm::vec4(box.lo, 0.0f);
+            node.origin = glm::vec4(normalBelow(box.lo.x), normalBelow(box.lo.y), normalBelow(box.lo.z), 0.0f);
             uint32_t innerMask = 0;
             const uint32_t firstChild = uint32_t(tree.nodes.size());
             const uint32_t firstTriangle = uint32_t(tree.order.size());
@@ -226,14 +226,21 @@ private:
         return std::isfinite(decoded) && decoded >= hi && flushed >= hi;
     }
 
+    // The grid's origin for a node whose box starts at `lo`: lo itself, unless it is subnormal, which
+    // a device may flush to 0 before adding to it: then the normal value (or 0) just below it.
+    static float normalBelow(float lo) {
+        if (std::fabs(lo) >= FLT_MIN) return lo;
+        return lo < 0.0f ? -FLT_MIN : 0.0f;
+    }
+
     // Writes every child's quantized planes into `node`'s quant words and returns the exponent of
-    // each axis: the finest grid (from the smallest e with 255 * 2^e >= the extent up) on which the
-    // decoding of shaders/wide_node.h contains each child's box.
+    // each axis (the grid's origin: normalBelow of the box's low corner): the finest grid (from the smallest e with 255
+    // * 2^e >= the extent up) on which the decoding of shaders/wide_node.h contains each child's box.
     static std::array<int, 3> quantize(const Aabb& box, const std::vector<Source>& children,
                                        const std::array<int, kWidth>& slots, gpu::GpuWideNode& node) {
         std::array<int, 3> exponents{};
         for (int axis = 0; axis < 3; ++axis) {
-            const float origin = box.lo[axis];
+            const float origin = normalBelow(box.lo[axis]);
             const double extent = double(box.hi[axis]) - double(origin);
             int e = kMinExponent;
             if (extent > 0.0) e = std::max(kMinExponent, int(std::ceil(std::log2(extent / 255.0))));

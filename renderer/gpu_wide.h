@@ -18,7 +18,7 @@ struct GpuWideTree {
     // (a permutation of Bvh::primIndices, so that each node's leaf triangles are consecutive). The
     // triangles and their attributes are gathered in this order (writeGpuTriangles).
     std::vector<uint32_t> order;
-    uint32_t maxDepth = 0;   // deepest wide node below the root (root = 0): sizes the ray stack
+    uint32_t maxDepth = 0;    // deepest wide node below the root (root = 0): sizes the ray stack
     uint64_t innerSlots = 0;  // child slots holding an inner node, and a leaf, over all nodes
     uint64_t leafSlots = 0;
 };

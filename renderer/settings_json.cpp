@@ -214,7 +214,8 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         if (s.hybrid.packetsPerGroup == 0) badKey("hybrid", "packets_per_group must be at least 1");
     }
     readUint(j, "bvh_width", "", s.bvhWidth);
-    if (s.bvhWidth != 2 && s.bvhWidth != 8) badKey("bvh_width", "must be 2 (the binary tree) or 8 (the compressed 8-wide tree)");
+    if (s.bvhWidth != 2 && s.bvhWidth != 8)
+        badKey("bvh_width", "must be 2 (the binary tree) or 8 (the compressed 8-wide tree)");
     readBool(j, "collect_counters", "", s.collectCounters);
     if (const std::string view = readString(j, "view", ""); !view.empty()) {
         const auto parsed = parseViewMode(view);

@@ -46,7 +46,7 @@ const uint kSpecShadowOrder = 10u;         // kShadowOrder*: a shadow ray's firs
 const uint kSpecHybridMinRays = 11u;       // hybrid kernel: split when fewer rays want the node (K)
 const uint kSpecHybridVisitRatio = 12u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
 const uint kSpecPacketsPerGroup = 13u;     // hybrid kernel: one-subgroup packets per workgroup, stacked in y
-const uint kSpecWideBvh = 14u;            // bool: the single-ray kernel traces the compressed 8-wide tree
+const uint kSpecWideBvh = 14u;             // bool: the single-ray kernel traces the compressed 8-wide tree
 const uint kSpecCount = 15u;
 
 // Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).

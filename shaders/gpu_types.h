@@ -27,8 +27,8 @@ RP_CHECK_OFFSET(GpuNode, hi, 16);
 // 80 bytes: a node of the compressed 8-wide tree (Ylitie, Karras and Laine 2017, "Efficient
 // Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs"), which the single-ray kernel
 // traces with RenderSettings::bvhWidth 8 (the tracer gpu-cwbvh; made from the binary tree at upload
-// by makeGpuWideTree, renderer/gpu_wide.h; decoded by shaders/wide_node.h). Up to eight children, each box quantized to 8 bits per
-// plane on a grid of the node's own: child i spans, on axis a,
+// by makeGpuWideTree, renderer/gpu_wide.h; decoded by shaders/wide_node.h). Up to eight children, each box quantized to
+// 8 bits per plane on a grid of the node's own: child i spans, on axis a,
 //   [origin[a] + scale[a] * qlo[a][i], origin[a] + scale[a] * qhi[a][i]]
 // with scale[a] = 2^(exponent[a] - 127), evaluated as one exact product and one rounded float sum,
 // which the host checked to contain the child's box (so the conservative slab test on the decoded
@@ -59,7 +59,7 @@ struct GpuWideNode {
 RP_CHECK_SIZE(GpuWideNode, 80);
 RP_CHECK_OFFSET(GpuWideNode, index, 16);
 RP_CHECK_OFFSET(GpuWideNode, quant, 32);
-const uint kWideInnerMeta = 0x20u;   // an inner child's meta byte: kWideInnerMeta | (24 + slot)
+const uint kWideInnerMeta = 0x20u;  // an inner child's meta byte: kWideInnerMeta | (24 + slot)
 const uint kWideMaxLeafTriangles = 3u;
 const uint kWideNodeTriangles = 24u;  // triangles a node's leaf children hold at most
 

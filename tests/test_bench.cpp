@@ -140,7 +140,8 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         cells.emplace(r.at("scene"), tracer, r.at("packet").is_string() ? r.at("packet") : "", kind);
     }
     // Every cell of the matrix is there, primary and shadow: CPU reference, each packet shape,
-    // the single-ray kernel in its default workgroup (recorded as its "packet"), the hybrid kernel
+    // the single-ray kernel in its default workgroup (recorded as its "packet") over the binary and
+    // the 8-wide tree, the hybrid kernel
     // per packet shape (one K, one visit ratio by default), on each scene.
     EXPECT_EQ(scenes.size(), 2u);
     for (const std::string& scene : scenes)
@@ -149,6 +150,7 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
             const RenderSettings defaults;
             const PacketShape group = std::string(kind) == "shadow" ? defaults.singleShadowGroup : defaults.singleGroup;
             EXPECT_TRUE(cells.count({scene, "gpu-single", toString(group), kind})) << scene << " " << kind;
+            EXPECT_TRUE(cells.count({scene, "gpu-cwbvh", toString(group), kind})) << scene << " " << kind;
             for (const std::string& packet : packets)
                 EXPECT_TRUE(cells.count({scene, "gpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
             for (const std::string& packet : packets)
@@ -156,7 +158,7 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
             for (const std::string& packet : cpuPackets)
                 EXPECT_TRUE(cells.count({scene, "cpu-packet", packet, kind})) << scene << " " << packet << " " << kind;
         }
-    EXPECT_EQ(cells.size(), scenes.size() * 2 * (2 + 2 * packets.size() + cpuPackets.size()));
+    EXPECT_EQ(cells.size(), scenes.size() * 2 * (3 + 2 * packets.size() + cpuPackets.size()));
 }
 
 TEST(Bench, EmbreeAgreesWithTheReferenceOnHitDistances) {

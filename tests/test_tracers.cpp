@@ -54,8 +54,8 @@ Bars barsFor(const std::string& name) {
     static const std::map<std::string, Bars> bars = {
         {"cpu-reference", {1.0, 1.0, true}},    {"cpu-packet", {1.0, 1.0, true}},
         {"gpu-packet", {0.9999, 0.999, false}}, {"gpu-single", {0.9999, 0.999, false}},
-        {"gpu-hybrid", {0.9999, 0.999, false}}, {"embree", {0.9999, 0.999, false}},
-        {"driver-rt", {0.999, 0.995, false}},
+        {"gpu-cwbvh", {0.9999, 0.999, false}},  {"gpu-hybrid", {0.9999, 0.999, false}},
+        {"embree", {0.9999, 0.999, false}},     {"driver-rt", {0.999, 0.995, false}},
     };
     const auto it = bars.find(name);
     EXPECT_NE(it, bars.end()) << "no bar for tracer " << name << ": add one here";
@@ -220,7 +220,7 @@ INSTANTIATE_TEST_SUITE_P(Registry, EveryTracer,
 TEST(Registry, ListsEveryTracerAndRefusesUnknownNames) {
     const std::vector<std::string> names = allTracerNames();
     EXPECT_EQ(names, (std::vector<std::string>{"cpu-reference", "cpu-packet", "embree", "gpu-packet", "gpu-single",
-                                               "gpu-hybrid", "driver-rt"}));
+                                               "gpu-cwbvh", "gpu-hybrid", "driver-rt"}));
     const std::vector<std::string> cpuOnly = availableTracers(TracerEnvironment{});
     EXPECT_EQ(cpuOnly.front(), "cpu-reference");
     EXPECT_EQ(std::count(cpuOnly.begin(), cpuOnly.end(), "embree"), embreeAvailable() ? 1 : 0);

@@ -312,7 +312,8 @@ CommandRunner addRenderCommand(CLI::App& app) {
         if (settings.bvhWidth != 2 && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--bvh-width 8 applies to --device gpu --kernel single only");
         if (settings.bvhWidth != 2 && settings.shadowOrder != ShadowOrder::Nearest)
-            throw Error("--bvh-width 8 orders the children by each ray's octant; --shadow-order applies to the binary tree");
+            throw Error(
+                "--bvh-width 8 orders the children by each ray's octant; --shadow-order applies to the binary tree");
         if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--shadow-order applies to --device gpu --kernel single only");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after

@@ -17,9 +17,7 @@ public:
     GpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel, uint32_t bvhWidth)
         : tracer_(std::make_unique<GpuTracer>(context)), kernel_(kernel), bvhWidth_(bvhWidth) {}
 
-    std::string name() const override {
-        return bvhWidth_ == 8 ? "gpu-cwbvh" : std::string("gpu-") + toString(kernel_);
-    }
+    std::string name() const override { return bvhWidth_ == 8 ? "gpu-cwbvh" : std::string("gpu-") + toString(kernel_); }
     std::string kernel() const override { return toString(kernel_); }
     TracerDevice device() const override { return TracerDevice::Gpu; }
     std::string describe(const RenderSettings&) const override { return vk::describe(tracer_->device()); }

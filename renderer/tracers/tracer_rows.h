@@ -16,8 +16,7 @@ std::unique_ptr<Tracer> makeCpuPacketTracer();
 // `kernel`: the packet kernel (Gunther et al. 2007), the single-ray kernel (Aila and Laine 2009) or
 // the hybrid, on `context`, which must outlive the tracer; `bvhWidth` 8 (single-ray kernel only):
 // the compressed 8-wide tree made at upload (gpu-cwbvh).
-std::unique_ptr<Tracer> makeGpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel,
-                                            uint32_t bvhWidth = 2);
+std::unique_ptr<Tracer> makeGpuKernelTracer(const vk::VulkanContext& context, KernelKind kernel, uint32_t bvhWidth = 2);
 // Throws RtPeerUnsupported where `context` cannot run the driver's ray tracing.
 std::unique_ptr<Tracer> makeDriverRtTracer(const vk::VulkanContext& context);
 // Throws raypack::Error in a build without Embree. Each quality's tree is built `buildRepeats`
