@@ -49,6 +49,9 @@ for r in $runs; do
     groups) run groups report --no-driver-rt --single-groups "${GROUPS_LIST:-8x16/32x4,8x8/8x8,16x8/16x8,8x4/32x4}" ;;
     split2) run split2 report --builder sah-split --leaf-size 2 ;;
     scaling) run scaling scaling --no-driver-rt ;;
+    scaling-rt) run scaling-rt scaling ;;
+    leaf2) run leaf2 report --no-driver-rt --leaf-size 2 ;;
+    leaf3) run leaf3 report --no-driver-rt --leaf-size 3 ;;
   esac
 done
 python3 - "$out" > "$out/cwbvh.md" <<'PY'
@@ -60,7 +63,7 @@ def rec(run, tracer, scene, kind, packet=None):
                 (packet is None or r.get("packet") == packet):
             return r
     return None
-for name in ("report-1", "report-2", "groups", "split2", "scaling"):
+for name in ("report-1", "report-2", "groups", "leaf2", "leaf3", "split2", "scaling", "scaling-rt"):
     path = os.path.join(out, name + ".json")
     if not os.path.exists(path):
         print(f"## {name}: missing\n"); continue
