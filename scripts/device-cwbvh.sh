@@ -3,14 +3,17 @@
 # (tracer gpu-cwbvh, --bvh-width 8) against the same kernel over the binary tree (gpu-single), both
 # cells of one bench run per suite (so each ratio is measured in one process), 1920x1080, primary
 # and shadow rays. First the hits of both at 1920x1080, byte for byte, on the report scenes. Then
-# the report suite twice (the first with the driver's ray tracing beside them and the compilers'
-# statistics), the report suite on sah-split leaves of 2 with the driver (the configuration in
-# which docs/gpu.md met issue 14's driver goals), and the scaling suite. OUT/cwbvh.md: Mrays/s per
+# the runs RUNS names: by default the report suite twice (the first with the driver's ray tracing
+# beside them and the compilers' statistics), a sweep of workgroups, the report suite on sah-split
+# leaves of 2 with the driver (the configuration in which docs/gpu.md met issue 14's driver goals),
+# and the scaling suite. OUT/cwbvh.md: Mrays/s per
 # scene and ray kind, 8-wide / binary, the best of the two / the driver, N_TR and N_IT of each.
 # From the repository root on the device, with .device/round.tar.xz (scripts/device-pack.sh BUILD) and .gl/:
 #   scripts/device-cwbvh.sh [OUT_DIR]   (default: $OUT)
 # Environment: REPEAT (default 10), BUDGET_S (default 480: no run starts after that many seconds),
-# RUNS (default "report-1 report-2 split2 scaling").
+# RUNS (default "report-1 report-2 groups split2 scaling"; also scaling-rt, the scaling suite with
+# the driver's ray tracing, and leaf2, leaf3, the report suite at sah-exact leaves of 2 and 3),
+# GROUPS_LIST (the groups run's --single-groups).
 set -u
 out=${1:-${OUT:-}}
 [ -n "$out" ] || { echo "usage: scripts/device-cwbvh.sh OUT_DIR" >&2; exit 2; }
