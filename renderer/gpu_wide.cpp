@@ -28,7 +28,14 @@ struct Source {
 
 class Collapser {
 public:
-    Collapser(const Scene& scene, const Bvh& bvh) : scene_(scene), bvh_(bvh) {}
+    Collapser(const Scene& scene, const Bvh& bvh) : scene_(scene), bvh_(bvh), references_(bvh.nodes.size(), 0) {
+        // References below each binary node (children follow their parents in the node array, so
+        // one backward pass sums them).
+        for (size_t i = bvh.nodes.size(); i-- > 0;) {
+            const BvhNode& n = bvh.nodes[i];
+            references_[i] = n.isLeaf() ? n.count : references_[n.index] + references_[n.index + 1];
+        }
+    }
 
     GpuWideTree run() {
         GpuWideTree tree;
@@ -76,8 +83,8 @@ public:
                     ++tree.innerSlots;
                 } else {
                     const uint32_t offset = uint32_t(tree.order.size()) - firstTriangle;
-                    for (uint32_t k = 0; k < c.count; ++k) tree.order.push_back(bvh_.primIndices[c.first + k]);
-                    meta = (((1u << c.count) - 1u) << 5u) | offset;
+                    const uint32_t count = appendReferences(c, tree.order);
+                    meta = (((1u << count) - 1u) << 5u) | offset;
                     ++tree.leafSlots;
                 }
                 (slot < 4 ? node.index.z : node.index.w) |= meta << (8u * (slot & 3u));
@@ -118,8 +125,41 @@ private:
     }
 
     bool isBinaryInner(const Source& s) const { return s.node != kRange && !bvh_.nodes[s.node].isLeaf(); }
-    // An inner child of a wide node: what a leaf slot cannot hold.
+    uint32_t referencesOf(const Source& s) const { return s.node != kRange ? references_[s.node] : s.count; }
+#ifdef RAYPACK_WIDE_NO_MERGE
     bool isInner(const Source& s) const { return isBinaryInner(s) || s.count > gpu::kWideMaxLeafTriangles; }
+#else
+    // An inner child of a wide node: what a leaf slot cannot hold. A binary subtree of at most three
+    // references is one leaf slot (its leaves merged), as the wide tree's leaves hold up to three.
+    bool isInner(const Source& s) const { return referencesOf(s) > gpu::kWideMaxLeafTriangles; }
+#endif
+
+    // Whether the collapse may replace `s` by its two halves while the node has a free slot: a binary
+    // inner node (also one of at most three references, which would otherwise be a merged leaf: a
+    // free slot holds it better as two children), or more than three references.
+    bool canOpen(const Source& s) const { return isBinaryInner(s) || s.count > gpu::kWideMaxLeafTriangles; }
+
+    // Appends the references of leaf child `s` (a range, a binary leaf, or a binary subtree of at
+    // most three references, its leaves left to right) and returns how many.
+    uint32_t appendReferences(const Source& s, std::vector<uint32_t>& order) const {
+        if (!isBinaryInner(s)) {
+            for (uint32_t k = 0; k < s.count; ++k) order.push_back(bvh_.primIndices[s.first + k]);
+            return s.count;
+        }
+        std::array<uint32_t, 8> pending{s.node};
+        uint32_t size = 1, count = 0;
+        while (size > 0) {
+            const BvhNode& n = bvh_.nodes[pending[--size]];
+            if (n.isLeaf()) {
+                for (uint32_t k = 0; k < n.count; ++k) order.push_back(bvh_.primIndices[n.index + k]);
+                count += n.count;
+            } else {
+                pending[size++] = n.index + 1;  // a subtree of three references has at most five nodes
+                pending[size++] = n.index;
+            }
+        }
+        return count;
+    }
 
     // The references [first, first + count) as a source: their triangles' box, clipped to `within`
     // (a spatial-split leaf bounds only the parts of its triangles inside its box; those parts are
@@ -143,9 +183,10 @@ private:
         return {rangeSource(s.first, half, s.box), rangeSource(s.first + half, s.count - half, s.box)};
     }
 
-    // The node's children: its own two halves, then the largest openable child opened until there
-    // are eight or none is left to open. A source that is itself a leaf of at most three triangles
-    // (a small root) is the node's only child.
+    // The node's children: its own two halves, then the largest child that can be opened (canOpen)
+    // opened until there are eight or none is left to open; what is then left of more than three
+    // references is an inner child, the rest are leaves. A source of at most three references (a
+    // small root) is the node's only child.
     std::vector<Source> collapse(const Source& s) const {
         std::vector<Source> children;
         if (!isInner(s)) {
@@ -158,7 +199,7 @@ private:
             int widest = -1;
             float widestArea = -1.0f;
             for (size_t c = 0; c < children.size(); ++c) {
-                if (!isInner(children[c])) continue;
+                if (!canOpen(children[c])) continue;
                 const float area = children[c].box.area();
                 if (area > widestArea) {
                     widest = int(c);
@@ -282,6 +323,7 @@ private:
 
     const Scene& scene_;
     const Bvh& bvh_;
+    std::vector<uint32_t> references_;  // per binary node, the references below it
 };
 
 }  // namespace

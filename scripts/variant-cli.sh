@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Builds a variant of build/raypack-cli for measuring a kernel or tree variant beside the build
+# itself in one device call (scripts/device-pack.sh BUILD /tmp/v-NAME/raypack-cli-NAME ...):
+# trace.comp compiled with SHADER_MACRO (glslangValidator -D..., "" for none) and
+# renderer/gpu_wide.cpp with HOST_MACRO (a compiler -D..., "" for none), linked against the rest of
+# build/'s objects, into /tmp/v-NAME/raypack-cli-NAME. build/ must be a current Release build.
+#   scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO
+set -euo pipefail
+[ $# -eq 3 ] || { echo "usage: scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO" >&2; exit 2; }
+root=$(cd "$(dirname "$0")/.." && pwd)
+name=$1 sm=$2 hm=$3
+d=/tmp/v-$name; rm -rf $d; mkdir -p $d/shaders
+cp $root/build/libraypack.a $d/libraypack.a
+CXX="/usr/bin/c++ -DGLM_ENABLE_EXPERIMENTAL -DGLM_FORCE_XYZW_ONLY -DRAYPACK_HAVE_EMBREE=1 -I$root -isystem /usr/include/stb -O3 -DNDEBUG -ffp-contract=off -fno-fast-math -std=c++20"
+cd $root
+if [ -n "$sm" ]; then
+  glslangValidator -V --target-env vulkan1.2 -Ishaders $sm --vn trace_spv -o $d/shaders/trace.spv.h shaders/trace.comp > /dev/null
+  $CXX -I$d/shaders -I$root/build/shaders -c renderer/gpu_tracer.cpp -o $d/gpu_tracer.cpp.o
+  (cd $d && ar r libraypack.a gpu_tracer.cpp.o)
+fi
+if [ -n "$hm" ]; then
+  $CXX -I$root/build/shaders $hm -c renderer/gpu_wide.cpp -o $d/gpu_wide.cpp.o
+  (cd $d && ar r libraypack.a gpu_wide.cpp.o)
+fi
+(cd $root/build && ninja -t commands raypack-cli | tail -1) > /tmp/link.sh
+cd $root/build
+sed -e "s# libraypack\.a # $d/libraypack.a #g" -e "s#-o raypack-cli #-o $d/raypack-cli-$name #" /tmp/link.sh > $d/link.sh
+bash $d/link.sh
+ls -la $d/raypack-cli-$name
