@@ -288,7 +288,7 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) 
     // The compressed 8-wide tree is made here from the binary one (part of T_CU's conversion); its
     // rays push at most one node group per wide level.
     const GpuWideTree wide = bvhWidth == 8 ? makeGpuWideTree(scene, bvh) : GpuWideTree{};
-    const uint32_t entries = stackEntriesFor(s, bvhWidth == 8 ? 2 * wide.maxDepth + 1 : gpuTreeDepth(bvh));
+    const uint32_t entries = stackEntriesFor(s, bvhWidth == 8 ? wide.maxDepth : gpuTreeDepth(bvh));
 
     dropScene(s, /*keepTables=*/false);
     auto tree = std::make_unique<GpuTree>(s.ctx);

@@ -483,11 +483,9 @@ uint wideNodeHits(RayQuery q, GpuWideNode node, uint octant, out uint triangleHi
         const uvec2 nearZ = negZ ? node.quant[2].zw : node.quant[1].xy;
         const uvec2 farZ = negZ ? node.quant[1].xy : node.quant[2].zw;
         [[unroll]] for (uint i = 0u; i < 8u; ++i) {
-            // An empty slot is skipped: a branch that a warp on one node (coherent rays) takes as one.
+            // An empty slot's planes are computed and its result dropped: skipping it first, a branch
+            // per slot, measured 0.93-0.99x (docs/gpu.md).
             const uint meta = wideMeta(node, i);
-#ifndef RAYPACK_WIDE_LATE_SKIP
-            if (meta == 0u) continue;
-#endif
             const float nx = fma(float(wideSlotValue(nearX.x, nearX.y, i)), a.x, bNear.x);
             const float ny = fma(float(wideSlotValue(nearY.x, nearY.y, i)), a.y, bNear.y);
             const float nz = fma(float(wideSlotValue(nearZ.x, nearZ.y, i)), a.z, bNear.z);
@@ -496,11 +494,7 @@ uint wideNodeHits(RayQuery q, GpuWideNode node, uint octant, out uint triangleHi
             const float fz = fma(float(wideSlotValue(farZ.x, farZ.y, i)), a.z, bFar.z);
             const float tNear = max(max(nx, ny), max(nz, 0.0f));
             const float tFar = min(min(fx, fy), min(fz, tmax));
-#ifdef RAYPACK_WIDE_LATE_SKIP
             if (meta == 0u || tNear > tFar) continue;
-#else
-            if (tNear > tFar) continue;
-#endif
             if ((innerMask & (1u << i)) != 0u) innerHits |= 1u << (24u + (i ^ octant));
             else triangleHits |= (meta >> 5u) << (meta & 31u);
         }
@@ -557,19 +551,6 @@ void traceWide(inout RayQuery q) {
             group = uvec2(node.index.x, wideNodeHits(q, node, octant, triangleHits));
             triangleBase = node.index.y;
         }
-#ifdef RAYPACK_WIDE_POSTPONE
-        if (triangleHits != 0u && group.y > 0x00FFFFFFu) {
-            const uint lanes = subgroupBallotBitCount(subgroupBallot(true));
-            if (5u * subgroupBallotBitCount(subgroupBallot(triangleHits != 0u)) < lanes) {
-                if (stackSize == kRayStackEntries) {
-                    atomicOr(status, kStatusStackOverflow);
-                    return;
-                }
-                rayStack[stackSize++] = uvec2(triangleBase, triangleHits);
-                triangleHits = 0u;
-            }
-        }
-#endif
         while (triangleHits != 0u) {
             const uint k = findLSB(triangleHits);
             triangleHits &= triangleHits - 1u;
@@ -583,13 +564,6 @@ void traceWide(inout RayQuery q) {
         if (group.y <= 0x00FFFFFFu) {
             if (stackSize == 0u) return;
             group = rayStack[--stackSize];
-#ifdef RAYPACK_WIDE_POSTPONE
-            if (group.y <= 0x00FFFFFFu) {
-                triangleBase = group.x;
-                triangleHits = group.y;
-                group.y = 0u;
-            }
-#endif
         }
     }
 }
