@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -205,6 +206,41 @@ TEST(Cli, RenderWithADeviceBuilderBuildsInTheTracer) {
     const CliResult framed = runCli("render gen:terrain:10k --device gpu --width 32 --height 24 --builder gpu-lbvh");
     ASSERT_EQ(framed.exitCode, 0) << framed.output;
     EXPECT_EQ(framed.output.find("built in the tracer's own buffers"), std::string::npos) << framed.output;
+}
+
+// --bvh-width 8 (docs/cli.md): the same hits as the binary tree, with a device builder too (its tree
+// downloaded and collapsed); refused where it does not apply; a settings file's 8-wide tree is
+// dropped for the CPU.
+TEST(Cli, BvhWidthEightGivesTheBinaryTreesHits) {
+    const std::string camera = " --eye 0.5,3,-4 --at 0,0,0 --width 64 --height 48";
+    for (const char* builder : {"sah-exact", "gpu-lbvh"}) {
+        const fs::path binary = scratch() / "width-2.hits", wide = scratch() / "width-8.hits";
+        const std::string common =
+            "render gen:terrain:10k --device gpu --kernel single --builder " + std::string(builder) + camera;
+        const CliResult two = runCli(common + " --hits " + quoted(binary));
+        ASSERT_EQ(two.exitCode, 0) << two.output;
+        const CliResult eight = runCli(common + " --bvh-width 8 --hits " + quoted(wide));
+        ASSERT_EQ(eight.exitCode, 0) << eight.output;
+        EXPECT_NE(eight.output.find("compressed 8-wide"), std::string::npos) << eight.output;
+        const HitsFile a = readHits(binary.string()), b = readHits(wide.string());
+        ASSERT_EQ(a.records.size(), b.records.size());
+        EXPECT_EQ(std::memcmp(a.records.data(), b.records.data(), a.records.size() * sizeof(HitRecord)), 0) << builder;
+    }
+    expectCleanError(runCli("render gen:terrain:1k --device cpu --bvh-width 8 --width 8 --height 8"), "--bvh-width");
+    expectCleanError(runCli("render gen:terrain:1k --device gpu --kernel packet --bvh-width 8 --width 8 --height 8"),
+                     "--bvh-width");
+    expectCleanError(runCli("render gen:terrain:1k --device gpu --kernel single --bvh-width 4 --width 8 --height 8"),
+                     "--bvh-width");
+    expectCleanError(runCli("render gen:terrain:1k --device gpu --kernel single --bvh-width 8 --shadow-order tree "
+                            "--width 8 --height 8"),
+                     "--shadow-order");
+    const fs::path json = scratch() / "width-8.json";
+    ASSERT_EQ(runCli("render gen:terrain:1k --device gpu --kernel single --bvh-width 8 --width 16 --height 12 --json " +
+                     quoted(json))
+                  .exitCode,
+              0);
+    const CliResult cpu = runCli("render --from " + quoted(json) + " --device cpu");
+    EXPECT_EQ(cpu.exitCode, 0) << cpu.output;
 }
 
 // The hybrid kernel's flags (docs/gpu.md): GPU only, with --kernel hybrid only, ratios in range.

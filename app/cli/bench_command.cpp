@@ -564,7 +564,8 @@ CommandRunner addBenchCommand(CLI::App& app) {
     CLI::App* command = app.add_subcommand(
         "bench",
         "Run a benchmark matrix and write one JSON record per cell and ray kind (primary, shadow): "
-        "scene, triangles, tracer (cpu-reference, cpu-packet, gpu-packet, gpu-single, gpu-hybrid, embree, driver-rt), "
+        "scene, triangles, tracer (cpu-reference, cpu-packet, gpu-packet, gpu-single, gpu-cwbvh, gpu-hybrid, embree, "
+        "driver-rt), "
         "device and "
         "driver, kernel, packet shape, Table 1 (n_l_leaves, d_avg_leaf_depth, d_max_leaf_depth, "
         "o_avg_prims_per_leaf, t_b_s, sah_cost, bvh_bytes_per_triangle, ...) and Table 2 "

@@ -309,6 +309,9 @@ CommandRunner addRenderCommand(CLI::App& app) {
         if (settings.kernel != KernelKind::Hybrid &&
             (given(options->hybridMinRays) || given(options->hybridVisitRatio)))
             throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
+        // A settings file's 8-wide tree applies to the GPU single-ray kernel it was traced with; another
+        // device or kernel (a flag beside --from) traces the binary tree. The flag itself is refused there.
+        if (!given(options->bvhWidth) && (cpu || settings.kernel != KernelKind::Single)) settings.bvhWidth = 2;
         if (settings.bvhWidth != 2 && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--bvh-width 8 applies to --device gpu --kernel single only");
         if (settings.bvhWidth != 2 && settings.shadowOrder != ShadowOrder::Nearest)

@@ -8,6 +8,7 @@
 //   embree         Embree 3 (Wald et al. 2014), a CPU peer               built with RAYPACK_WITH_EMBREE
 //   gpu-packet     the Vulkan packet kernel (renderer/gpu_tracer.h)      with a Vulkan context
 //   gpu-single     the Vulkan single-ray kernel                          with a Vulkan context
+//   gpu-cwbvh      the single-ray kernel over the compressed 8-wide tree with a Vulkan context
 //   gpu-hybrid     the Vulkan hybrid packet / single-ray kernel          with a Vulkan context
 //   driver-rt      the driver's ray tracing (renderer/vk/rt_peer.h)      where the GPU offers it
 #include "renderer/error.h"
