@@ -3,6 +3,8 @@
 #include "renderer/error.h"
 #include "shaders/wide_node.h"
 
+#include <oneapi/tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <cfloat>
@@ -17,6 +19,8 @@ constexpr uint32_t kRange = UINT32_MAX;  // Source::node of a range of reference
 // The grid's exponents: scale 2^e stays normal, and 255 * 2^e finite.
 constexpr int kMinExponent = -126;
 constexpr int kMaxExponent = 120;
+// Subtrees of fewer references than this are collapsed on one thread (GpuWideTree's parallel parts).
+constexpr uint32_t kParallelGrain = 16384;
 
 // What a child slot holds before it is written: a binary node (its leaf range in first/count when
 // it is a leaf) or a part of a leaf's range (node kRange), with its box.
@@ -39,30 +43,91 @@ public:
 
     GpuWideTree run() {
         GpuWideTree tree;
-        tree.order.reserve(bvh_.primIndices.size());
         tree.nodes.emplace_back();
         const BvhNode& root = bvh_.nodes[0];
-        const Source rootSource = binarySource(0);
-        struct Work {
-            uint32_t wide;
-            Source source;
-            uint32_t depth;
-        };
-        std::vector<Work> work;
         if (root.isLeaf() && root.count == 0) {
             tree.nodes[0] = emptyNode();  // an empty scene: a root with no children
             return tree;
         }
-        work.push_back({0u, rootSource, 0u});
+        // The top of the tree is collapsed on this thread down to subtrees of at most `deferBelow`
+        // references, which are then collapsed in parallel, each into a part of its own, and spliced
+        // in (node and triangle indices shifted) in the order they were met: the same tree for any
+        // number of threads.
+        const uint64_t references = bvh_.primIndices.size();
+        const uint32_t deferBelow = uint32_t(std::max<uint64_t>(kParallelGrain, references / 256));
+        tree.order.reserve(references);
+        std::vector<Work> deferred;
+        collapseSubtree(tree, {0u, binarySource(0), 0u}, references > 2 * uint64_t(deferBelow) ? deferBelow : 0u,
+                        deferred);
+        if (deferred.empty()) return tree;
+        std::vector<GpuWideTree> parts(deferred.size());
+        tbb::parallel_for(size_t(0), deferred.size(), [&](size_t k) {
+            parts[k].nodes.emplace_back();
+            std::vector<Work> none;
+            collapseSubtree(parts[k], {0u, deferred[k].source, 0u}, 0u, none);
+        });
+        std::vector<size_t> nodeOffset(parts.size()), triangleOffset(parts.size());
+        size_t nodes = tree.nodes.size(), triangles = tree.order.size();
+        for (size_t k = 0; k < parts.size(); ++k) {
+            nodeOffset[k] = nodes;
+            triangleOffset[k] = triangles;
+            nodes += parts[k].nodes.size() - 1;  // a part's root goes into the slot made for it
+            triangles += parts[k].order.size();
+            tree.maxDepth = std::max(tree.maxDepth, deferred[k].depth + parts[k].maxDepth);
+            tree.innerSlots += parts[k].innerSlots;
+            tree.leafSlots += parts[k].leafSlots;
+        }
+        RAYPACK_CHECK(nodes < UINT32_MAX && triangles == references);
+        tree.nodes.resize(nodes);
+        tree.order.resize(triangles);
+        tbb::parallel_for(size_t(0), parts.size(), [&](size_t k) {
+            const GpuWideTree& part = parts[k];
+            const auto global = [&](uint32_t local) {
+                return local == 0 ? deferred[k].wide : uint32_t(nodeOffset[k] + local - 1);
+            };
+            for (uint32_t local = 0; local < part.nodes.size(); ++local) {
+                gpu::GpuWideNode n = part.nodes[local];
+                n.index.x = global(n.index.x);  // a node without inner children never reads it
+                n.index.y += uint32_t(triangleOffset[k]);
+                tree.nodes[global(local)] = n;
+            }
+            std::copy(part.order.begin(), part.order.end(), tree.order.begin() + ptrdiff_t(triangleOffset[k]));
+        });
+        return tree;
+    }
+
+private:
+    static gpu::GpuWideNode emptyNode() {
+        gpu::GpuWideNode n{};
+        const uint32_t unitScale = 127u | 127u << 8u | 127u << 16u;
+        n.origin = glm::vec4(0.0f, 0.0f, 0.0f, glm::uintBitsToFloat(unitScale));
+        return n;
+    }
+
+    struct Work {
+        uint32_t wide;  // the node to fill
+        Source source;
+        uint32_t depth;
+    };
+    struct Children {
+        std::array<Source, kWidth> at;
+        uint32_t count = 0;
+    };
+
+    // Collapses the subtree of `root` into `tree` depth first (the node root.wide exists; its
+    // children's nodes and its references are appended). With deferBelow > 0 an inner child of at
+    // most that many references gets its node but is listed in `deferred` instead of collapsed.
+    void collapseSubtree(GpuWideTree& tree, const Work& root, uint32_t deferBelow, std::vector<Work>& deferred) const {
+        std::vector<Work> work{root};
         while (!work.empty()) {
             const Work item = work.back();
             work.pop_back();
             tree.maxDepth = std::max(tree.maxDepth, item.depth);
-            std::vector<Source> children = collapse(item.source);
+            const Children children = collapse(item.source);
             const std::array<int, kWidth> slots = assignSlots(item.source, children);
             gpu::GpuWideNode node = emptyNode();
             Aabb box;
-            for (const Source& c : children) box.grow(c.box);
+            for (uint32_t c = 0; c < children.count; ++c) box.grow(children.at[c].box);
             const std::array<int, 3> exponents = quantize(box, children, slots, node);
             node.origin = glm::vec4(normalBelow(box.lo.x), normalBelow(box.lo.y), normalBelow(box.lo.z), 0.0f);
             uint32_t innerMask = 0;
@@ -70,15 +135,21 @@ public:
             const uint32_t firstTriangle = uint32_t(tree.order.size());
             node.index.x = firstChild;
             node.index.y = firstTriangle;
-            uint32_t innerCount = 0;
+            uint32_t innerCount = 0, pushed = 0;
             for (uint32_t slot = 0; slot < kWidth; ++slot) {
                 if (slots[slot] < 0) continue;
-                const Source& c = children[size_t(slots[slot])];
+                const Source& c = children.at[size_t(slots[slot])];
                 uint32_t meta;
                 if (isInner(c)) {
                     innerMask |= 1u << slot;
                     meta = gpu::kWideInnerMeta | (24u + slot);
-                    work.push_back({firstChild + innerCount, c, item.depth + 1});
+                    const Work child{firstChild + innerCount, c, item.depth + 1};
+                    if (deferBelow > 0 && referencesOf(c) <= deferBelow) {
+                        deferred.push_back(child);
+                    } else {
+                        work.push_back(child);
+                        ++pushed;
+                    }
                     ++innerCount;
                     ++tree.innerSlots;
                 } else {
@@ -97,18 +168,8 @@ public:
             tree.nodes[item.wide] = node;
             // The children are filled depth first, the lowest slot next (it was pushed first, so
             // reverse the ones just pushed): deterministic, and a subtree's nodes stay together.
-            std::reverse(work.end() - innerCount, work.end());
+            std::reverse(work.end() - pushed, work.end());
         }
-        RAYPACK_CHECK(tree.order.size() == bvh_.primIndices.size());
-        return tree;
-    }
-
-private:
-    static gpu::GpuWideNode emptyNode() {
-        gpu::GpuWideNode n{};
-        const uint32_t unitScale = 127u | 127u << 8u | 127u << 16u;
-        n.origin = glm::vec4(0.0f, 0.0f, 0.0f, glm::uintBitsToFloat(unitScale));
-        return n;
     }
 
     Source binarySource(uint32_t index) const {
@@ -185,29 +246,31 @@ private:
     // opened until there are eight or none is left to open; what is then left of more than three
     // references is an inner child, the rest are leaves. A source of at most three references (a
     // small root) is the node's only child.
-    std::vector<Source> collapse(const Source& s) const {
-        std::vector<Source> children;
+    Children collapse(const Source& s) const {
+        Children children;
         if (!isInner(s)) {
-            children.push_back(s);
+            children.at[children.count++] = s;
             return children;
         }
         const std::array<Source, 2> halves = open(s);
-        children.assign(halves.begin(), halves.end());
-        while (children.size() < kWidth) {
+        children.at[0] = halves[0];
+        children.at[1] = halves[1];
+        children.count = 2;
+        while (children.count < kWidth) {
             int widest = -1;
             float widestArea = -1.0f;
-            for (size_t c = 0; c < children.size(); ++c) {
-                if (!canOpen(children[c])) continue;
-                const float area = children[c].box.area();
+            for (uint32_t c = 0; c < children.count; ++c) {
+                if (!canOpen(children.at[c])) continue;
+                const float area = children.at[c].box.area();
                 if (area > widestArea) {
                     widest = int(c);
                     widestArea = area;
                 }
             }
             if (widest < 0) break;
-            const std::array<Source, 2> opened = open(children[size_t(widest)]);
-            children[size_t(widest)] = opened[0];
-            children.push_back(opened[1]);
+            const std::array<Source, 2> opened = open(children.at[size_t(widest)]);
+            children.at[size_t(widest)] = opened[0];
+            children.at[children.count++] = opened[1];
         }
         return children;
     }
@@ -215,28 +278,30 @@ private:
     // slots[s]: the child in slot s, or -1. Slot s should hold the child that comes first for a ray
     // of octant s (shaders/wide_node.h, rayOctant): the lowest projection of its centre, relative to
     // the parent's, on the octant's sign vector. Greedy over every (child, slot) pair, cheapest first.
-    static std::array<int, kWidth> assignSlots(const Source& parent, const std::vector<Source>& children) {
+    static std::array<int, kWidth> assignSlots(const Source& parent, const Children& children) {
         std::array<int, kWidth> slots;
         slots.fill(-1);
         struct Pair {
             float cost;
             uint32_t child, slot;
         };
-        std::vector<Pair> pairs;
+        std::array<Pair, kWidth * kWidth> pairs;
+        uint32_t pairCount = 0;
         const glm::vec3 centre = parent.box.center();
-        for (uint32_t c = 0; c < children.size(); ++c) {
-            const glm::vec3 d = children[c].box.center() - centre;
+        for (uint32_t c = 0; c < children.count; ++c) {
+            const glm::vec3 d = children.at[c].box.center() - centre;
             for (uint32_t s = 0; s < kWidth; ++s) {
                 const glm::vec3 sign((s & 1u) ? -1.0f : 1.0f, (s & 2u) ? -1.0f : 1.0f, (s & 4u) ? -1.0f : 1.0f);
-                pairs.push_back({glm::dot(d, sign), c, s});
+                pairs[pairCount++] = {glm::dot(d, sign), c, s};
             }
         }
-        std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+        std::sort(pairs.begin(), pairs.begin() + pairCount, [](const Pair& a, const Pair& b) {
             if (a.cost != b.cost) return a.cost < b.cost;
             return a.child != b.child ? a.child < b.child : a.slot < b.slot;
         });
         std::array<bool, kWidth> placed{};
-        for (const Pair& p : pairs) {
+        for (uint32_t k = 0; k < pairCount; ++k) {
+            const Pair& p = pairs[k];
             if (placed[p.child] || slots[p.slot] >= 0) continue;
             slots[p.slot] = int(p.child);
             placed[p.child] = true;
@@ -275,8 +340,8 @@ private:
     // Writes every child's quantized planes into `node`'s quant words and returns the exponent of
     // each axis (the grid's origin: normalBelow of the box's low corner): the finest grid (from the smallest e with 255
     // * 2^e >= the extent up) on which the decoding of shaders/wide_node.h contains each child's box.
-    static std::array<int, 3> quantize(const Aabb& box, const std::vector<Source>& children,
-                                       const std::array<int, kWidth>& slots, gpu::GpuWideNode& node) {
+    static std::array<int, 3> quantize(const Aabb& box, const Children& children, const std::array<int, kWidth>& slots,
+                                       gpu::GpuWideNode& node) {
         std::array<int, 3> exponents{};
         for (int axis = 0; axis < 3; ++axis) {
             const float origin = normalBelow(box.lo[axis]);
@@ -292,7 +357,7 @@ private:
                 bool fits = true;
                 for (uint32_t slot = 0; slot < kWidth && fits; ++slot) {
                     if (slots[slot] < 0) continue;
-                    const Aabb& b = children[size_t(slots[slot])].box;
+                    const Aabb& b = children.at[size_t(slots[slot])].box;
                     const float lo = b.lo[axis], hi = b.hi[axis];
                     const double low = std::floor((double(lo) - double(origin)) / double(scale));
                     uint32_t l = uint32_t(std::clamp(low, 0.0, 255.0));

@@ -12,6 +12,8 @@
 #include "scenes/generators.h"
 #include "shaders/wide_node.h"
 
+#include <oneapi/tbb/global_control.h>
+
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
@@ -146,6 +148,24 @@ TEST(WideTree, EveryReferenceInOneLeafAndEveryBoxContainsItsChild) {
     for (uint32_t count : {1u, 2u, 3u, 4u, 9u, 25u})
         expectValidWideTree(firstTriangles(base, count), options(BvhBuilder::SahExact, 1024),
                             std::to_string(count) + " triangles in one leaf");
+}
+
+// Large trees are collapsed in parallel parts spliced together (renderer/gpu_wide.cpp): the tree is
+// valid and the same, byte for byte, on one thread and on all of them.
+TEST(WideTree, ParallelPartsGiveTheSameTreeOnAnyNumberOfThreads) {
+    const Scene scene = makeTerrain(100000);
+    expectValidWideTree(scene, options(BvhBuilder::SahBinned, 1), "terrain 100k");
+    const Bvh bvh = buildBvh(scene, options(BvhBuilder::SahBinned, 1));
+    const GpuWideTree all = makeGpuWideTree(scene, bvh);
+    GpuWideTree one;
+    {
+        tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
+        one = makeGpuWideTree(scene, bvh);
+    }
+    ASSERT_EQ(one.nodes.size(), all.nodes.size());
+    EXPECT_EQ(std::memcmp(one.nodes.data(), all.nodes.data(), all.nodes.size() * sizeof(gpu::GpuWideNode)), 0);
+    EXPECT_EQ(one.order, all.order);
+    EXPECT_EQ(one.maxDepth, all.maxDepth);
 }
 
 TEST(WideTree, AnEmptySceneHasARootWithoutChildren) {
