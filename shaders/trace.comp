@@ -514,14 +514,15 @@ uint wideNodeHits(RayQuery q, GpuWideNode node, uint octant, out uint triangleHi
 }
 
 // The single-ray traversal of the compressed 8-wide tree (Ylitie, Karras and Laine 2017, their
-// algorithm without postponed triangles): a node's eight child boxes are decoded and tested, the hit
-// inner children become one node group (the first child's index, the hit slots as bits 24 + (slot ^
-// octant), and the node's inner mask in the low byte) and the hit leaves one triangle group (the
-// node's first triangle and a bit per triangle; wideNodeHits). The triangles are tested at once; the node group
-// hands out its children lowest bit first (front to back for the ray's octant), and a group with
-// children left waits on the ray's stack while the ray descends, one entry per level at most (the
-// host sizes the stack from the wide tree's depth). Nothing is sorted: the order comes from the
-// slots (GpuWideNode). The root is entered without a box test (an empty scene's has no children).
+// algorithm without postponed triangles): a node's eight child boxes are tested (wideNodeHits), the
+// hit inner children become one node group (the first child's index, the hit slots as bits
+// 24 + (slot ^ octant), and the node's inner mask in the low byte) and the hit leaves one triangle
+// group (the node's first triangle and a bit per triangle). The triangles are tested at once; the
+// node group hands out its children lowest bit first (front to back for the ray's octant), and a
+// group with children left waits on the ray's stack while the ray descends, one entry per level at
+// most (the host sizes the stack from the wide tree's depth). Nothing is sorted: the order comes
+// from the slots (GpuWideNode). The root is entered without a box test (an empty scene's has no
+// children).
 void traceWide(inout RayQuery q) {
     if (!q.isActive) return;
     const uint octant = rayOctant(q.ray.dir);
