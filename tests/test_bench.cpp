@@ -134,6 +134,9 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         } else {
             EXPECT_GT(r.at("t_cu_s").get<double>(), 0.0) << r.dump();
         }
+        if (tracer.rfind("gpu-", 0) == 0) {
+            EXPECT_GT(r.at("device_scene_bytes").get<uint64_t>(), 0u) << r.dump();
+        }
         if (tracer == "cpu-packet") {
             EXPECT_EQ(r.at("hits_identical_to_reference_share").get<double>(), 1.0) << r.dump();
         }

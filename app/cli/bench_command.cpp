@@ -121,6 +121,10 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
             r["t_cu_allocation_s"] = s.uploadAllocationSeconds;
             r["t_cu_conversion_s"] = s.uploadConversionSeconds;
             r["t_cu_transfer_s"] = s.uploadTransferSeconds;
+            // The tracer's arrays on the device (nodes of its own tree, leaf-order triangles and
+            // attributes, materials, textures): the 8-wide tree's cells differ from the binary ones.
+            // (The driver's ray tracing reports no size of its structures: none is written there.)
+            if (s.preparedBytes > 0) r["device_scene_bytes"] = s.preparedBytes;
         }
         records.push_back(r);
     }

@@ -55,6 +55,7 @@ MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, con
     measured.stats.uploadAllocationSeconds = preparation.allocationSeconds;
     measured.stats.uploadConversionSeconds = preparation.conversionSeconds;
     measured.stats.uploadTransferSeconds = preparation.transferSeconds;
+    measured.stats.preparedBytes = preparation.bytes;
     measured.stats.gpu = gpu;
     measured.stats.device = tracer.describe(settings);
     measured.stats.width = settings.width;

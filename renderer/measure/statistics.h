@@ -82,6 +82,7 @@ struct FrameStats {
     double uploadAllocationSeconds = 0.0;
     double uploadConversionSeconds = 0.0;
     double uploadTransferSeconds = 0.0;
+    uint64_t preparedBytes = 0;  // what the tracer holds for the scene (Preparation::bytes)
 };
 
 // Fills N_Q / N_TR / N_IT from a counting run's summary and the timings from the timed runs.
