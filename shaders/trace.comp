@@ -505,13 +505,7 @@ uint wideNodeHits(RayQuery q, GpuWideNode node, uint octant, out uint triangleHi
             vec3 lo, hi;
             wideChildBox(node, scale, i, lo, hi);
             float entry;
-#ifdef RAYPACK_WIDE_SLIM
-            // The slab test's parallel flags and far bias made again here, so that they are not live
-            // through the whole traversal.
-            if (!boxTest(makeTraceRay(q.ray.org, q.ray.dir), lo, hi, q.tmax, entry)) continue;
-#else
             if (!boxTest(q.ray, lo, hi, q.tmax, entry)) continue;
-#endif
             if ((innerMask & (1u << i)) != 0u) innerHits |= 1u << (24u + (i ^ octant));
             else triangleHits |= (meta >> 5u) << (meta & 31u);
         }
