@@ -121,6 +121,9 @@ struct GpuTree {
     const vk::VulkanContext& ctx;
     const Scene* scene = nullptr;  // what it was built over; must outlive the tree's use
     vk::Buffer nodes, triangles, normals, uvs, colors;
+    // 2: nodes holds GpuNodes (every device build); 8: GpuWideNodes, the compressed 8-wide tree that
+    // GpuTracer::upload makes from a host tree (renderer/gpu_wide.h).
+    uint32_t bvhWidth = 2;
     vk::Buffer order;  // empty unless kept
     BvhBuildOptions options;
     BvhStats stats;  // the device's statistics; buildSeconds includes creating the arrays

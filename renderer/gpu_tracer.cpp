@@ -134,7 +134,6 @@ struct GpuTracer::State {
     bool hasScene = false, hasNormals = false, hasMaterials = false, hasUvs = false, hasColors = false;
     bool hostTimedPasses = false;  // setHostTimedPasses
     uint32_t stackEntries = 1;
-    uint32_t bvhWidth = 2;  // the traced tree: binary, or the compressed 8-wide one (upload)
     Aabb sceneBounds;
     // buildOnDevice's builder (made on first use); it keeps the scene's vertex arrays while only
     // the tree changes.
@@ -270,7 +269,6 @@ GpuTracer::UploadTimings uploadTables(GpuTracer::State& s, const Scene& scene) {
 void installTree(GpuTracer::State& s, std::unique_ptr<GpuTree> tree, uint32_t stackEntries, bool sameScene) {
     const Scene& scene = *tree->scene;
     s.stackEntries = stackEntries;
-    s.bvhWidth = 2;  // upload() sets the wide tree's width after this
     s.tree = std::move(tree);
     if (!sameScene) s.sceneBounds = scene.bounds();
     s.hasScene = true;
@@ -297,6 +295,7 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) 
     tree->scene = &scene;
     tree->options = bvh.options;
     tree->stats = bvh.stats;
+    tree->bvhWidth = bvhWidth;
 
     // Each array gets its device-local buffer and a mapped staging buffer of the same size; the
     // layout is written straight into the staging memory by parallel workers (writeGpuLayout: no
@@ -336,7 +335,6 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) 
     s.lastUpload.transferSeconds = secondsSince(transferStart);
     s.tablesScene = &scene;
     installTree(s, std::move(tree), entries, /*sameScene=*/false);
-    s.bvhWidth = bvhWidth;
     return secondsSince(start);
 }
 
@@ -389,7 +387,7 @@ void GpuTracer::setRetiredTreeSink(std::function<void(std::unique_ptr<GpuTree>)>
 Bvh GpuTracer::downloadBvh() const {
     const State& s = *state_;
     if (!s.hasScene) throw Error("GPU: no scene uploaded");
-    if (s.bvhWidth != 2)
+    if (s.tree->bvhWidth != 2)
         throw Error("GPU: the traced tree is the 8-wide one made at upload; its binary tree is the host's");
     return downloadGpuTree(*s.tree);
 }
@@ -596,9 +594,10 @@ void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
         throw Error("GPU: the hybrid kernel needs at least one packet per workgroup");
     checkWorkgroup(s, settings, false);
     if (settings.shadows) checkWorkgroup(s, settings, true);
-    if (settings.bvhWidth != s.bvhWidth)
-        throw Error("GPU: the uploaded BVH is " + std::to_string(s.bvhWidth) + "-wide, the settings ask for width " +
-                    std::to_string(settings.bvhWidth) + " (upload with that width)");
+    if (settings.bvhWidth != s.tree->bvhWidth)
+        throw Error("GPU: the uploaded BVH is " + std::to_string(s.tree->bvhWidth) +
+                    "-wide, the settings ask for width " + std::to_string(settings.bvhWidth) +
+                    " (upload with that width)");
     if (settings.bvhWidth == 8 && settings.kernel != KernelKind::Single)
         throw Error(std::string("GPU: the 8-wide BVH is traced by the single-ray kernel only, not by the ") +
                     toString(settings.kernel) + " kernel");

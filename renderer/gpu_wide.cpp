@@ -129,7 +129,6 @@ private:
             Aabb box;
             for (uint32_t c = 0; c < children.count; ++c) box.grow(children.at[c].box);
             const std::array<int, 3> exponents = quantize(box, children, slots, node);
-            node.origin = glm::vec4(normalBelow(box.lo.x), normalBelow(box.lo.y), normalBelow(box.lo.z), 0.0f);
             uint32_t innerMask = 0;
             const uint32_t firstChild = uint32_t(tree.nodes.size());
             const uint32_t firstTriangle = uint32_t(tree.order.size());
@@ -345,6 +344,7 @@ private:
         std::array<int, 3> exponents{};
         for (int axis = 0; axis < 3; ++axis) {
             const float origin = normalBelow(box.lo[axis]);
+            node.origin[axis] = origin;
             const double extent = double(box.hi[axis]) - double(origin);
             int e = kMinExponent;
             if (extent > 0.0) e = std::max(kMinExponent, int(std::ceil(std::log2(extent / 255.0))));

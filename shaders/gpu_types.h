@@ -27,12 +27,12 @@ RP_CHECK_OFFSET(GpuNode, hi, 16);
 // 80 bytes: a node of the compressed 8-wide tree (Ylitie, Karras and Laine 2017, "Efficient
 // Incoherent Ray Traversal on GPUs Through Compressed Wide BVHs"), which the single-ray kernel
 // traces with RenderSettings::bvhWidth 8 (the tracer gpu-cwbvh; made from the binary tree at upload
-// by makeGpuWideTree, renderer/gpu_wide.h; decoded by shaders/wide_node.h). Up to eight children, each box quantized to
-// 8 bits per plane on a grid of the node's own: child i spans, on axis a,
+// by makeGpuWideTree, renderer/gpu_wide.h; read by shaders/wide_node.h). Up to eight children, each
+// box quantized to 8 bits per plane on a grid of the node's own: child i spans, on axis a,
 //   [origin[a] + scale[a] * qlo[a][i], origin[a] + scale[a] * qhi[a][i]]
-// with scale[a] = 2^(exponent[a] - 127), evaluated as one exact product and one rounded float sum,
-// which the host checked to contain the child's box (so the conservative slab test on the decoded
-// box is conservative for the child too).
+// with scale[a] = 2^(exponent[a] - 127); the host checked that these planes contain the child's box
+// both as exact reals (the kernel's fused slab test) and as floats decoded with one exact product
+// and one rounded sum (its decoded-box path; shaders/wide_node.h).
 //   origin.xyz: the grid's origin (the node box's low corner)
 //   origin.w (uint bits): byte 0, 1, 2 the biased exponents of x, y, z; byte 3 the inner-child mask
 //             (bit i: child slot i is an inner node)
@@ -49,8 +49,8 @@ RP_CHECK_OFFSET(GpuNode, hi, 16);
 // The slots are ordered by direction: slot s holds the child that a ray of octant s (bit a set:
 // negative direction on axis a) meets first, so a ray of octant o that visits the slots in the
 // order s ^ o for s = 0, 1, ..., 7 meets the children roughly front to back (rayOctant,
-// shaders/wide_node.h). Node 0 is the root, which
-// the kernel enters without a box test; an empty scene's root has no children.
+// shaders/wide_node.h). Node 0 is the root, which the kernel enters without a box test; an empty
+// scene's root has no children.
 struct GpuWideNode {
     vec4 origin;
     uvec4 index;

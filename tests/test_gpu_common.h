@@ -13,6 +13,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <string>
 
@@ -54,6 +55,12 @@ inline size_t differingPixels(const Frame& a, const Frame& b) {
     for (size_t i = 0; i < std::min(a.rgba.size(), b.rgba.size()); ++i)
         if (a.rgba[i] != b.rgba[i]) ++n;
     return n;
+}
+
+// Hits identical byte for byte (two kernels that must agree exactly).
+inline bool sameHits(const Frame& a, const Frame& b) {
+    return a.hits.size() == b.hits.size() &&
+           (a.hits.empty() || std::memcmp(a.hits.data(), b.hits.data(), a.hits.size() * sizeof(HitRecord)) == 0);
 }
 
 struct HitAgreement {

@@ -27,11 +27,6 @@ const std::vector<PacketShape> kFewShapes = {{8, 1}, {8, 4}};
 HybridParams neverSplits() { return HybridParams{0u, 0.0f}; }
 HybridParams splitsAtTheRoot() { return HybridParams{0xFFFFFFFFu, 0.0f}; }
 
-bool sameHits(const Frame& a, const Frame& b) {
-    return a.hits.size() == b.hits.size() &&
-           (a.hits.empty() || std::memcmp(a.hits.data(), b.hits.data(), a.hits.size() * sizeof(HitRecord)) == 0);
-}
-
 bool sameCounters(const Frame& a, const Frame& b) {
     return a.counters.size() == b.counters.size() &&
            (a.counters.empty() ||

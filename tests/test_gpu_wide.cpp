@@ -177,11 +177,6 @@ TEST(WideTree, AnEmptySceneHasARootWithoutChildren) {
     EXPECT_TRUE(tree.order.empty());
 }
 
-bool sameHits(const Frame& a, const Frame& b) {
-    return a.hits.size() == b.hits.size() &&
-           std::memcmp(a.hits.data(), b.hits.data(), a.hits.size() * sizeof(HitRecord)) == 0;
-}
-
 RenderSettings settingsFor(const Scene& scene, uint32_t width, uint32_t height) {
     RenderSettings settings;
     settings.width = width;
