@@ -65,7 +65,8 @@ void validateOptions(const BvhBuildOptions& options) {
     checkCost(options.intersectionCost, "intersectionCost (C_isect)");
     if (options.builder == BvhBuilder::SahBinned && (options.binCount < 2 || options.binCount > 256))
         throw Error("BVH build: binCount must be in 2..256, got " + std::to_string(options.binCount));
-    if (options.builder == BvhBuilder::GpuPloc && (options.plocRadius < 1 || options.plocRadius > kMaxPlocRadius))
+    if ((options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc) &&
+        (options.plocRadius < 1 || options.plocRadius > kMaxPlocRadius))
         throw Error("BVH build: plocRadius must be in 1.." + std::to_string(kMaxPlocRadius) + ", got " +
                     std::to_string(options.plocRadius));
     if (options.builder == BvhBuilder::SahSplit) {
@@ -123,7 +124,8 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
     using namespace bvh_detail;
     const auto start = std::chrono::steady_clock::now();
     validateOptions(options);
-    if (options.builder == BvhBuilder::GpuLbvh || options.builder == BvhBuilder::GpuPloc)
+    if (options.builder == BvhBuilder::GpuLbvh || options.builder == BvhBuilder::GpuPloc ||
+        options.builder == BvhBuilder::GpuHploc)
         throw Error(std::string("BVH build: ") + toString(options.builder) +
                     " builds on a Vulkan device (buildBvhOnDevice, renderer/gpu_bvh.h), not on the CPU");
     if (primitiveBounds.size() >= size_t(UINT32_MAX))
@@ -155,7 +157,8 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
         case BvhBuilder::SahBinned: bvh = buildSahBinned(primitiveBounds, rootBox, options, progress); break;
         case BvhBuilder::SahSplit: bvh = buildSahSplit(primitiveBounds, rootBox, options, progress, triangles); break;
         case BvhBuilder::GpuLbvh:
-        case BvhBuilder::GpuPloc: break;  // refused above
+        case BvhBuilder::GpuPloc:
+        case BvhBuilder::GpuHploc: break;  // refused above
         }
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -244,6 +247,7 @@ const char* toString(BvhBuilder builder) {
     case BvhBuilder::SahSplit: return "sah-split";
     case BvhBuilder::GpuLbvh: return "gpu-lbvh";
     case BvhBuilder::GpuPloc: return "gpu-ploc";
+    case BvhBuilder::GpuHploc: return "gpu-hploc";
     }
     return "unknown";
 }

@@ -42,12 +42,15 @@ enum class BvhBuilder {
     // Meister and Bittner 2018's locally-ordered clustering over the Morton-sorted triangles on the
     // device, the same collapse (renderer/gpu_bvh.h); likewise built by GpuBvhBuilder.
     GpuPloc,
+    // Benthin et al. 2024's hierarchical PLOC: the same clustering within each range of the Morton
+    // order's radix tree, climbed bottom up in one kernel (renderer/gpu_bvh.h); GpuBvhBuilder.
+    GpuHploc,
 };
 // The builders that run on the CPU (buildBvh), in the order a menu lists them.
 inline constexpr BvhBuilder kCpuBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit};
 // Every builder, in the order a menu lists them: the CPU builders, then the device builders.
 inline constexpr BvhBuilder kAllBvhBuilders[] = {BvhBuilder::SahExact, BvhBuilder::SahBinned, BvhBuilder::SahSplit,
-                                                 BvhBuilder::GpuLbvh, BvhBuilder::GpuPloc};
+                                                 BvhBuilder::GpuLbvh,  BvhBuilder::GpuPloc,   BvhBuilder::GpuHploc};
 // The builders that partition the primitives: every primitive is in exactly one leaf, and a leaf's
 // box is the union of its primitives' boxes. SahSplit is not one of them: a spatial split puts a
 // triangle into several leaves, each bounding only the part of it on its side of the split planes.
@@ -81,8 +84,9 @@ struct BvhBuildOptions {
     // SahSplit only: at most splitBudget × (triangle count) references in all leaves together; once
     // a subtree has used its share, only object splits are tried there. 1 = no spatial splits. 1..4.
     float splitBudget = 1.3f;
-    // GpuPloc only: clusters searched on either side for each one's nearest neighbour (Meister and
-    // Bittner 2018's r), 1..kMaxPlocRadius: smaller builds faster, larger finds better pairs.
+    // GpuPloc and GpuHploc only: clusters searched on either side for each one's nearest neighbour
+    // (Meister and Bittner 2018's r), 1..kMaxPlocRadius: smaller builds faster, larger finds better
+    // pairs. GpuHploc searches a workgroup's clusters, at most 31 either side (16 reaches all).
     uint32_t plocRadius = 16;
 };
 inline constexpr uint32_t kMaxPlocRadius = 64;
@@ -205,7 +209,7 @@ void walkBvh(const Bvh& bvh, Visit&& visit) {
 // never overflows.
 uint32_t bvhMaxDepth(const Bvh& bvh);
 
-// "sah-exact", "sah-binned", "sah-split", "gpu-lbvh", "gpu-ploc".
+// "sah-exact", "sah-binned", "sah-split", "gpu-lbvh", "gpu-ploc", "gpu-hploc".
 const char* toString(BvhBuilder builder);
 // The builder whose toString is `name`, or nothing.
 std::optional<BvhBuilder> findBvhBuilder(std::string_view name);

@@ -5,6 +5,7 @@
 #include "renderer/measure/spread.h"  // secondsSince
 #include "shaders/lbvh.h"
 
+#include "hploc.spv.h"
 #include "lbvh.spv.h"
 #include "lbvh_prepare.spv.h"
 #include "ploc.spv.h"
@@ -29,7 +30,7 @@ static_assert(gpu::kLbvhMaxLeafPrimitives == kMaxLeafPrimitives, "one leaf bound
 
 namespace {
 
-constexpr uint32_t kPhaseCount = gpu::kLbvhPhasePlocSetup + 1;
+constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseHplocBuild + 1;
 // gpu-ploc: levels listed per submission while looking for the tree's depth, and the deepest tree it
 // lays out (an agglomerative tree has no depth bound of its own; the tracers' stacks need one).
 constexpr uint32_t kPlocLevelBatch = 64;
@@ -63,6 +64,8 @@ uint32_t moduleOf(uint32_t phase) {
     case gpu::kLbvhPhasePlocOffsets:
     case gpu::kLbvhPhasePlocReorder:
     case gpu::kLbvhPhasePlocSetup: return 4;
+    case gpu::kLbvhPhaseHplocInit:
+    case gpu::kLbvhPhaseHplocBuild: return 5;
     default: return 3;
     }
 }
@@ -107,9 +110,9 @@ struct GpuBvhBuilder::State {
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
     vk::StorageSetLayout layout;  // every build kernel's storage buffers and push constants
-    std::array<VkShaderModule, 5> modules{};
+    std::array<VkShaderModule, 6> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
-    uint32_t plocRadius = BvhBuildOptions{}.plocRadius;  // the nearest-neighbour pipeline's r
+    uint32_t plocRadius = BvhBuildOptions{}.plocRadius;  // the nearest-neighbour pipelines' r
     VkQueryPool queries = VK_NULL_HANDLE;
     uint32_t subgroupsPerGroup = 0;
 
@@ -195,6 +198,7 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
         s.modules[2] = vk::createShaderModule(context, prefix_scan_spv, sizeof(prefix_scan_spv), "prefix_scan.comp");
         s.modules[3] = vk::createShaderModule(context, lbvh_spv, sizeof(lbvh_spv), "lbvh.comp");
         s.modules[4] = vk::createShaderModule(context, ploc_spv, sizeof(ploc_spv), "ploc.comp");
+        s.modules[5] = vk::createShaderModule(context, hploc_spv, sizeof(hploc_spv), "hploc.comp");
         for (uint32_t phase = 0; phase < kPhaseCount; ++phase)
             s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
 
@@ -323,20 +327,32 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const GpuBvhSizes sizes = gpuBvhSizes(n);
     const uint32_t inner = n < 2 ? 0u : n - 1u;
     const uint32_t sortBlocks = std::max(1u, (n + gpu::kLbvhSortBlock - 1) / gpu::kLbvhSortBlock);
-    const bool ploc = options.builder == BvhBuilder::GpuPloc;
-    if (ploc && options.plocRadius != s.plocRadius) {
-        // The search window is a specialization constant (it sizes shared memory): a new pipeline.
-        VkPipeline& nearest = s.pipelines[gpu::kLbvhPhasePlocNearest];
+    const bool ploc = options.builder == BvhBuilder::GpuPloc, hploc = options.builder == BvhBuilder::GpuHploc;
+    // Both cluster the Morton-sorted triangles into a tree of their own, laid out by ploc.comp.
+    const bool clustered = ploc || hploc;
+    if (clustered && options.plocRadius != s.plocRadius) {
+        // The search radius is a specialization constant (it sizes gpu-ploc's shared memory): new
+        // pipelines.
         vk::queueWaitIdle(s.ctx);
-        vkDestroyPipeline(s.ctx.device, nearest, nullptr);
-        nearest = VK_NULL_HANDLE;
-        nearest = createPhasePipeline(s, gpu::kLbvhPhasePlocNearest, options.plocRadius);
+        for (uint32_t phase : {gpu::kLbvhPhasePlocNearest, gpu::kLbvhPhaseHplocBuild}) {
+            VkPipeline& pipeline = s.pipelines[phase];
+            vkDestroyPipeline(s.ctx.device, pipeline, nullptr);
+            pipeline = VK_NULL_HANDLE;
+            pipeline = createPhasePipeline(s, phase, options.plocRadius);
+        }
         s.plocRadius = options.plocRadius;
     }
+    // gpu-hploc: one workgroup per kHplocGroupSize sorted triangles, fewer where the device's row of
+    // workgroups is shorter (each then takes several in turn).
+    const uint32_t hplocGroups =
+        std::max(1u, uint32_t(std::min<uint64_t>((uint64_t(n) + gpu::kHplocGroupSize - 1) / gpu::kHplocGroupSize,
+                                                 s.ctx.info.maxWorkgroupCount[0])));
+    // Its parent slots (n - 1) and a word for each invocation of a workgroup with no slot to claim.
+    const uint64_t hplocParentWords = uint64_t(inner) + gpu::kHplocGroupSize;
     const ScanPlan scan = planScan(uint64_t(sortBlocks) * gpu::kLbvhRadixDigits);
     // gpu-ploc scans two flags per cluster, from n clusters down.
     const ScanPlan keepScan = planScan(n, 0), mergeScan = planScan(n, keepScan.words);
-    const uint32_t levels = std::min(inner, ploc ? kPlocMaxDepth : gpu::kLbvhMaxDepth);
+    const uint32_t levels = std::min(inner, clustered ? kPlocMaxDepth : gpu::kLbvhMaxDepth);
 
     // Scratch, sized from the triangle count and freed when the build returns.
     const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
@@ -363,12 +379,14 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     x.keysA = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the build's Morton codes");
     x.keysB = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the radix sort's keys");
     x.valuesB = vk::createBuffer(s.ctx, uint64_t(n) * 4, kStorage, local, "the radix sort's values");
-    x.scan = vk::createBuffer(s.ctx, std::max(scan.words, ploc ? mergeScan.words : 0) * 4, kStorage, local,
-                              "the build's prefix sums");
+    x.scan =
+        vk::createBuffer(s.ctx, std::max({scan.words, ploc ? mergeScan.words : 0, hploc ? hplocParentWords : 0}) * 4,
+                         kStorage, local, "the build's prefix sums");
     x.inner = vk::createBuffer(s.ctx, uint64_t(inner) * 16, kStorage, local, "the build's inner nodes");
     x.levels = vk::createBuffer(s.ctx, uint64_t(levels + 1) * 8, kStorage, local, "the build's levels");
-    // gpu-ploc keeps a box per cluster id (triangles and inner nodes) while clustering.
-    x.boxes = vk::createBuffer(s.ctx, uint64_t(ploc ? sizes.nodes : inner) * 32, kStorage, local, "the build's boxes");
+    // gpu-ploc and gpu-hploc keep a box per cluster id (triangles and inner nodes) while clustering.
+    x.boxes =
+        vk::createBuffer(s.ctx, uint64_t(clustered ? sizes.nodes : inner) * 32, kStorage, local, "the build's boxes");
     x.costs = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's SAH costs");
     x.flags = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's node flags");
     x.queue = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's level queue");
@@ -572,56 +590,75 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                 r.scan(scan, base);
                 r.dispatch(gpu::kLbvhPhaseScatter, sortBlocks, sort);
             }
-            // 4: the hierarchy (gpu-ploc: its clusters start as the sorted triangles).
-            if (!ploc) r.dispatch(gpu::kLbvhPhaseHierarchy, groupsFor(inner), base);
+            // 4: the hierarchy (gpu-ploc, gpu-hploc: their clusters start as the sorted triangles).
+            if (!clustered) r.dispatch(gpu::kLbvhPhaseHierarchy, groupsFor(inner), base);
         }
-        // 5: leaf order (gpu-ploc: Morton order, for the clusters' boxes; again at the end).
+        // 5: leaf order (gpu-ploc, gpu-hploc: Morton order, for the clusters' boxes; again at the end).
         r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
-        if (!ploc) finish(r, levels, true);
-    });
-    if (ploc && n >= 2) {
-        // Clustering: kPlocIterationBatch iterations per submission, each sized on the device by
-        // the clusters the last one left (kLbvhPhasePlocSetup); the host reads the count back
-        // between submissions.
-        uint32_t clusters = n, made = 0, iteration = 0;
-        // On a CPU device the first iterations over all the triangles are the long ones; on a GPU
-        // starting small cost 10-20% of the build's device time (H200, 2026-12-02).
-        uint32_t batch = s.ctx.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU ? 1u : kPlocIterationBatch;
-        const uint32_t scanLevels = uint32_t(keepScan.levels.size());
-        while (clusters > 1) {
-            const auto submitted = SteadyClock::now();
-            submit([&](const Recorder& r) {
-                if (iteration == 0) r.dispatch(gpu::kLbvhPhasePlocInit, groupsFor(n), base);
-                for (uint32_t k = 0; k < batch; ++k, ++iteration) {
-                    gpu::LbvhParams p = base;
-                    p.counts.z = scanLevels;
-                    p.offsets = {keepScan.levels[0].offset, mergeScan.levels[0].offset, iteration % 2u, 0u};
-                    r.dispatch(gpu::kLbvhPhasePlocSetup, 1, p);
-                    r.indirect(gpu::kLbvhPhasePlocNearest, gpu::kPlocIndirectClusters, p);
-                    r.indirect(gpu::kLbvhPhasePlocFlags, gpu::kPlocIndirectClusters, p);
-                    r.clusterScan(keepScan, base);
-                    r.clusterScan(mergeScan, base);
-                    r.indirect(gpu::kLbvhPhasePlocApply, gpu::kPlocIndirectClusters, p);
-                }
-            });
-            const auto words = readState();
-            if (words[gpu::kLbvhStateNextClusters] >= clusters)
-                throw Error("gpu-ploc: " + std::to_string(batch) + " iterations over " + std::to_string(clusters) +
-                            " clusters merged none");
-            clusters = words[gpu::kLbvhStateNextClusters];
-            made = words[gpu::kLbvhStateNextMerged];
-            if (progress) progress->done.store(made);
-            const double took = secondsSince(submitted);
-            if (took > kPlocSubmissionSeconds)
-                batch = std::max(1u, batch / 2);
-            else if (took < kPlocSubmissionSeconds / 4)
-                batch = std::min(kPlocIterationBatch, batch * 2);
+        if (!clustered) finish(r, levels, true);
+        if (hploc && n >= 2) {
+            // The whole clustering in one dispatch, after its parent slots are emptied.
+            vkCmdFillBuffer(cmd, x.scan.buffer, 0, hplocParentWords * 4, gpu::kHplocEmpty);
+            r.barrier();
+            r.dispatch(gpu::kLbvhPhaseHplocInit, hplocGroups, base);
+            r.dispatch(gpu::kLbvhPhaseHplocBuild, hplocGroups, base);
         }
-        RAYPACK_CHECK_MSG(made == n - 1, "gpu-ploc made n - 1 inner nodes");
+    });
+    if (hploc && n >= 2) {
+        const uint32_t made = readState()[gpu::kLbvhStateNextMerged];
+        if (made != n - 1)
+            throw Error("gpu-hploc: the clustering made " + std::to_string(made) + " inner nodes where " +
+                        std::to_string(n) + " triangles need " + std::to_string(n - 1) + " (device " + s.ctx.info.name +
+                        ")");
+        if (progress) progress->done.store(made);
+    }
+    if (clustered && n >= 2) {
+        if (ploc) {
+            // Clustering: kPlocIterationBatch iterations per submission, each sized on the device by
+            // the clusters the last one left (kLbvhPhasePlocSetup); the host reads the count back
+            // between submissions.
+            uint32_t clusters = n, made = 0, iteration = 0;
+            // On a CPU device the first iterations over all the triangles are the long ones; on a GPU
+            // starting small cost 10-20% of the build's device time (H200, 2026-12-02).
+            uint32_t batch = s.ctx.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU ? 1u : kPlocIterationBatch;
+            const uint32_t scanLevels = uint32_t(keepScan.levels.size());
+            while (clusters > 1) {
+                const auto submitted = SteadyClock::now();
+                submit([&](const Recorder& r) {
+                    if (iteration == 0) r.dispatch(gpu::kLbvhPhasePlocInit, groupsFor(n), base);
+                    for (uint32_t k = 0; k < batch; ++k, ++iteration) {
+                        gpu::LbvhParams p = base;
+                        p.counts.z = scanLevels;
+                        p.offsets = {keepScan.levels[0].offset, mergeScan.levels[0].offset, iteration % 2u, 0u};
+                        r.dispatch(gpu::kLbvhPhasePlocSetup, 1, p);
+                        r.indirect(gpu::kLbvhPhasePlocNearest, gpu::kPlocIndirectClusters, p);
+                        r.indirect(gpu::kLbvhPhasePlocFlags, gpu::kPlocIndirectClusters, p);
+                        r.clusterScan(keepScan, base);
+                        r.clusterScan(mergeScan, base);
+                        r.indirect(gpu::kLbvhPhasePlocApply, gpu::kPlocIndirectClusters, p);
+                    }
+                });
+                const auto words = readState();
+                if (words[gpu::kLbvhStateNextClusters] >= clusters)
+                    throw Error("gpu-ploc: " + std::to_string(batch) + " iterations over " + std::to_string(clusters) +
+                                " clusters merged none");
+                clusters = words[gpu::kLbvhStateNextClusters];
+                made = words[gpu::kLbvhStateNextMerged];
+                if (progress) progress->done.store(made);
+                const double took = secondsSince(submitted);
+                if (took > kPlocSubmissionSeconds)
+                    batch = std::max(1u, batch / 2);
+                else if (took < kPlocSubmissionSeconds / 4)
+                    batch = std::min(kPlocIterationBatch, batch * 2);
+            }
+            RAYPACK_CHECK_MSG(made == n - 1, "gpu-ploc made n - 1 inner nodes");
+        }
         // The levels, a batch of levels per submission until one comes out empty.
         uint32_t depth = 0;
         for (uint32_t first = 0; depth == 0; first += kPlocLevelBatch) {
-            if (first >= levels) throw Error("gpu-ploc: the tree is deeper than " + std::to_string(levels) + " levels");
+            if (first >= levels)
+                throw Error(std::string(toString(options.builder)) + ": the tree is deeper than " +
+                            std::to_string(levels) + " levels");
             submit([&](const Recorder& r) {
                 if (first == 0) r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
                 for (uint32_t level = first; level < std::min(first + kPlocLevelBatch, levels); ++level) {
@@ -637,7 +674,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                 const std::vector<uint32_t> counts = downloadLevelCounts(listed);
                 for (uint32_t level = 1; level < listed && depth == 0; ++level)
                     if (counts[level] == 0) depth = level;
-                RAYPACK_CHECK_MSG(depth > 0, "gpu-ploc found its last level");
+                RAYPACK_CHECK_MSG(depth > 0, "the clustered tree's last level is found");
             }
         }
         submit([&](const Recorder& r) {
@@ -649,7 +686,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
             finish(r, depth, false);
         });
-    } else if (ploc) {
+    } else if (clustered) {
         submit([&](const Recorder& r) { finish(r, 0, false); });
     }
 

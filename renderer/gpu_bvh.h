@@ -21,9 +21,9 @@
 
 namespace raypack {
 
-// True for the builders that run on a Vulkan device (gpu-lbvh, gpu-ploc).
+// True for the builders that run on a Vulkan device (gpu-lbvh, gpu-ploc, gpu-hploc).
 constexpr bool isGpuBvhBuilder(BvhBuilder builder) {
-    return builder == BvhBuilder::GpuLbvh || builder == BvhBuilder::GpuPloc;
+    return builder == BvhBuilder::GpuLbvh || builder == BvhBuilder::GpuPloc || builder == BvhBuilder::GpuHploc;
 }
 
 // Entries of each output array a device build of `triangles` triangles writes: 2n - 1 node slots

@@ -19,7 +19,8 @@
 //      is better as one leaf (it must be when N <= leafSize, it may not when N > kMaxLeafPrimitives);
 //   (gpu-ploc replaces step 4 by Meister and Bittner 2018's locally-ordered clustering over the
 //   sorted triangles, shaders/ploc.comp, then lays its tree out in depth-first leaf order, so that
-//   steps 5-8 apply to it unchanged.)
+//   steps 5-8 apply to it unchanged. gpu-hploc clusters in one kernel instead, shaders/hploc.comp:
+//   Benthin et al. 2024's hierarchical PLOC, the same layout after it.)
 //   8. top down again, every node reached from the root that is not a leaf writes its two children
 //      into the node array; Karras' inner node i's children go to slots 1 + 2i and 2 + 2i, so
 //      siblings are adjacent as the kernels require. Slots below a collapsed node are never written
@@ -103,6 +104,17 @@ const uint kLbvhPhasePlocApply = 17u;    // the merged nodes and the next cluste
 const uint kLbvhPhasePlocOffsets = 18u;  // one level: each node's first slot in the leaf order
 const uint kLbvhPhasePlocReorder = 19u;  // the triangles' order by those slots
 const uint kLbvhPhasePlocSetup = 20u;    // one invocation: an iteration's cluster count and dispatch sizes
+// gpu-hploc (shaders/hploc.comp) instead of gpu-ploc's iterations, then gpu-ploc's layout:
+const uint kLbvhPhaseHplocInit = 21u;   // every sorted triangle a cluster, its box and triangle count
+const uint kLbvhPhaseHplocBuild = 22u;  // the whole clustering: Apetrei's climb, PLOC in each workgroup
+
+// gpu-hploc's workgroups: each one climbs from kHplocGroupSize sorted triangles at a time and merges a
+// range's clusters together, at most kHplocGroupSize of them (both children's, up to kHplocThreshold
+// each), until kHplocThreshold are left (one at the root).
+const uint kHplocGroupSize = 32u;
+const uint kHplocThreshold = kHplocGroupSize / 2u;
+// An entry of gpu-hploc's parent slots and cluster array that holds nothing yet.
+const uint kHplocEmpty = 0xFFFFFFFFu;
 
 // Push constants of every phase, 48 bytes.
 struct LbvhParams {
@@ -167,6 +179,34 @@ RP_FUNC uint lbvhOrderedBits(float f) {
     return (u & 0x80000000u) != 0u ? ~u : (u | 0x80000000u);
 }
 RP_FUNC float lbvhFromOrderedBits(uint u) { return uintBitsToFloat((u & 0x80000000u) != 0u ? (u & 0x7FFFFFFFu) : ~u); }
+
+// Clustering (gpu-ploc, gpu-hploc): union areas are compared in units of the scene's largest extent
+// (as lbvh.comp's SAH areas), so that scenes near 1e30 or 1e-30 neither overflow nor underflow.
+RP_FUNC float plocAreaUnit(vec3 sceneLo, vec3 sceneHi) {
+    const vec3 extent = 0.5f * sceneHi - 0.5f * sceneLo;
+    const float largest = max(max(extent.x, extent.y), extent.z);
+    return largest > 0.0f ? 1.0f / largest : 0.0f;
+}
+RP_FUNC float plocArea(vec3 lo, vec3 hi, float unit) {
+    const vec3 e = (0.5f * hi - 0.5f * lo) * unit;
+    return e.x * e.y + e.y * e.z + e.z * e.x;
+}
+// Whether cluster j, at the same union area as `current`, is the nearer neighbour of cluster i (all
+// three positions in one ordered array). Pairs of equal area are ordered by their distance in the
+// array, then with the pair whose lower position is even first: one order on pairs, the same from
+// both sides, so the first pair is mutual and every iteration merges at least once; and where
+// everything ties (identical triangles) positions 2k and 2k + 1 pair up and the clusters halve,
+// instead of one merge an iteration growing a chain.
+RP_FUNC bool plocCloserTie(uint i, uint j, uint current) {
+    if (current == i) return true;
+    const uint dj = j > i ? j - i : i - j;
+    const uint dc = current > i ? current - i : i - current;
+    if (dj != dc) return dj < dc;
+    const bool jEven = (min(i, j) & 1u) == 0u;
+    const bool currentEven = (min(i, current) & 1u) == 0u;
+    if (jEven != currentEven) return jEven;
+    return j < current;
+}
 
 RP_END_NAMESPACE
 

@@ -53,20 +53,14 @@ uint recordOf(uint id) { return 2u * n() - 2u - id; }
 uint childName(uint id) { return id >= n() ? recordOf(id) : n() - 1u + id; }
 uint countOf(uint id) { return id >= n() ? inner[recordOf(id)].z : 1u; }
 
-// Areas of union boxes compared in units of the scene's largest extent (as lbvh.comp's sahArea).
+// Areas of union boxes compared in units of the scene's largest extent (plocAreaUnit).
 float unitOfScene() {
     vec3 lo, hi;
     for (uint a = 0u; a < 3u; ++a) {
         lo[a] = lbvhFromOrderedBits(state[kLbvhStateBoxLo + a]);
         hi[a] = lbvhFromOrderedBits(state[kLbvhStateBoxHi + a]);
     }
-    const vec3 extent = 0.5f * hi - 0.5f * lo;
-    const float largest = max(max(extent.x, extent.y), extent.z);
-    return largest > 0.0f ? 1.0f / largest : 0.0f;
-}
-float area(vec3 lo, vec3 hi, float unit) {
-    const vec3 e = (0.5f * hi - 0.5f * lo) * unit;
-    return e.x * e.y + e.y * e.z + e.z * e.x;
+    return plocAreaUnit(lo, hi);
 }
 
 bool readsB() { return params.offsets.z != 0u; }
@@ -104,20 +98,6 @@ void setup() {
 shared vec3 windowLo[kLbvhGroupSize + 2u * kPlocRadius];
 shared vec3 windowHi[kLbvhGroupSize + 2u * kPlocRadius];
 
-// Pairs of equal area are ordered by their distance in the array, then with the pair whose lower
-// position is even first: one order on pairs, the same from both sides, so the globally first pair
-// is mutual and every iteration merges at least once; and where everything ties (identical
-// triangles) positions 2k and 2k + 1 pair up and the clusters halve, instead of one merge an
-// iteration growing a chain.
-bool closerTie(uint i, uint j, uint current) {
-    if (current == i) return true;
-    const uint dj = j > i ? j - i : i - j, dc = current > i ? current - i : i - current;
-    if (dj != dc) return dj < dc;
-    const bool jEven = (min(i, j) & 1u) == 0u, currentEven = (min(i, current) & 1u) == 0u;
-    if (jEven != currentEven) return jEven;
-    return j < current;
-}
-
 void nearest() {
     const uint m = clusters();
     const int first = int(gl_WorkGroupID.x * kLbvhGroupSize) - int(kPlocRadius);
@@ -142,8 +122,8 @@ void nearest() {
     for (uint j = begin; j <= end; ++j) {
         if (j == i) continue;
         const uint w = j + kPlocRadius - gl_WorkGroupID.x * kLbvhGroupSize;
-        const float d = area(min(lo, windowLo[w]), max(hi, windowHi[w]), unit);
-        if (d < best || (d == best && closerTie(i, j, bestIndex))) {
+        const float d = plocArea(min(lo, windowLo[w]), max(hi, windowHi[w]), unit);
+        if (d < best || (d == best && plocCloserTie(i, j, bestIndex))) {
             best = d;
             bestIndex = j;
         }

@@ -1,8 +1,8 @@
-// The GPU builder gpu-lbvh (renderer/gpu_bvh.h, issue 13) on the test device (lavapipe here): every
-// tree it builds is a valid BVH for the tracers (every triangle in exactly one leaf, boxes that hold
-// their children and their triangles, the leaf threshold kept, depth within the stack sizing), its
-// device-side statistics equal a CPU recomputation from the downloaded tree, and rays traced
-// through it hit what the CPU reference hits, on generated, degenerate and shared scenes.
+// The GPU builders gpu-lbvh, gpu-ploc and gpu-hploc (renderer/gpu_bvh.h, issue 13) on the test device (lavapipe here):
+// every tree it builds is a valid BVH for the tracers (every triangle in exactly one leaf, boxes that hold their
+// children and their triangles, the leaf threshold kept, depth within the stack sizing), its device-side statistics
+// equal a CPU recomputation from the downloaded tree, and rays traced through it hit what the CPU reference hits, on
+// generated, degenerate and shared scenes.
 #include "renderer/gpu_bvh.h"
 
 #include "renderer/async_build.h"
@@ -376,34 +376,38 @@ TEST_P(GpuBuilder, RefusesWhatItCannotBuild) {
     EXPECT_THROW(buildBvh(good, lbvhOptions()), Error) << "buildBvh has no device";
 }
 
-// gpu-ploc's search radius (BvhBuildOptions::plocRadius) changes the pairs found, never the
-// tree's validity: radii 1, 4 and 64 on one builder (its nearest-neighbour pipeline rebuilt for each)
-// give valid trees, a wider search no worse a SAH cost than radius 1 on this scene, and radii
-// outside 1..64 are refused.
+// The search radius of gpu-ploc and gpu-hploc (BvhBuildOptions::plocRadius) changes the pairs
+// found, never the tree's validity: radii 1, 4 and 64 on one builder (its nearest-neighbour pipelines
+// rebuilt for each) give valid trees, a wider search no worse a SAH cost than radius 1 on this
+// scene, and radii outside 1..64 are refused.
 TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
-    const Scene scene = makeSphereFlake(6000);
-    BvhBuildOptions options;
-    options.builder = BvhBuilder::GpuPloc;
-    options.leafSize = 2;
-    double narrowest = 0.0;
-    for (const uint32_t radius : {1u, 4u, 64u, 16u}) {
-        SCOPED_TRACE("radius " + std::to_string(radius));
-        options.plocRadius = radius;
-        const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, options);
-        expectValidTree(scene, bvh, 2);
-        if (radius == 1) narrowest = bvh.stats.sahCost;
-        if (radius == 64) EXPECT_LE(bvh.stats.sahCost, narrowest * 1.001);
-    }
-    for (const uint32_t radius : {0u, 65u}) {
-        options.plocRadius = radius;
-        EXPECT_THROW(buildBvhOnDevice(validatedContext(), scene, options), Error) << radius;
+    for (const BvhBuilder builder : {BvhBuilder::GpuPloc, BvhBuilder::GpuHploc}) {
+        SCOPED_TRACE(toString(builder));
+        const Scene scene = makeSphereFlake(6000);
+        BvhBuildOptions options;
+        options.builder = builder;
+        options.leafSize = 2;
+        double narrowest = 0.0;
+        for (const uint32_t radius : {1u, 4u, 64u, 16u}) {
+            SCOPED_TRACE("radius " + std::to_string(radius));
+            options.plocRadius = radius;
+            const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, options);
+            expectValidTree(scene, bvh, 2);
+            if (radius == 1) narrowest = bvh.stats.sahCost;
+            if (radius == 64) EXPECT_LE(bvh.stats.sahCost, narrowest * 1.001);
+        }
+        for (const uint32_t radius : {0u, 65u}) {
+            options.plocRadius = radius;
+            EXPECT_THROW(buildBvhOnDevice(validatedContext(), scene, options), Error) << radius;
+        }
     }
     EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
 }
 
-INSTANTIATE_TEST_SUITE_P(Device, GpuBuilder, ::testing::Values(BvhBuilder::GpuLbvh, BvhBuilder::GpuPloc),
+INSTANTIATE_TEST_SUITE_P(Device, GpuBuilder,
+                         ::testing::Values(BvhBuilder::GpuLbvh, BvhBuilder::GpuPloc, BvhBuilder::GpuHploc),
                          [](const ::testing::TestParamInfo<BvhBuilder>& info) {
-                             return info.param == BvhBuilder::GpuLbvh ? std::string("lbvh") : std::string("ploc");
+                             return std::string(toString(info.param)).substr(4);  // "gpu-lbvh" -> "lbvh"
                          });
 
 }  // namespace

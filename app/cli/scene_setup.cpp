@@ -62,8 +62,9 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
         ->capture_default_str();
     command
         .add_option("--ploc-radius", flags.plocRadius,
-                    "gpu-ploc only: clusters searched on either side for each one's nearest neighbour "
-                    "(Meister and Bittner's r), 1..64; smaller builds faster, larger finds better pairs")
+                    "gpu-ploc and gpu-hploc only: clusters searched on either side for each one's nearest neighbour "
+                    "(Meister and Bittner's r), 1..64; smaller builds faster, larger finds better pairs "
+                    "(gpu-hploc searches a workgroup's 32 clusters, all of them from 16 up)")
         ->check(CLI::Range(1u, kMaxPlocRadius))
         ->capture_default_str();
 }

@@ -13,7 +13,9 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const Bvh
         {"load_mb_s", scene.loadMegabytesPerSecond()},
         {"builder", toString(options.builder)},
         {"leaf_size", options.leafSize},
-        {"ploc_radius", options.builder == BvhBuilder::GpuPloc ? nlohmann::json(options.plocRadius) : nlohmann::json()},
+        {"ploc_radius", (options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc)
+                            ? nlohmann::json(options.plocRadius)
+                            : nlohmann::json()},
         {"n_l_leaves", bvh.leafCount},
         {"d_avg_leaf_depth", bvh.avgLeafDepth},
         {"d_max_leaf_depth", bvh.maxLeafDepth},

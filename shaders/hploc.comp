@@ -1,0 +1,244 @@
+#version 460
+// gpu-hploc (shaders/lbvh.h): Benthin, Meister, Barczak, Mehalwal, Tsakok and Kensler 2024, "H-PLOC:
+// Hierarchical Parallel Locally-Ordered Clustering for Bounding Volume Hierarchy Construction", over
+// the triangles sorted by Morton code: gpu-ploc's clustering in one dispatch instead of an iteration
+// of several dispatches per merge round.
+//
+// Every invocation starts at one sorted triangle, the range [L, R] = [k, k], and climbs the implicit
+// radix tree of the sorted codes bottom up (Apetrei 2014, "Fast and Simple Agglomerative LBVH
+// Construction"): a range's parent splits it from its neighbour across whichever end has the longer
+// common prefix, and the two children meet in the parent's slot (the split position) by an atomic
+// exchange. The first to arrive leaves its end there and stops; the second takes it and goes on with
+// the union. A range of at most kHplocThreshold triangles holds them as its clusters, in place, in
+// the cluster array. Once a range grows past that (or is the whole scene), the workgroup loads both
+// children's clusters (at most kHplocThreshold each, from the start of each child's part) into
+// shared memory and runs PLOC there: nearest neighbours within kPlocRadius positions (the smallest
+// union area, gpu-ploc's tie order), mutual pairs merged into new inner nodes, until kHplocThreshold
+// clusters are left (one at the root), written back from the range's start with empty entries after
+// them. Nothing waits for anything: an invocation whose sibling has not arrived stops, so no
+// invocation depends on another's progress, and the cluster writes a sibling reads are released
+// before the exchange that hands the range over and acquired after it.
+//
+// Lavapipe (Mesa 22.3) returned the same old value to two invocations of one subgroup that ran an
+// atomic on one word while others of the subgroup were inactive (lbvh.h). Here every invocation of a
+// workgroup runs every atomic exchange, in two rounds (left children, then right children, so that
+// siblings never meet in one instruction), and one that has no slot to claim exchanges a word of
+// its own past the n - 1 parent slots. New nodes' ids are taken by one invocation per workgroup.
+//
+// The output is gpu-ploc's: inner nodes in lbvh.comp's record format, numbered so that the root (the
+// last one made) is record 0; then ploc.comp's levels, offsets and reorder, and lbvh.comp's gather,
+// bottom-up and emission finish the tree.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+
+#include "gpu_types.h"
+#include "lbvh.h"
+
+layout(local_size_x = kHplocGroupSize) in;
+layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhaseHplocInit;
+// Positions searched on either side within a workgroup's clusters (BvhBuildOptions::plocRadius;
+// 16 or more searches all of them).
+layout(constant_id = kLbvhSpecPlocRadius) const uint kPlocRadius = 16u;
+layout(push_constant) uniform Params { LbvhParams params; };
+
+layout(std430, set = 0, binding = kLbvhBindKeysA) readonly buffer Codes { uint codes[]; };
+// The cluster array: position k of a range holds one of its clusters' ids (kHplocEmpty past them).
+layout(std430, set = 0, binding = kLbvhBindKeysB) coherent buffer Clusters { uint clusters[]; };
+// Parent slots: slot s is the node splitting s | s + 1; then one word per invocation of a workgroup.
+layout(std430, set = 0, binding = kLbvhBindScan) coherent buffer Parents { uint parents[]; };
+layout(std430, set = 0, binding = kLbvhBindState) coherent buffer State { uint state[]; };
+layout(std430, set = 0, binding = kLbvhBindInner) writeonly buffer Inner { uvec4 inner[]; };
+// By cluster id: lo with the triangle count's bits in w, hi.
+layout(std430, set = 0, binding = kLbvhBindBoxes) coherent buffer Boxes { vec4 boxes[]; };
+layout(std430, set = 0, binding = kLbvhBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
+
+// Cluster ids as ploc.comp's: sorted triangle k is id k, the j-th inner node made is id n + j, and
+// inner node id p is record 2n - 2 - p.
+uint n() { return params.counts.x; }
+uint recordOf(uint id) { return 2u * n() - 2u - id; }
+uint childName(uint id) { return id >= n() ? recordOf(id) : n() - 1u + id; }
+
+void init() {
+    const uint stride = gl_NumWorkGroups.x * kHplocGroupSize;
+    for (uint k = gl_GlobalInvocationID.x; k < n(); k += stride) {
+        const GpuTriangle t = triangles[k];
+        boxes[2u * k] = vec4(min(min(t.v0.xyz, t.v1.xyz), t.v2.xyz), uintBitsToFloat(1u));
+        boxes[2u * k + 1u] = vec4(max(max(t.v0.xyz, t.v1.xyz), t.v2.xyz), 0.0f);
+        clusters[k] = k;
+    }
+}
+
+// A workgroup's ballot: bit i for invocation i. Every invocation must call it (it has barriers).
+shared uint groupBits[kHplocGroupSize];
+uint groupBallot(bool value) {
+    const uvec4 bits = subgroupBallot(value);
+    if (subgroupElect())
+        groupBits[gl_SubgroupID] = gl_SubgroupSize >= kHplocGroupSize ? bits.x : bits.x << (gl_SubgroupID * gl_SubgroupSize);
+    barrier();
+    uint mask = 0u;
+    for (uint s = 0u; s < gl_NumSubgroups; ++s) mask |= groupBits[s];
+    barrier();
+    return mask;
+}
+uint below(uint mask) { return bitCount(mask & ((1u << gl_LocalInvocationIndex) - 1u)); }
+
+// Length of the common prefix of the sorted codes at a and a + 1, extended by the positions where
+// the codes are equal (so every key is distinct), as lbvh.comp's commonPrefix.
+uint prefixAfter(uint a) {
+    const uint x = codes[a] ^ codes[a + 1u];
+    return x != 0u ? 31u - uint(findMSB(x)) : 63u - uint(findMSB(a ^ (a + 1u)));
+}
+
+// The clusters of the range being merged, compacted to the front.
+shared uint windowId[kHplocGroupSize];
+shared vec4 windowLo[kHplocGroupSize];  // w: the triangle count's bits
+shared vec3 windowHi[kHplocGroupSize];
+shared uint windowNearest[kHplocGroupSize];
+shared uvec4 task;  // L, R, the right child's first position
+shared uint firstId;
+
+// PLOC over the range [left, right] whose right child starts at `split`, by the whole workgroup.
+void mergeRange(uint left, uint right, uint split, float unit) {
+    const uint lane = gl_LocalInvocationIndex;
+    const uint leftSlots = min(split - left, kHplocThreshold), rightSlots = min(right - split + 1u, kHplocThreshold);
+    uint id = kHplocEmpty;
+    if (lane < leftSlots)
+        id = clusters[left + lane];
+    else if (lane < leftSlots + rightSlots)
+        id = clusters[split + lane - leftSlots];
+    const uint loaded = groupBallot(id != kHplocEmpty);
+    if (id != kHplocEmpty) {
+        const uint at = below(loaded);
+        windowId[at] = id;
+        windowLo[at] = boxes[2u * id];
+        windowHi[at] = boxes[2u * id + 1u].xyz;
+    }
+    barrier();
+    uint count = bitCount(loaded);
+    const bool root = right - left + 1u == n();
+    const uint target = root ? 1u : kHplocThreshold;
+    while (count > target) {
+        if (lane < count) {
+            const vec3 lo = windowLo[lane].xyz, hi = windowHi[lane];
+            float best = 3.402823466e38f;
+            uint nearest = lane;
+            const uint first = lane >= kPlocRadius ? lane - kPlocRadius : 0u, last = min(count - 1u, lane + kPlocRadius);
+            for (uint j = first; j <= last; ++j) {
+                if (j == lane) continue;
+                const float d = plocArea(min(lo, windowLo[j].xyz), max(hi, windowHi[j]), unit);
+                if (d < best || (d == best && plocCloserTie(lane, j, nearest))) {
+                    best = d;
+                    nearest = j;
+                }
+            }
+            windowNearest[lane] = nearest;
+        }
+        barrier();
+        const uint nearest = lane < count ? windowNearest[lane] : lane;
+        const bool mutual = nearest != lane && windowNearest[nearest] == lane;
+        const bool makes = mutual && lane < nearest, dropped = mutual && lane > nearest;
+        const uint made = groupBallot(makes);
+        if (lane == 0u) firstId = n() + atomicAdd(state[kLbvhStateNextMerged], bitCount(made));
+        barrier();
+        const bool keeps = lane < count && !dropped;
+        uint keptId = 0u;
+        vec4 keptLo = vec4(0.0f);
+        vec3 keptHi = vec3(0.0f);
+        if (keeps) {
+            keptId = windowId[lane];
+            keptLo = windowLo[lane];
+            keptHi = windowHi[lane];
+        }
+        if (makes) {
+            const uint other = windowId[nearest];
+            const uint triangles = floatBitsToUint(keptLo.w) + floatBitsToUint(windowLo[nearest].w);
+            const uint madeId = firstId + below(made);
+            keptLo = vec4(min(keptLo.xyz, windowLo[nearest].xyz), uintBitsToFloat(triangles));
+            keptHi = max(keptHi, windowHi[nearest]);
+            boxes[2u * madeId] = keptLo;
+            boxes[2u * madeId + 1u] = vec4(keptHi, 0.0f);
+            inner[recordOf(madeId)] = uvec4(childName(keptId), childName(other), triangles, 0u);
+            keptId = madeId;
+        }
+        // Every read of the window above happens before this ballot's barriers.
+        const uint kept = groupBallot(keeps);
+        if (keeps) {
+            const uint at = below(kept);
+            windowId[at] = keptId;
+            windowLo[at] = keptLo;
+            windowHi[at] = keptHi;
+        }
+        barrier();
+        count = bitCount(kept);
+    }
+    if (!root && lane < kHplocThreshold) clusters[left + lane] = lane < count ? windowId[lane] : kHplocEmpty;
+    memoryBarrierBuffer();
+    barrier();
+}
+
+void build() {
+    const uint lane = gl_LocalInvocationIndex;
+    const uint count = n();
+    vec3 sceneLo, sceneHi;
+    for (uint a = 0u; a < 3u; ++a) {
+        sceneLo[a] = lbvhFromOrderedBits(state[kLbvhStateBoxLo + a]);
+        sceneHi[a] = lbvhFromOrderedBits(state[kLbvhStateBoxHi + a]);
+    }
+    const float unit = plocAreaUnit(sceneLo, sceneHi);
+    const uint ownWord = count - 1u + lane;  // exchanged by an invocation with no slot to claim
+    const uint chunks = (count + kHplocGroupSize - 1u) / kHplocGroupSize;
+    for (uint chunk = gl_WorkGroupID.x; chunk < chunks; chunk += gl_NumWorkGroups.x) {
+        const uint k = chunk * kHplocGroupSize + lane;
+        bool going = k < count;
+        uint left = k, right = k, split = 0u;
+        for (;;) {
+            // Climb while the ranges need no merging.
+            bool climbing = going, merging = false;
+            while (groupBallot(climbing) != 0u) {
+                const bool isLeft = climbing && (left == 0u || (right != count - 1u && prefixAfter(right) > prefixAfter(left - 1u)));
+                const bool isRight = climbing && !isLeft;
+                const uint fromRight = atomicExchange(parents[isLeft ? right : ownWord], left);
+                const uint fromLeft = atomicExchange(parents[isRight ? left - 1u : ownWord], right);
+                if (climbing) {
+                    const uint other = isLeft ? fromRight : fromLeft;
+                    if (other == kHplocEmpty) {
+                        climbing = false;
+                        going = false;
+                    } else {
+                        memoryBarrierBuffer();  // the sibling's clusters, released before its exchange
+                        if (isLeft) {
+                            split = right + 1u;
+                            right = other;
+                        } else {
+                            split = left;
+                            left = other;
+                        }
+                        const uint size = right - left + 1u;
+                        if (size > kHplocThreshold || size == count) {
+                            climbing = false;
+                            merging = true;
+                        }
+                    }
+                }
+            }
+            const uint merges = groupBallot(merging);
+            if (merges == 0u) break;
+            for (uint m = merges; m != 0u; m &= m - 1u) {
+                if (lane == uint(findLSB(m))) task = uvec4(left, right, split, 0u);
+                barrier();
+                const uvec4 range = task;
+                barrier();
+                mergeRange(range.x, range.y, range.z, unit);
+            }
+            if (merging && right - left + 1u == count) going = false;  // the root is made
+        }
+    }
+}
+
+void main() {
+    if (kPhase == kLbvhPhaseHplocInit)
+        init();
+    else
+        build();
+}
