@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# Issue 13 on the lent H200 machine: the GPU builders gpu-lbvh and gpu-ploc against the driver's own BLAS build
+# Issue 13 on the lent H200 machine: the GPU builders gpu-lbvh, gpu-ploc and gpu-hploc against the driver's own BLAS build
 # and the CPU builders, in one call. For every scene of the report and scaling suites' largest
 # (Sibenik, Sponza, Conference, Armadillo, Dragon, terrain 1M and 10M, the dragon subdivided to
-# 13M): bench --device gpu --kernel single at 1920x1080 with --builder gpu-lbvh and gpu-ploc (three
+# 13M): bench --device gpu --kernel single at 1920x1080 with --builder gpu-lbvh, gpu-ploc and gpu-hploc (three
 # runs each, for T_B medians; the driver's ray tracing peer runs in the first and times its BLAS
 # build), then once with
 # sah-binned and sah-exact (SAH cost and single-ray trace speed of their trees). The summary table
@@ -12,7 +12,9 @@
 # Prepare here: scripts/device-pack.sh build. On the device, from the repository root (the run
 # tool, carry [".gl", ".device"]): bash scripts/device-gpu-build.sh
 # Environment: SCENE_LIST (bench --scenes), PLOC_RADII (default "16": one gpu-ploc row per
-# --ploc-radius), LBVH_RUNS and PLOC_RUNS (default 3 each; the first of each runs 5 repeats),
+# --ploc-radius), HPLOC_RADII (default "16", the same for gpu-hploc), LBVH_RUNS, PLOC_RUNS and
+# HPLOC_RUNS (default 3 each; the first of each runs 5 repeats), TEST_BINARIES (run first, each
+# on the device's GPU with the validation layer, output in $OUT/tests.txt),
 # SKIP_BINNED=1 (no sah-binned run), RUN_TIMEOUT_S (default 140 per bench run).
 set -uo pipefail
 out=${OUT:-${OUT_DIR:-out}}
@@ -33,18 +35,33 @@ run() {  # NAME BUILDER [FLAGS...]
     > /dev/null 2>> "$out/runs/progress.log" || echo "FAILED $name" | tee -a "$out/gpu-build.txt"
 }
 radii=${PLOC_RADII:-16}
+hradii=${HPLOC_RADII:-16}
+if [ -n "${TEST_BINARIES:-}" ] && [ ! -d /work/main/../shared/scenes ]; then
+  # The tests read the scenes from the path they were built with.
+  mkdir -p /work/main /work/shared && ln -sfn "$PWD/.device/scenes" /work/shared/scenes
+fi
+for t in ${TEST_BINARIES:-}; do
+  echo "== $t" >> "$out/tests.txt"
+  timeout 300 ".device/bin/$t" ${TEST_FILTER:+--gtest_filter=$TEST_FILTER} >> "$out/tests.txt" 2>&1
+  echo "exit $?" >> "$out/tests.txt"
+done
 run lbvh-1 gpu-lbvh --repeat 5
 for i in $(seq 2 "${LBVH_RUNS:-3}"); do run "lbvh-$i" gpu-lbvh --no-driver-rt --repeat 1; done
 for radius in $radii; do
   run "ploc$radius-1" gpu-ploc --no-driver-rt --repeat 5 --ploc-radius "$radius"
   for i in $(seq 2 "${PLOC_RUNS:-3}"); do run "ploc$radius-$i" gpu-ploc --no-driver-rt --repeat 1 --ploc-radius "$radius"; done
 done
+for radius in $hradii; do
+  run "hploc$radius-1" gpu-hploc --no-driver-rt --repeat 5 --ploc-radius "$radius"
+  for i in $(seq 2 "${HPLOC_RUNS:-3}"); do run "hploc$radius-$i" gpu-hploc --no-driver-rt --repeat 1 --ploc-radius "$radius"; done
+done
 [ "${SKIP_BINNED:-0}" = 1 ] || run binned sah-binned --no-driver-rt --repeat 1
 run exact sah-exact --no-driver-rt --repeat 5
-python3 - "$out/runs" "$radii" >> "$out/gpu-build.txt" <<'PY'
+python3 - "$out/runs" "$radii" "$hradii" >> "$out/gpu-build.txt" <<'PY'
 import glob, json, statistics, sys
 runs = sys.argv[1]
 radii = sys.argv[2].split()
+hradii = sys.argv[3].split()
 def load(name):
     try:
         return json.load(open(f"{runs}/{name}.json"))["records"]
@@ -60,7 +77,7 @@ driver = by_scene(load("lbvh-1"), "driver-rt")
 binned, exact = by_scene(load("binned"), "gpu-single"), by_scene(load("exact"), "gpu-single")
 print(f"{'builder':8s} {'scene':22s} {'tris':>9s} {'T_B':>9s} {'device':>9s} {'Mtri/s':>8s} {'driver':>9s} {'Mtri/s':>8s}"
       f" {'dev/drv':>7s} {'binned T_B':>10s} {'SAH/exact':>9s} {'trace/exact':>11s} {'scratch B/tri':>13s}")
-for builder in ["lbvh"] + [f"ploc{r}" for r in radii]:
+for builder in ["lbvh"] + [f"ploc{r}" for r in radii] + [f"hploc{r}" for r in hradii]:
     runs_of = [by_scene(load(f"{builder}-{i}"), "gpu-single") for i in range(1, 10)]
     runs_of = [r for r in runs_of if r]
     if not runs_of:
