@@ -102,6 +102,12 @@ struct BvhStats {
     // A device builder's (gpu-lbvh) commands by the device's timestamps, without the host's
     // submission and scratch allocation that buildSeconds includes; 0 for the CPU builders.
     double deviceBuildSeconds = 0.0;
+    // Its parts by the same timestamps: bounds, Morton codes and the key sort; the hierarchy
+    // (gpu-lbvh's radix tree, or the clustering of gpu-ploc and gpu-hploc, gpu-ploc's host waits
+    // between its submissions included); the layout (levels, leaf order, boxes, SAH collapse, nodes).
+    double deviceSortSeconds = 0.0;
+    double deviceHierarchySeconds = 0.0;
+    double deviceLayoutSeconds = 0.0;
     uint64_t buildScratchBytes = 0;  // a device build's temporary device memory (freed after it)
     // A device build's host time creating buffers (the tree's arrays and the scratch), in buildSeconds.
     double buildAllocationSeconds = 0.0;

@@ -43,6 +43,22 @@ constexpr uint32_t kPlocIterationBatch = 16;
 constexpr double kPlocSubmissionSeconds = 0.1;
 constexpr uint32_t kPlocMaxDepth = 4096;
 constexpr VkBufferUsageFlags kStorage = vk::StagedUpload::kUsage;
+// The build's timestamps: its start, the end of the key sort, the start of the layout (after the
+// hierarchy or the clustering), its end.
+constexpr uint32_t kStampStart = 0, kStampSorted = 1, kStampLayout = 2, kStampEnd = 3, kTimestamps = 4;
+
+// gpu-hploc's parent slots are claimed by every invocation in two rounds on a CPU device (lavapipe's
+// atomics within partly active subgroups, hploc.comp), by the climbing invocations alone elsewhere.
+// RAYPACK_HPLOC_ATOMICS=uniform|divergent overrides it, for measuring one against the other.
+uint32_t hplocAtomicsFor(const vk::VulkanContext& context) {
+    if (const char* forced = std::getenv("RAYPACK_HPLOC_ATOMICS")) {
+        const std::string mode = forced;
+        if (mode == "uniform") return gpu::kHplocAtomicsUniform;
+        if (mode == "divergent") return gpu::kHplocAtomicsDivergent;
+        throw Error("RAYPACK_HPLOC_ATOMICS must be uniform or divergent, got \"" + mode + "\"");
+    }
+    return context.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU ? gpu::kHplocAtomicsUniform : gpu::kHplocAtomicsDivergent;
+}
 
 uint32_t groupsFor(uint64_t invocations) {
     return uint32_t((invocations + gpu::kLbvhGroupSize - 1) / gpu::kLbvhGroupSize);
@@ -113,7 +129,9 @@ struct GpuBvhBuilder::State {
     std::array<VkShaderModule, 6> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
     uint32_t plocRadius = BvhBuildOptions{}.plocRadius;  // the nearest-neighbour pipelines' r
+    // Timestamps: the build's start, the end of the key sort, the start of the layout, the end.
     VkQueryPool queries = VK_NULL_HANDLE;
+    uint32_t hplocAtomics = gpu::kHplocAtomicsDivergent;  // hploc.comp's kHplocAtomics
     uint32_t subgroupsPerGroup = 0;
 
     // The scene as it is in host memory: vertex arrays, vertex indices, triangle materials.
@@ -151,11 +169,13 @@ VkPipeline createPhasePipeline(GpuBvhBuilder::State& s, uint32_t phase, uint32_t
         uint32_t phase;
         uint32_t subgroupsPerGroup;
         uint32_t plocRadius;
-    } data{phase, s.subgroupsPerGroup, plocRadius};
-    const std::array<VkSpecializationMapEntry, 3> entries{{
+        uint32_t hplocAtomics;
+    } data{phase, s.subgroupsPerGroup, plocRadius, s.hplocAtomics};
+    const std::array<VkSpecializationMapEntry, 4> entries{{
         {gpu::kLbvhSpecPhase, offsetof(Constants, phase), sizeof(uint32_t)},
         {gpu::kLbvhSpecSubgroupsPerGroup, offsetof(Constants, subgroupsPerGroup), sizeof(uint32_t)},
         {gpu::kLbvhSpecPlocRadius, offsetof(Constants, plocRadius), sizeof(uint32_t)},
+        {gpu::kLbvhSpecHplocAtomics, offsetof(Constants, hplocAtomics), sizeof(uint32_t)},
     }};
     // The sort's shared memory is sized by the second constant; the other kernels do not declare it
     // (a map entry for a constant the module lacks is ignored).
@@ -185,6 +205,7 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
                     " invocations, which do not divide the sort's workgroups of " +
                     std::to_string(gpu::kLbvhGroupSize));
     s.subgroupsPerGroup = gpu::kLbvhGroupSize / info.subgroupSize;
+    s.hplocAtomics = hplocAtomicsFor(context);
     const uint64_t sortShared = ((uint64_t(s.subgroupsPerGroup) + 1) / 2 + 1) * gpu::kLbvhRadixDigits * 4;
     if (sortShared > info.maxSharedMemoryBytes)
         throw Error("gpu-lbvh: the radix sort needs " + std::to_string(sortShared) + " bytes of shared memory, " +
@@ -205,7 +226,7 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
         if (info.timestamps) {
             VkQueryPoolCreateInfo queryInfo{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
             queryInfo.queryType = VK_QUERY_TYPE_TIMESTAMP;
-            queryInfo.queryCount = 2;
+            queryInfo.queryCount = kTimestamps;
             vk::check(vkCreateQueryPool(context.device, &queryInfo, nullptr, &s.queries), "vkCreateQueryPool");
         }
         s.dummy = vk::createBuffer(context, 16, kStorage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, "an unused binding");
@@ -347,8 +368,10 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const uint32_t hplocGroups =
         std::max(1u, uint32_t(std::min<uint64_t>((uint64_t(n) + gpu::kHplocGroupSize - 1) / gpu::kHplocGroupSize,
                                                  s.ctx.info.maxWorkgroupCount[0])));
-    // Its parent slots (n - 1) and a word for each invocation of a workgroup with no slot to claim.
-    const uint64_t hplocParentWords = uint64_t(inner) + gpu::kHplocGroupSize;
+    // Its parent slots (n - 1) and, where every invocation exchanges, a word of each one's own.
+    const uint64_t hplocParentWords =
+        uint64_t(inner) +
+        (s.hplocAtomics == gpu::kHplocAtomicsUniform ? uint64_t(hplocGroups) * gpu::kHplocGroupSize : 0);
     const ScanPlan scan = planScan(uint64_t(sortBlocks) * gpu::kLbvhRadixDigits);
     // gpu-ploc scans two flags per cluster, from n clusters down.
     const ScanPlan keepScan = planScan(n, 0), mergeScan = planScan(n, keepScan.words);
@@ -528,6 +551,10 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                 dispatch(gpu::kLbvhPhaseAddBlockSums, blocks(l.count), p);
             }
         }
+        // Timestamp k once every command recorded before it has finished.
+        void stamp(uint32_t k) const {
+            if (s.queries) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, s.queries, k);
+        }
         void begin() const {
             vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.layout.pipelineLayout, 0, 1, &s.layout.set,
                                     0, nullptr);
@@ -560,14 +587,14 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         }
         r.dispatch(gpu::kLbvhPhaseRoot, 1, base);
         for (uint32_t level = 0; level < depth; ++level) r.level(gpu::kLbvhPhaseEmit, level, base);
-        if (s.queries) vkCmdWriteTimestamp(r.cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, s.queries, 1);
+        r.stamp(kStampEnd);
     };
 
     submit([&](const Recorder& r) {
         const VkCommandBuffer cmd = r.cmd;
         if (s.queries) {
-            vkCmdResetQueryPool(cmd, s.queries, 0, 2);
-            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, s.queries, 0);
+            vkCmdResetQueryPool(cmd, s.queries, 0, kTimestamps);
+            vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, s.queries, kStampStart);
         }
         // The state: zero, but the lower bounds start at the largest ordered value.
         vkCmdFillBuffer(cmd, x.state.buffer, 0, VK_WHOLE_SIZE, 0u);
@@ -590,9 +617,11 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                 r.scan(scan, base);
                 r.dispatch(gpu::kLbvhPhaseScatter, sortBlocks, sort);
             }
-            // 4: the hierarchy (gpu-ploc, gpu-hploc: their clusters start as the sorted triangles).
-            if (!clustered) r.dispatch(gpu::kLbvhPhaseHierarchy, groupsFor(inner), base);
         }
+        r.stamp(kStampSorted);
+        // 4: the hierarchy (gpu-ploc, gpu-hploc: their clusters start as the sorted triangles).
+        if (!clustered && n >= 2) r.dispatch(gpu::kLbvhPhaseHierarchy, groupsFor(inner), base);
+        if (!clustered) r.stamp(kStampLayout);
         // 5: leaf order (gpu-ploc, gpu-hploc: Morton order, for the clusters' boxes; again at the end).
         r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
         if (!clustered) finish(r, levels, true);
@@ -602,6 +631,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             r.barrier();
             r.dispatch(gpu::kLbvhPhaseHplocInit, hplocGroups, base);
             r.dispatch(gpu::kLbvhPhaseHplocBuild, hplocGroups, base);
+            r.stamp(kStampLayout);
         }
     });
     if (hploc && n >= 2) {
@@ -660,6 +690,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                 throw Error(std::string(toString(options.builder)) + ": the tree is deeper than " +
                             std::to_string(levels) + " levels");
             submit([&](const Recorder& r) {
+                if (first == 0 && ploc) r.stamp(kStampLayout);
                 if (first == 0) r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
                 for (uint32_t level = first; level < std::min(first + kPlocLevelBatch, levels); ++level) {
                     r.level(gpu::kLbvhPhaseEnumerate, level, base);
@@ -687,7 +718,10 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             finish(r, depth, false);
         });
     } else if (clustered) {
-        submit([&](const Recorder& r) { finish(r, 0, false); });
+        submit([&](const Recorder& r) {
+            r.stamp(kStampLayout);
+            finish(r, 0, false);
+        });
     }
 
     const std::array<uint32_t, gpu::kLbvhStateWords> state = readState();
@@ -714,10 +748,17 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     stats.references = n;
     stats.primitives = n;
     if (s.queries) {
-        std::array<uint64_t, 2> stamps{};
-        if (vkGetQueryPoolResults(s.ctx.device, s.queries, 0, 2, sizeof stamps, stamps.data(), sizeof(uint64_t),
-                                  VK_QUERY_RESULT_64_BIT) == VK_SUCCESS)
-            result.deviceSeconds = double(stamps[1] - stamps[0]) * double(s.ctx.info.timestampPeriodNs) * 1e-9;
+        std::array<uint64_t, kTimestamps> stamps{};
+        if (vkGetQueryPoolResults(s.ctx.device, s.queries, 0, kTimestamps, sizeof stamps, stamps.data(),
+                                  sizeof(uint64_t), VK_QUERY_RESULT_64_BIT) == VK_SUCCESS) {
+            const auto between = [&](uint32_t a, uint32_t b) {
+                return double(stamps[b] - stamps[a]) * double(s.ctx.info.timestampPeriodNs) * 1e-9;
+            };
+            result.deviceSeconds = between(kStampStart, kStampEnd);
+            stats.deviceSortSeconds = between(kStampStart, kStampSorted);
+            stats.deviceHierarchySeconds = between(kStampSorted, kStampLayout);
+            stats.deviceLayoutSeconds = between(kStampLayout, kStampEnd);
+        }
     }
     result.scratchBytes = x.bytes();
     stats.deviceBuildSeconds = result.deviceSeconds;
@@ -884,6 +925,9 @@ Bvh downloadGpuTree(const GpuTree& tree) {
     bvh.stats = computeBvhStats(bvh, tree.options);
     bvh.stats.buildSeconds = tree.stats.buildSeconds;
     bvh.stats.deviceBuildSeconds = tree.stats.deviceBuildSeconds;
+    bvh.stats.deviceSortSeconds = tree.stats.deviceSortSeconds;
+    bvh.stats.deviceHierarchySeconds = tree.stats.deviceHierarchySeconds;
+    bvh.stats.deviceLayoutSeconds = tree.stats.deviceLayoutSeconds;
     bvh.stats.buildScratchBytes = tree.stats.buildScratchBytes;
     bvh.stats.buildAllocationSeconds = tree.stats.buildAllocationSeconds;
     return bvh;

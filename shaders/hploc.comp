@@ -20,10 +20,13 @@
 // before the exchange that hands the range over and acquired after it.
 //
 // Lavapipe (Mesa 22.3) returned the same old value to two invocations of one subgroup that ran an
-// atomic on one word while others of the subgroup were inactive (lbvh.h). Here every invocation of a
-// workgroup runs every atomic exchange, in two rounds (left children, then right children, so that
-// siblings never meet in one instruction), and one that has no slot to claim exchanges a word of
-// its own past the n - 1 parent slots. New nodes' ids are taken by one invocation per workgroup.
+// atomic on one word while others of the subgroup were inactive (lbvh.h). With kHplocAtomics =
+// kHplocAtomicsUniform every invocation of a workgroup runs every atomic exchange, in two rounds
+// (left children, then right children, so that siblings never meet in one instruction), and one
+// that has no slot to claim exchanges a word of its own past the n - 1 parent slots (one per
+// invocation of the dispatch: a word shared by all workgroups serialised them on a GPU). With
+// kHplocAtomicsDivergent only the climbing invocations exchange, once each. New nodes' ids are
+// taken by one invocation per workgroup.
 //
 // The output is gpu-ploc's: inner nodes in lbvh.comp's record format, numbered so that the root (the
 // last one made) is record 0; then ploc.comp's levels, offsets and reorder, and lbvh.comp's gather,
@@ -40,12 +43,14 @@ layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhaseHplocInit;
 // Positions searched on either side within a workgroup's clusters (BvhBuildOptions::plocRadius;
 // 16 or more searches all of them).
 layout(constant_id = kLbvhSpecPlocRadius) const uint kPlocRadius = 16u;
+layout(constant_id = kLbvhSpecHplocAtomics) const uint kHplocAtomics = kHplocAtomicsUniform;
 layout(push_constant) uniform Params { LbvhParams params; };
 
 layout(std430, set = 0, binding = kLbvhBindKeysA) readonly buffer Codes { uint codes[]; };
 // The cluster array: position k of a range holds one of its clusters' ids (kHplocEmpty past them).
 layout(std430, set = 0, binding = kLbvhBindKeysB) coherent buffer Clusters { uint clusters[]; };
-// Parent slots: slot s is the node splitting s | s + 1; then one word per invocation of a workgroup.
+// Parent slots: slot s is the node splitting s | s + 1; then (kHplocAtomicsUniform) one word per
+// invocation of the dispatch.
 layout(std430, set = 0, binding = kLbvhBindScan) coherent buffer Parents { uint parents[]; };
 layout(std430, set = 0, binding = kLbvhBindState) coherent buffer State { uint state[]; };
 layout(std430, set = 0, binding = kLbvhBindInner) writeonly buffer Inner { uvec4 inner[]; };
@@ -186,7 +191,7 @@ void build() {
         sceneHi[a] = lbvhFromOrderedBits(state[kLbvhStateBoxHi + a]);
     }
     const float unit = plocAreaUnit(sceneLo, sceneHi);
-    const uint ownWord = count - 1u + lane;  // exchanged by an invocation with no slot to claim
+    const uint ownWord = count - 1u + gl_GlobalInvocationID.x;  // exchanged by one with no slot to claim
     const uint chunks = (count + kHplocGroupSize - 1u) / kHplocGroupSize;
     for (uint chunk = gl_WorkGroupID.x; chunk < chunks; chunk += gl_NumWorkGroups.x) {
         const uint k = chunk * kHplocGroupSize + lane;
@@ -197,11 +202,16 @@ void build() {
             bool climbing = going, merging = false;
             while (groupBallot(climbing) != 0u) {
                 const bool isLeft = climbing && (left == 0u || (right != count - 1u && prefixAfter(right) > prefixAfter(left - 1u)));
-                const bool isRight = climbing && !isLeft;
-                const uint fromRight = atomicExchange(parents[isLeft ? right : ownWord], left);
-                const uint fromLeft = atomicExchange(parents[isRight ? left - 1u : ownWord], right);
+                uint other = kHplocEmpty;
+                if (kHplocAtomics == kHplocAtomicsUniform) {
+                    const bool isRight = climbing && !isLeft;
+                    const uint fromRight = atomicExchange(parents[isLeft ? right : ownWord], left);
+                    const uint fromLeft = atomicExchange(parents[isRight ? left - 1u : ownWord], right);
+                    other = isLeft ? fromRight : fromLeft;
+                } else if (climbing) {
+                    other = atomicExchange(parents[isLeft ? right : left - 1u], isLeft ? left : right);
+                }
                 if (climbing) {
-                    const uint other = isLeft ? fromRight : fromLeft;
                     if (other == kHplocEmpty) {
                         climbing = false;
                         going = false;

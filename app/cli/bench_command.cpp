@@ -529,6 +529,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                         record["bvh_built_in_tracer"] = true;
                         record["t_b_s"] = built->second.buildSeconds;
                         record["t_b_device_s"] = built->second.deviceBuildSeconds;
+                        record["t_b_device_sort_s"] = built->second.deviceSortSeconds;
+                        record["t_b_device_hierarchy_s"] = built->second.deviceHierarchySeconds;
+                        record["t_b_device_layout_s"] = built->second.deviceLayoutSeconds;
                         record["t_b_allocation_s"] = built->second.buildAllocationSeconds;
                         // From the scene in host memory to a traced frame: T_CU + T_B + one frame's
                         // wall time (frame_s; the report's T_F holds T_CU already). The kernels'
