@@ -40,7 +40,7 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
         ->capture_default_str();
     command
         .add_option("--builder", flags.builder,
-                    "BVH builder: " + builders + " (gpu-lbvh builds on the Vulkan device, docs/bvh.md)")
+                    "BVH builder: " + builders + " (the gpu-* builders build on the Vulkan device, docs/bvh.md)")
         ->capture_default_str();
     command
         .add_option("--bins", flags.binCount,
