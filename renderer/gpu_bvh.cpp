@@ -47,19 +47,6 @@ constexpr VkBufferUsageFlags kStorage = vk::StagedUpload::kUsage;
 // hierarchy or the clustering), its end.
 constexpr uint32_t kStampStart = 0, kStampSorted = 1, kStampLayout = 2, kStampEnd = 3, kTimestamps = 4;
 
-// gpu-hploc's parent slots are claimed by every invocation in two rounds on a CPU device (lavapipe's
-// atomics within partly active subgroups, hploc.comp), by the climbing invocations alone elsewhere.
-// RAYPACK_HPLOC_ATOMICS=uniform|divergent overrides it, for measuring one against the other.
-uint32_t hplocAtomicsFor(const vk::VulkanContext& context) {
-    if (const char* forced = std::getenv("RAYPACK_HPLOC_ATOMICS")) {
-        const std::string mode = forced;
-        if (mode == "uniform") return gpu::kHplocAtomicsUniform;
-        if (mode == "divergent") return gpu::kHplocAtomicsDivergent;
-        throw Error("RAYPACK_HPLOC_ATOMICS must be uniform or divergent, got \"" + mode + "\"");
-    }
-    return context.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU ? gpu::kHplocAtomicsUniform : gpu::kHplocAtomicsDivergent;
-}
-
 uint32_t groupsFor(uint64_t invocations) {
     return uint32_t((invocations + gpu::kLbvhGroupSize - 1) / gpu::kLbvhGroupSize);
 }
@@ -131,7 +118,6 @@ struct GpuBvhBuilder::State {
     uint32_t plocRadius = BvhBuildOptions{}.plocRadius;  // the nearest-neighbour pipelines' r
     // Timestamps: the build's start, the end of the key sort, the start of the layout, the end.
     VkQueryPool queries = VK_NULL_HANDLE;
-    uint32_t hplocAtomics = gpu::kHplocAtomicsDivergent;  // hploc.comp's kHplocAtomics
     uint32_t subgroupsPerGroup = 0;
 
     // The scene as it is in host memory: vertex arrays, vertex indices, triangle materials.
@@ -169,13 +155,11 @@ VkPipeline createPhasePipeline(GpuBvhBuilder::State& s, uint32_t phase, uint32_t
         uint32_t phase;
         uint32_t subgroupsPerGroup;
         uint32_t plocRadius;
-        uint32_t hplocAtomics;
-    } data{phase, s.subgroupsPerGroup, plocRadius, s.hplocAtomics};
-    const std::array<VkSpecializationMapEntry, 4> entries{{
+    } data{phase, s.subgroupsPerGroup, plocRadius};
+    const std::array<VkSpecializationMapEntry, 3> entries{{
         {gpu::kLbvhSpecPhase, offsetof(Constants, phase), sizeof(uint32_t)},
         {gpu::kLbvhSpecSubgroupsPerGroup, offsetof(Constants, subgroupsPerGroup), sizeof(uint32_t)},
         {gpu::kLbvhSpecPlocRadius, offsetof(Constants, plocRadius), sizeof(uint32_t)},
-        {gpu::kLbvhSpecHplocAtomics, offsetof(Constants, hplocAtomics), sizeof(uint32_t)},
     }};
     // The sort's shared memory is sized by the second constant; the other kernels do not declare it
     // (a map entry for a constant the module lacks is ignored).
@@ -205,7 +189,6 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
                     " invocations, which do not divide the sort's workgroups of " +
                     std::to_string(gpu::kLbvhGroupSize));
     s.subgroupsPerGroup = gpu::kLbvhGroupSize / info.subgroupSize;
-    s.hplocAtomics = hplocAtomicsFor(context);
     const uint64_t sortShared = ((uint64_t(s.subgroupsPerGroup) + 1) / 2 + 1) * gpu::kLbvhRadixDigits * 4;
     if (sortShared > info.maxSharedMemoryBytes)
         throw Error("gpu-lbvh: the radix sort needs " + std::to_string(sortShared) + " bytes of shared memory, " +
@@ -368,10 +351,8 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const uint32_t hplocGroups =
         std::max(1u, uint32_t(std::min<uint64_t>((uint64_t(n) + gpu::kHplocGroupSize - 1) / gpu::kHplocGroupSize,
                                                  s.ctx.info.maxWorkgroupCount[0])));
-    // Its parent slots (n - 1) and, where every invocation exchanges, a word of each one's own.
-    const uint64_t hplocParentWords =
-        uint64_t(inner) +
-        (s.hplocAtomics == gpu::kHplocAtomicsUniform ? uint64_t(hplocGroups) * gpu::kHplocGroupSize : 0);
+    // Its parent slots, one per inner node of the Morton order's radix tree.
+    const uint64_t hplocParentWords = inner;
     const ScanPlan scan = planScan(uint64_t(sortBlocks) * gpu::kLbvhRadixDigits);
     // gpu-ploc scans two flags per cluster, from n clusters down.
     const ScanPlan keepScan = planScan(n, 0), mergeScan = planScan(n, keepScan.words);

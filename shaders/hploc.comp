@@ -13,20 +13,20 @@
 // the cluster array. Once a range grows past that (or is the whole scene), the workgroup loads both
 // children's clusters (at most kHplocThreshold each, from the start of each child's part) into
 // shared memory and runs PLOC there: nearest neighbours within kPlocRadius positions (the smallest
-// union area, gpu-ploc's tie order), mutual pairs merged into new inner nodes, until kHplocThreshold
-// clusters are left (one at the root), written back from the range's start with empty entries after
-// them. Nothing waits for anything: an invocation whose sibling has not arrived stops, so no
+// union area, gpu-ploc's tie order), mutual pairs merged into new inner nodes, until exactly
+// kHplocThreshold clusters are left (the last round's merges cut short; one at the root), written
+// back from the range's start. Nothing waits for anything: an invocation whose sibling has not arrived stops, so no
 // invocation depends on another's progress, and the cluster writes a sibling reads are released
 // before the exchange that hands the range over and acquired after it.
 //
-// Lavapipe (Mesa 22.3) returned the same old value to two invocations of one subgroup that ran an
-// atomic on one word while others of the subgroup were inactive (lbvh.h). With kHplocAtomics =
-// kHplocAtomicsUniform every invocation of a workgroup runs every atomic exchange, in two rounds
-// (left children, then right children, so that siblings never meet in one instruction), and one
-// that has no slot to claim exchanges a word of its own past the n - 1 parent slots (one per
-// invocation of the dispatch: a word shared by all workgroups serialised them on a GPU). With
-// kHplocAtomicsDivergent only the climbing invocations exchange, once each. New nodes' ids are
-// taken by one invocation per workgroup.
+// Lavapipe (Mesa 22.3) returned the same old value to two invocations of one subgroup that added to
+// one counter while others of the subgroup were inactive (lbvh.h), and here it ran the exchange for
+// invocations that had already left a loop each invocation climbed on its own (the clustering made
+// twenty times the inner nodes). So the climb is a loop the whole workgroup runs, one step a turn,
+// with the exchange behind an if, which lavapipe honours; two siblings in one subgroup exchanging
+// one slot in one instruction, which happens all the time, gave whole trees in every test. New
+// nodes' ids follow from their range (freePositions), with no counter; one invocation per workgroup
+// adds what the workgroup made to a count the host checks.
 //
 // The output is gpu-ploc's: inner nodes in lbvh.comp's record format, numbered so that the root (the
 // last one made) is record 0; then ploc.comp's levels, offsets and reorder, and lbvh.comp's gather,
@@ -43,14 +43,12 @@ layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhaseHplocInit;
 // Positions searched on either side within a workgroup's clusters (BvhBuildOptions::plocRadius;
 // 16 or more searches all of them).
 layout(constant_id = kLbvhSpecPlocRadius) const uint kPlocRadius = 16u;
-layout(constant_id = kLbvhSpecHplocAtomics) const uint kHplocAtomics = kHplocAtomicsUniform;
 layout(push_constant) uniform Params { LbvhParams params; };
 
 layout(std430, set = 0, binding = kLbvhBindKeysA) readonly buffer Codes { uint codes[]; };
 // The cluster array: position k of a range holds one of its clusters' ids (kHplocEmpty past them).
 layout(std430, set = 0, binding = kLbvhBindKeysB) coherent buffer Clusters { uint clusters[]; };
-// Parent slots: slot s is the node splitting s | s + 1; then (kHplocAtomicsUniform) one word per
-// invocation of the dispatch.
+// Parent slots: slot s is the node splitting s | s + 1.
 layout(std430, set = 0, binding = kLbvhBindScan) coherent buffer Parents { uint parents[]; };
 layout(std430, set = 0, binding = kLbvhBindState) coherent buffer State { uint state[]; };
 layout(std430, set = 0, binding = kLbvhBindInner) writeonly buffer Inner { uvec4 inner[]; };
@@ -101,11 +99,32 @@ shared vec4 windowLo[kHplocGroupSize];  // w: the triangle count's bits
 shared vec3 windowHi[kHplocGroupSize];
 shared uint windowNearest[kHplocGroupSize];
 shared uvec4 task;  // L, R, the right child's first position
-shared uint firstId;
 
-// PLOC over the range [left, right] whose right child starts at `split`, by the whole workgroup.
-void mergeRange(uint left, uint right, uint split, float unit) {
+// The ids of the inner nodes a range makes, without a counter shared by the workgroups. Every range
+// of s > kHplocThreshold triangles ends with exactly kHplocThreshold clusters (the last round of
+// merges is cut short to land there), so a subtree of s triangles has made s - kHplocThreshold inner
+// nodes: the range [L, R] owns the inner positions [L, L + s - kHplocThreshold) (the root [0, n - 1)),
+// its children own their parts of it from their own first positions, and what they leave free is at
+// most two runs, [free.x, free.y) and [free.z, free.w). The root's last node takes position n - 2,
+// the id 2n - 2: record 0. Positions are ids less n.
+uvec4 freePositions(uint left, uint right, uint split) {
+    const uint sizeLeft = split - left, sizeRight = right - split + 1u;
+    const uint end = sizeLeft + sizeRight == n() ? n() - 1u : left + sizeLeft + sizeRight - kHplocThreshold;
+    const uint first = left + (sizeLeft > kHplocThreshold ? sizeLeft - kHplocThreshold : 0u);
+    const uint second = split + (sizeRight > kHplocThreshold ? sizeRight - kHplocThreshold : 0u);
+    return uvec4(first, max(first, min(split, end)), second, max(second, end));
+}
+uint madeId(uvec4 free, uint k) {
+    const uint firstRun = free.y - free.x;
+    return n() + (k < firstRun ? free.x + k : free.z + k - firstRun);
+}
+
+// PLOC over the range [left, right] whose right child starts at `split`, by the whole workgroup;
+// returns the inner nodes made.
+uint mergeRange(uint left, uint right, uint split, float unit) {
     const uint lane = gl_LocalInvocationIndex;
+    const uvec4 free = freePositions(left, right, split);
+    uint made = 0u;
     const uint leftSlots = min(split - left, kHplocThreshold), rightSlots = min(right - split + 1u, kHplocThreshold);
     uint id = kHplocEmpty;
     if (lane < leftSlots)
@@ -142,10 +161,12 @@ void mergeRange(uint left, uint right, uint split, float unit) {
         barrier();
         const uint nearest = lane < count ? windowNearest[lane] : lane;
         const bool mutual = nearest != lane && windowNearest[nearest] == lane;
-        const bool makes = mutual && lane < nearest, dropped = mutual && lane > nearest;
-        const uint made = groupBallot(makes);
-        if (lane == 0u) firstId = n() + atomicAdd(state[kLbvhStateNextMerged], bitCount(made));
-        barrier();
+        // The mutual pairs, by their lower position; the first count - target of them merge.
+        const uint pairs = groupBallot(mutual && lane < nearest);
+        const uint merges = min(bitCount(pairs), count - target);
+        const uint lower = min(lane, nearest);
+        const bool merged = mutual && bitCount(pairs & ((1u << lower) - 1u)) < merges;
+        const bool makes = merged && lane < nearest, dropped = merged && lane > nearest;
         const bool keeps = lane < count && !dropped;
         uint keptId = 0u;
         vec4 keptLo = vec4(0.0f);
@@ -158,13 +179,13 @@ void mergeRange(uint left, uint right, uint split, float unit) {
         if (makes) {
             const uint other = windowId[nearest];
             const uint triangles = floatBitsToUint(keptLo.w) + floatBitsToUint(windowLo[nearest].w);
-            const uint madeId = firstId + below(made);
+            const uint id = madeId(free, made + below(pairs));
             keptLo = vec4(min(keptLo.xyz, windowLo[nearest].xyz), uintBitsToFloat(triangles));
             keptHi = max(keptHi, windowHi[nearest]);
-            boxes[2u * madeId] = keptLo;
-            boxes[2u * madeId + 1u] = vec4(keptHi, 0.0f);
-            inner[recordOf(madeId)] = uvec4(childName(keptId), childName(other), triangles, 0u);
-            keptId = madeId;
+            boxes[2u * id] = keptLo;
+            boxes[2u * id + 1u] = vec4(keptHi, 0.0f);
+            inner[recordOf(id)] = uvec4(childName(keptId), childName(other), triangles, 0u);
+            keptId = id;
         }
         // Every read of the window above happens before this ballot's barriers.
         const uint kept = groupBallot(keeps);
@@ -176,10 +197,12 @@ void mergeRange(uint left, uint right, uint split, float unit) {
         }
         barrier();
         count = bitCount(kept);
+        made += merges;
     }
     if (!root && lane < kHplocThreshold) clusters[left + lane] = lane < count ? windowId[lane] : kHplocEmpty;
     memoryBarrierBuffer();
     barrier();
+    return made;
 }
 
 void build() {
@@ -191,27 +214,22 @@ void build() {
         sceneHi[a] = lbvhFromOrderedBits(state[kLbvhStateBoxHi + a]);
     }
     const float unit = plocAreaUnit(sceneLo, sceneHi);
-    const uint ownWord = count - 1u + gl_GlobalInvocationID.x;  // exchanged by one with no slot to claim
     const uint chunks = (count + kHplocGroupSize - 1u) / kHplocGroupSize;
+    uint made = 0u;  // by this workgroup, for the host's check that the tree is whole
     for (uint chunk = gl_WorkGroupID.x; chunk < chunks; chunk += gl_NumWorkGroups.x) {
         const uint k = chunk * kHplocGroupSize + lane;
         bool going = k < count;
         uint left = k, right = k, split = 0u;
         for (;;) {
-            // Climb while the ranges need no merging.
+            // Climb until every range stopped or needs merging (a loop the whole workgroup runs: see
+            // the note on lavapipe above).
             bool climbing = going, merging = false;
             while (groupBallot(climbing) != 0u) {
-                const bool isLeft = climbing && (left == 0u || (right != count - 1u && prefixAfter(right) > prefixAfter(left - 1u)));
-                uint other = kHplocEmpty;
-                if (kHplocAtomics == kHplocAtomicsUniform) {
-                    const bool isRight = climbing && !isLeft;
-                    const uint fromRight = atomicExchange(parents[isLeft ? right : ownWord], left);
-                    const uint fromLeft = atomicExchange(parents[isRight ? left - 1u : ownWord], right);
-                    other = isLeft ? fromRight : fromLeft;
-                } else if (climbing) {
-                    other = atomicExchange(parents[isLeft ? right : left - 1u], isLeft ? left : right);
-                }
                 if (climbing) {
+                    const bool isLeft = left == 0u || (right != count - 1u && prefixAfter(right) > prefixAfter(left - 1u));
+                    // The first of two siblings leaves its far end in their parent's slot and stops;
+                    // the second takes it and goes on with the union.
+                    const uint other = atomicExchange(parents[isLeft ? right : left - 1u], isLeft ? left : right);
                     if (other == kHplocEmpty) {
                         climbing = false;
                         going = false;
@@ -225,10 +243,8 @@ void build() {
                             left = other;
                         }
                         const uint size = right - left + 1u;
-                        if (size > kHplocThreshold || size == count) {
-                            climbing = false;
-                            merging = true;
-                        }
+                        merging = size > kHplocThreshold || size == count;
+                        climbing = !merging;
                     }
                 }
             }
@@ -239,11 +255,12 @@ void build() {
                 barrier();
                 const uvec4 range = task;
                 barrier();
-                mergeRange(range.x, range.y, range.z, unit);
+                made += mergeRange(range.x, range.y, range.z, unit);
             }
             if (merging && right - left + 1u == count) going = false;  // the root is made
         }
     }
+    if (lane == 0u && made > 0u) atomicAdd(state[kLbvhStateNextMerged], made);
 }
 
 void main() {

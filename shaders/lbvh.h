@@ -68,7 +68,6 @@ const uint kLbvhBindingCount = 24u;
 const uint kLbvhSpecPhase = 0u;              // kLbvhPhase* (a kernel file holds several phases)
 const uint kLbvhSpecSubgroupsPerGroup = 1u;  // radix_sort.comp: kLbvhGroupSize / subgroup size
 const uint kLbvhSpecPlocRadius = 2u;         // ploc.comp, hploc.comp: clusters searched on either side (r)
-const uint kLbvhSpecHplocAtomics = 3u;       // hploc.comp: kHplocAtomics* (how its parent slots are claimed)
 
 // One workgroup is this many invocations in every build kernel.
 const uint kLbvhGroupSize = 256u;
@@ -116,11 +115,6 @@ const uint kHplocGroupSize = 32u;
 const uint kHplocThreshold = kHplocGroupSize / 2u;
 // An entry of gpu-hploc's parent slots and cluster array that holds nothing yet.
 const uint kHplocEmpty = 0xFFFFFFFFu;
-// How gpu-hploc claims its parent slots (kLbvhSpecHplocAtomics): every invocation runs every
-// exchange, in two rounds, those with nothing to claim on words of their own (for lavapipe, whose
-// atomics failed on one word within a partly active subgroup); or only the climbing ones, once.
-const uint kHplocAtomicsUniform = 1u;
-const uint kHplocAtomicsDivergent = 0u;
 
 // Push constants of every phase, 48 bytes.
 struct LbvhParams {

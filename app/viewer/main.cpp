@@ -40,7 +40,8 @@ int main(int argc, char** argv) {
     app.add_option("--leaf-size", options.bvh.leafSize, "BVH leaf size")->capture_default_str();
     std::string builders;
     for (BvhBuilder b : kAllBvhBuilders) builders += std::string(builders.empty() ? "" : ", ") + toString(b);
-    app.add_option("--builder", builder, "BVH builder: " + builders + " (the gpu-* builders build on the Vulkan device)");
+    app.add_option("--builder", builder,
+                   "BVH builder: " + builders + " (the gpu-* builders build on the Vulkan device)");
     app.add_flag("--no-shadows", noShadows, "no shadow rays");
     app.add_option("--kernel", kernel, "packet, single or hybrid");
     app.add_option("--view", view, "shaded, nodes (N_TR heat map) or tests (N_IT heat map)");
