@@ -441,26 +441,6 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     gpu::LbvhParams base{};
     base.counts = {n, options.leafSize, 0u, attributes};
     base.costs = {options.traversalCost, options.intersectionCost, 0.0f, 0.0f};
-    // The entry counts of the first `count` listed levels.
-    const auto downloadLevelCounts = [&](uint32_t count) {
-        vk::Buffer staging = vk::createBuffer(
-            s.ctx, uint64_t(count) * 8, VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-            VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT, "the levels' read-back");
-        std::vector<uint32_t> counts(count);
-        try {
-            vk::submitAndWait(s.ctx, s.pool, [&](VkCommandBuffer cmd) {
-                const VkBufferCopy region{0, 0, uint64_t(count) * 8};
-                vkCmdCopyBuffer(cmd, x.levels.buffer, staging.buffer, 1, &region);
-            });
-            for (uint32_t level = 0; level < count; ++level)
-                counts[level] = static_cast<const uint32_t*>(staging.mapped)[2 * level + 1];
-        } catch (...) {
-            vk::destroyBuffer(s.ctx, staging);
-            throw;
-        }
-        vk::destroyBuffer(s.ctx, staging);
-        return counts;
-    };
     const auto readState = [&] {
         std::array<uint32_t, gpu::kLbvhStateWords> words{};
         std::memcpy(words.data(), x.readback.mapped, sizeof words);
@@ -571,6 +551,18 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         r.stamp(kStampEnd);
     };
 
+    // gpu-ploc, gpu-hploc: the levels of their trees from `first` on, kPlocLevelBatch of them at
+    // most; kLbvhStateListedDepth says where they end once a level comes out empty.
+    const auto listLevels = [&](const Recorder& r, uint32_t first) {
+        if (first == 0) r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
+        for (uint32_t level = first; level < std::min(first + kPlocLevelBatch, levels); ++level) {
+            r.level(gpu::kLbvhPhaseEnumerate, level, base);
+            gpu::LbvhParams p = base;
+            p.counts.z = level;
+            r.dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
+        }
+    };
+
     submit([&](const Recorder& r) {
         const VkCommandBuffer cmd = r.cmd;
         if (s.queries) {
@@ -613,6 +605,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             r.dispatch(gpu::kLbvhPhaseHplocInit, hplocGroups, base);
             r.dispatch(gpu::kLbvhPhaseHplocBuild, hplocGroups, base);
             r.stamp(kStampLayout);
+            listLevels(r, 0);
         }
     });
     if (hploc && n >= 2) {
@@ -664,30 +657,18 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             }
             RAYPACK_CHECK_MSG(made == n - 1, "gpu-ploc made n - 1 inner nodes");
         }
-        // The levels, a batch of levels per submission until one comes out empty.
-        uint32_t depth = 0;
-        for (uint32_t first = 0; depth == 0; first += kPlocLevelBatch) {
+        // The levels, a batch per submission until one comes out empty (gpu-hploc listed the first
+        // batch in its first submission).
+        uint32_t depth = hploc ? readState()[gpu::kLbvhStateListedDepth] : 0;
+        for (uint32_t first = hploc ? kPlocLevelBatch : 0; depth == 0; first += kPlocLevelBatch) {
             if (first >= levels)
                 throw Error(std::string(toString(options.builder)) + ": the tree is deeper than " +
                             std::to_string(levels) + " levels");
             submit([&](const Recorder& r) {
-                if (first == 0 && ploc) r.stamp(kStampLayout);
-                if (first == 0) r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
-                for (uint32_t level = first; level < std::min(first + kPlocLevelBatch, levels); ++level) {
-                    r.level(gpu::kLbvhPhaseEnumerate, level, base);
-                    gpu::LbvhParams p = base;
-                    p.counts.z = level;
-                    r.dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
-                }
+                if (first == 0) r.stamp(kStampLayout);
+                listLevels(r, first);
             });
-            if (readState()[gpu::kLbvhStateNextCount] == 0) {
-                // The batch reached an empty level: the depth is the first empty one.
-                const uint32_t listed = std::min(first + kPlocLevelBatch, levels) + 1;
-                const std::vector<uint32_t> counts = downloadLevelCounts(listed);
-                for (uint32_t level = 1; level < listed && depth == 0; ++level)
-                    if (counts[level] == 0) depth = level;
-                RAYPACK_CHECK_MSG(depth > 0, "the clustered tree's last level is found");
-            }
+            depth = readState()[gpu::kLbvhStateListedDepth];
         }
         submit([&](const Recorder& r) {
             for (uint32_t level = 0; level < depth; ++level) r.level(gpu::kLbvhPhasePlocOffsets, level, base);

@@ -158,16 +158,20 @@ void enumerate() {
     const bool leftInner = valid && record.x < n - 1u, rightInner = valid && record.y < n - 1u;
     const uint count = (leftInner ? 1u : 0u) + (rightInner ? 1u : 0u);
     const uint slot = reserve(count);
-    if (leftInner) queue[slot] = record.x;
-    if (rightInner) queue[slot + (leftInner ? 1u : 0u)] = record.y;
+    // Within the n - 1 entries a whole tree fills (a clustering that failed, which the host reports,
+    // must not write past them).
+    if (leftInner && slot < n - 1u) queue[slot] = record.x;
+    if (rightInner && slot + (leftInner ? 1u : 0u) < n - 1u) queue[slot + (leftInner ? 1u : 0u)] = record.y;
 }
 
 // After level params.counts.z: the next level is what it pushed.
 void nextLevel() {
     const uvec2 level = levels[params.counts.z];
     const uint begin = level.x + level.y;
-    setLevel(params.counts.z + 1u, begin, state[kLbvhStateQueueTail] - begin);
-    state[kLbvhStateNextCount] = state[kLbvhStateQueueTail] - begin;
+    const uint count = state[kLbvhStateQueueTail] - begin;
+    setLevel(params.counts.z + 1u, begin, count);
+    state[kLbvhStateNextCount] = count;
+    if (count == 0u && state[kLbvhStateListedDepth] == 0u) state[kLbvhStateListedDepth] = params.counts.z + 1u;
 }
 
 // ---- Step 7: boxes and SAH costs, bottom up.

@@ -162,7 +162,8 @@ const uint kLbvhStateClusters = 20u;      // gpu-ploc: clusters in this iteratio
 const uint kLbvhStateMerged = 21u;        // gpu-ploc: inner nodes made before this iteration
 const uint kLbvhStateNextCount = 22u;     // entries of the level the last kLbvhPhaseNextLevel set up
 const uint kLbvhStateNextClusters = 23u;  // gpu-ploc: clusters after this iteration
-const uint kLbvhStateNextMerged = 24u;    // gpu-ploc: inner nodes made after it
+const uint kLbvhStateNextMerged = 24u;    // gpu-ploc: inner nodes made after it (gpu-hploc: all)
+const uint kLbvhStateListedDepth = 25u;   // the first level kLbvhPhaseNextLevel found empty, 0 before
 // gpu-ploc's dispatch arguments in kLbvhBindIndirect while clustering: the clusters' at entry 0,
 // the scan's level L at entry 1 + L.
 const uint kPlocIndirectClusters = 0u;
