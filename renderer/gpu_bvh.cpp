@@ -595,8 +595,9 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         // 4: the hierarchy (gpu-ploc, gpu-hploc: their clusters start as the sorted triangles).
         if (!clustered && n >= 2) r.dispatch(gpu::kLbvhPhaseHierarchy, groupsFor(inner), base);
         if (!clustered) r.stamp(kStampLayout);
-        // 5: leaf order (gpu-ploc, gpu-hploc: Morton order, for the clusters' boxes; again at the end).
-        r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
+        // 5: leaf order (gpu-ploc: Morton order, for the clusters' boxes; again at the end; gpu-hploc
+        // makes its boxes from the scene's arrays and gathers at the end only).
+        if (!hploc || n < 2) r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
         if (!clustered) finish(r, levels, true);
         if (hploc && n >= 2) {
             // The whole clustering in one dispatch, after its parent slots are emptied.

@@ -54,7 +54,10 @@ layout(std430, set = 0, binding = kLbvhBindState) coherent buffer State { uint s
 layout(std430, set = 0, binding = kLbvhBindInner) writeonly buffer Inner { uvec4 inner[]; };
 // By cluster id: lo with the triangle count's bits in w, hi.
 layout(std430, set = 0, binding = kLbvhBindBoxes) coherent buffer Boxes { vec4 boxes[]; };
-layout(std430, set = 0, binding = kLbvhBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
+// The scene as uploaded, and the sorted order (sorted triangle k is triangle order[k]).
+layout(std430, set = 0, binding = kLbvhBindPositions) readonly buffer Positions { float positions[]; };
+layout(std430, set = 0, binding = kLbvhBindIndices) readonly buffer Indices { uint indices[]; };
+layout(std430, set = 0, binding = kLbvhBindValuesA) readonly buffer Order { uint order[]; };
 
 // Cluster ids as ploc.comp's: sorted triangle k is id k, the j-th inner node made is id n + j, and
 // inner node id p is record 2n - 2 - p.
@@ -62,12 +65,17 @@ uint n() { return params.counts.x; }
 uint recordOf(uint id) { return 2u * n() - 2u - id; }
 uint childName(uint id) { return id >= n() ? recordOf(id) : n() - 1u + id; }
 
+vec3 position(uint v) { return vec3(positions[3u * v], positions[3u * v + 1u], positions[3u * v + 2u]); }
+
+// Each sorted triangle's box straight from the scene's arrays (the leaf-order triangles are gathered
+// once the tree's order is known).
 void init() {
     const uint stride = gl_NumWorkGroups.x * kHplocGroupSize;
     for (uint k = gl_GlobalInvocationID.x; k < n(); k += stride) {
-        const GpuTriangle t = triangles[k];
-        boxes[2u * k] = vec4(min(min(t.v0.xyz, t.v1.xyz), t.v2.xyz), uintBitsToFloat(1u));
-        boxes[2u * k + 1u] = vec4(max(max(t.v0.xyz, t.v1.xyz), t.v2.xyz), 0.0f);
+        const uint t = order[k];
+        const vec3 a = position(indices[3u * t]), b = position(indices[3u * t + 1u]), c = position(indices[3u * t + 2u]);
+        boxes[2u * k] = vec4(min(min(a, b), c), uintBitsToFloat(1u));
+        boxes[2u * k + 1u] = vec4(max(max(a, b), c), 0.0f);
         clusters[k] = k;
     }
 }
