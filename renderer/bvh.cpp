@@ -66,9 +66,9 @@ void validateOptions(const BvhBuildOptions& options) {
     if (options.builder == BvhBuilder::SahBinned && (options.binCount < 2 || options.binCount > 256))
         throw Error("BVH build: binCount must be in 2..256, got " + std::to_string(options.binCount));
     if ((options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc) &&
-        (options.plocRadius < 1 || options.plocRadius > kMaxPlocRadius))
-        throw Error("BVH build: plocRadius must be in 1.." + std::to_string(kMaxPlocRadius) + ", got " +
-                    std::to_string(options.plocRadius));
+        options.plocRadius > kMaxPlocRadius)
+        throw Error("BVH build: plocRadius must be in 1.." + std::to_string(kMaxPlocRadius) +
+                    " (or 0, the builder's own), got " + std::to_string(options.plocRadius));
     if (options.builder == BvhBuilder::SahSplit) {
         if (!(options.splitAlpha >= 0.0f && options.splitAlpha <= 1.0f))
             throw Error("BVH build: splitAlpha must be in 0..1, got " + std::to_string(options.splitAlpha));

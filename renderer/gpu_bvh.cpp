@@ -115,7 +115,7 @@ struct GpuBvhBuilder::State {
     vk::StorageSetLayout layout;  // every build kernel's storage buffers and push constants
     std::array<VkShaderModule, 6> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
-    uint32_t plocRadius = BvhBuildOptions{}.plocRadius;  // the nearest-neighbour pipelines' r
+    uint32_t plocRadius = kPlocRadius;  // the nearest-neighbour pipelines' r
     // Timestamps: the build's start, the end of the key sort, the start of the layout, the end.
     VkQueryPool queries = VK_NULL_HANDLE;
     uint32_t subgroupsPerGroup = 0;
@@ -334,7 +334,8 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const bool ploc = options.builder == BvhBuilder::GpuPloc, hploc = options.builder == BvhBuilder::GpuHploc;
     // Both cluster the Morton-sorted triangles into a tree of their own, laid out by ploc.comp.
     const bool clustered = ploc || hploc;
-    if (clustered && options.plocRadius != s.plocRadius) {
+    const uint32_t radius = plocRadiusOf(options);
+    if (clustered && radius != s.plocRadius) {
         // The search radius is a specialization constant (it sizes gpu-ploc's shared memory): new
         // pipelines.
         vk::queueWaitIdle(s.ctx);
@@ -342,9 +343,9 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             VkPipeline& pipeline = s.pipelines[phase];
             vkDestroyPipeline(s.ctx.device, pipeline, nullptr);
             pipeline = VK_NULL_HANDLE;
-            pipeline = createPhasePipeline(s, phase, options.plocRadius);
+            pipeline = createPhasePipeline(s, phase, radius);
         }
-        s.plocRadius = options.plocRadius;
+        s.plocRadius = radius;
     }
     // gpu-hploc: one workgroup per kHplocGroupSize sorted triangles, fewer where the device's row of
     // workgroups is shorter (each then takes several in turn).

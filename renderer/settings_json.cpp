@@ -244,8 +244,8 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     readFloat(j, "split_budget", "bvh.", o.splitBudget);
     if (!(o.splitBudget >= 1.0f && o.splitBudget <= 4.0f)) badKey("bvh.split_budget", "must be in 1..4");
     readUint(j, "ploc_radius", "bvh.", o.plocRadius);
-    if (o.plocRadius < 1 || o.plocRadius > kMaxPlocRadius)
-        badKey("bvh.ploc_radius", "must be in 1.." + std::to_string(kMaxPlocRadius));
+    if (o.plocRadius > kMaxPlocRadius)
+        badKey("bvh.ploc_radius", "must be in 1.." + std::to_string(kMaxPlocRadius) + ", or 0 for the builder's own");
     if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
         badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
     return o;

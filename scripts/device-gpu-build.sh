@@ -12,7 +12,7 @@
 # Prepare here: scripts/device-pack.sh build. On the device, from the repository root (the run
 # tool, carry [".gl", ".device"]): bash scripts/device-gpu-build.sh
 # Environment: SCENE_LIST (bench --scenes), PLOC_RADII (default "16": one gpu-ploc row per
-# --ploc-radius), HPLOC_RADII (default "16", the same for gpu-hploc), LBVH_RUNS, PLOC_RUNS and
+# --ploc-radius), HPLOC_RADII (default "0", gpu-hploc's own radius, 8; rows "hploc", or "hploc<r>"), LBVH_RUNS, PLOC_RUNS and
 # HPLOC_RUNS (default 3 each; the first of each runs 5 repeats), TEST_BINARIES (run first, each
 # on the device's GPU with the validation layer, output in $OUT/tests.txt),
 # SKIP_BINNED=1 (no sah-binned run), RUN_TIMEOUT_S (default 140 per bench run).
@@ -35,7 +35,7 @@ run() {  # NAME BUILDER [FLAGS...]
     > /dev/null 2>> "$out/runs/progress.log" || echo "FAILED $name" | tee -a "$out/gpu-build.txt"
 }
 radii=${PLOC_RADII:-16}
-hradii=${HPLOC_RADII:-16}
+hradii=${HPLOC_RADII:-0}
 if [ -n "${TEST_BINARIES:-}" ] && [ ! -d /work/main/../shared/scenes ]; then
   # The tests read the scenes from the path they were built with.
   mkdir -p /work/main /work/shared && ln -sfn "$PWD/.device/scenes" /work/shared/scenes
@@ -52,8 +52,9 @@ for radius in $radii; do
   for i in $(seq 2 "${PLOC_RUNS:-3}"); do run "ploc$radius-$i" gpu-ploc --no-driver-rt --repeat 1 --ploc-radius "$radius"; done
 done
 for radius in $hradii; do
-  run "hploc$radius-1" gpu-hploc --no-driver-rt --repeat 5 --ploc-radius "$radius"
-  for i in $(seq 2 "${HPLOC_RUNS:-3}"); do run "hploc$radius-$i" gpu-hploc --no-driver-rt --repeat 1 --ploc-radius "$radius"; done
+  name=hploc${radius#0}  # radius 0, the builder's own: "hploc"
+  run "$name-1" gpu-hploc --no-driver-rt --repeat 5 --ploc-radius "$radius"
+  for i in $(seq 2 "${HPLOC_RUNS:-3}"); do run "$name-$i" gpu-hploc --no-driver-rt --repeat 1 --ploc-radius "$radius"; done
 done
 [ "${SKIP_BINNED:-0}" = 1 ] || run binned sah-binned --no-driver-rt --repeat 1
 run exact sah-exact --no-driver-rt --repeat 5
@@ -77,7 +78,7 @@ driver = by_scene(load("lbvh-1"), "driver-rt")
 binned, exact = by_scene(load("binned"), "gpu-single"), by_scene(load("exact"), "gpu-single")
 print(f"{'builder':8s} {'scene':22s} {'tris':>9s} {'T_B':>9s} {'device':>9s} {'Mtri/s':>8s} {'driver':>9s} {'Mtri/s':>8s}"
       f" {'dev/drv':>7s} {'binned T_B':>10s} {'SAH/exact':>9s} {'trace/exact':>11s} {'scratch B/tri':>13s}")
-for builder in ["lbvh"] + [f"ploc{r}" for r in radii] + [f"hploc{r}" for r in hradii]:
+for builder in ["lbvh"] + [f"ploc{r}" for r in radii] + ["hploc" + r.lstrip("0") for r in hradii]:
     runs_of = [by_scene(load(f"{builder}-{i}"), "gpu-single") for i in range(1, 10)]
     runs_of = [r for r in runs_of if r]
     if not runs_of:

@@ -379,7 +379,8 @@ TEST_P(GpuBuilder, RefusesWhatItCannotBuild) {
 // The search radius of gpu-ploc and gpu-hploc (BvhBuildOptions::plocRadius) changes the pairs
 // found, never the tree's validity: radii 1, 4 and 64 on one builder (its nearest-neighbour pipelines
 // rebuilt for each) give valid trees, a wider search no worse a SAH cost than radius 1 on this
-// scene, and radii outside 1..64 are refused.
+// scene, 0 builds the tree of the builder's own radius (16 for gpu-ploc, 8 for gpu-hploc), and
+// radii above 64 are refused.
 TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
     for (const BvhBuilder builder : {BvhBuilder::GpuPloc, BvhBuilder::GpuHploc}) {
         SCOPED_TRACE(toString(builder));
@@ -396,10 +397,16 @@ TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
             if (radius == 1) narrowest = bvh.stats.sahCost;
             if (radius == 64) EXPECT_LE(bvh.stats.sahCost, narrowest * 1.001);
         }
-        for (const uint32_t radius : {0u, 65u}) {
-            options.plocRadius = radius;
-            EXPECT_THROW(buildBvhOnDevice(validatedContext(), scene, options), Error) << radius;
-        }
+        options.plocRadius = 0;
+        const Bvh own = buildBvhOnDevice(validatedContext(), scene, options);
+        options.plocRadius = builder == BvhBuilder::GpuHploc ? 8u : 16u;
+        EXPECT_EQ(plocRadiusOf(options), options.plocRadius);
+        const Bvh named = buildBvhOnDevice(validatedContext(), scene, options);
+        EXPECT_EQ(own.primIndices, named.primIndices);
+        ASSERT_EQ(own.nodes.size(), named.nodes.size());
+        EXPECT_EQ(0, std::memcmp(own.nodes.data(), named.nodes.data(), own.nodes.size() * sizeof(BvhNode)));
+        options.plocRadius = 65;
+        EXPECT_THROW(buildBvhOnDevice(validatedContext(), scene, options), Error);
     }
     EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
 }
