@@ -1,6 +1,7 @@
 #pragma once
-// BVH construction on the Vulkan device that traces (issue 13): the builder gpu-lbvh (Karras 2012,
-// with the leaves collapsed by the SAH; shaders/lbvh.h has the algorithm). It writes the tracers'
+// BVH construction on the Vulkan device that traces (issue 13): the builders gpu-lbvh (Karras 2012),
+// gpu-ploc (Meister and Bittner 2018) and gpu-hploc (Benthin et al. 2024), each with the leaves
+// collapsed by the SAH (shaders/lbvh.h has the algorithm). It writes the tracers'
 // node layout and the leaf-order triangles straight into device buffers: no host round trip and no
 // tree on the CPU. Its Table 1 statistics come from a reduction on the device, a few hundred bytes
 // read back. A CPU consumer (the CPU tracers, `stats`, a test) asks for the canonical tree with
@@ -79,9 +80,9 @@ public:
         double deviceSeconds = 0;   // the build's commands by the device's timestamps (0 without)
         uint64_t scratchBytes = 0;  // temporary device memory of the build, freed before it returns
     };
-    // Builds with `options` (builder gpu-lbvh; leafSize, traversalCost and intersectionCost are
-    // honoured, the bin and split settings do not apply) into `outputs`, and waits for it. Throws
-    // raypack::Error for options out of range, without a scene, or when the device is out of memory.
+    // Builds with `options` (a device builder; leafSize, traversalCost, intersectionCost and, for the
+    // clustering builders, plocRadius are honoured, the bin and split settings do not apply) into `outputs`, and waits
+    // for it. Throws raypack::Error for options out of range, without a scene, or when the device is out of memory.
     // `progress` (optional): total is the triangle count, done counts gpu-ploc's merges as they are
     // read back, and cancel is polled before each of the build's submissions, throwing
     // BuildCancelled (the outputs are then undefined).
