@@ -7,7 +7,8 @@
 // The algorithm (Karras 2012, "Maximizing Parallelism in the Construction of BVHs, Octrees, and k-d
 // Trees"; the collapse by the SAH as in Karras and Aila 2013, section 4):
 //   1. bounds of the triangles' boxes and of their centroids (lbvh_prepare, kLbvhPhaseBounds);
-//   2. a 30-bit Morton code per triangle from its centroid in the centroid bounds (kLbvhPhaseMorton);
+//   2. a 30-bit Morton code per triangle from its centroid in the centroid bounds (kLbvhPhaseMorton),
+//      the bits shared among the axes by their extents (Vinkler, Bittner and Havran 2017);
 //   3. a stable LSD radix sort of (code, triangle) by the code: 8 bits a pass, 4 passes;
 //   4. the binary radix tree over the sorted codes, ties broken by the sorted position (so every
 //      key is distinct): inner node i's children, range and the parent of every node;
@@ -140,6 +141,9 @@ const uint kLbvhHasMaterials = 8u;
 const uint kLbvhCollapsed = 1u;
 const uint kLbvhLive = 2u;
 // Ids in kLbvhBindInner's children: inner node i is id i, sorted triangle j is id n - 1 + j.
+
+// The Morton code's bits (kLbvhPhaseMorton).
+const uint kLbvhMortonBits = 30u;
 
 // The most primitives one leaf may hold (renderer/bvh.h's kMaxLeafPrimitives, checked there).
 const uint kLbvhMaxLeafPrimitives = 1024u;

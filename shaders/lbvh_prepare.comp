@@ -1,6 +1,7 @@
 #version 460
 // gpu-lbvh, steps 1 and 2 (shaders/lbvh.h): the bounds of the triangles and of their centroids,
-// then one 30-bit Morton code per triangle (Morton 1966; Karras 2012, section 4).
+// then one 30-bit Morton code per triangle (Morton 1966; Karras 2012, section 4), its bits shared
+// among the axes by their extents (Vinkler et al. 2017).
 #extension GL_GOOGLE_include_directive : require
 
 #include "gpu_types.h"
@@ -52,29 +53,52 @@ void bounds() {
     }
 }
 
-// 10 bits spread to every third bit (Karras 2012's expandBits).
-uint spreadBits(uint v) {
-    v = (v * 0x00010001u) & 0xFF0000FFu;
-    v = (v * 0x00000101u) & 0x0F00F00Fu;
-    v = (v * 0x00000011u) & 0xC30C30C3u;
-    v = (v * 0x00000005u) & 0x49249249u;
-    return v;
+// The axis that takes the Morton code's next bit (Vinkler, Bittner and Havran 2017, "Extended
+// Morton Codes for High Performance Bounding Volume Hierarchy Construction", section 4.1): the one
+// whose cells are widest after the bits it has, its cell width being extent · 2^-bits, compared as
+// bits + log2(largest extent / extent) so that no product underflows; ties go to the lower axis, and
+// an axis of no extent never takes a bit. A cube's extents give x, y, z in turn: Karras' code.
+uint nextAxis(vec3 deficit, uvec3 bits) {
+    uint best = 0u;
+    for (uint a = 1u; a < 3u; ++a)
+        if (float(bits[a]) + deficit[a] < float(bits[best]) + deficit[best]) best = a;
+    return best;
 }
 
+// The code's 30 bits over the three axes in proportion to their extents: a flat terrain's height
+// axis, which a per-axis cube (Karras 2012) gives as many bits as the others, takes few, so that
+// neighbours in the code are neighbours on the ground.
 void morton() {
     const uint t = gl_GlobalInvocationID.x;
     if (t >= params.counts.x) return;
     vec3 lo, hi;
     const vec3 c = centroidOf(t, lo, hi);
-    uint code = 0u;
+    vec3 boundLo, extent;
     for (uint a = 0u; a < 3u; ++a) {
-        const float boundLo = lbvhFromOrderedBits(state[kLbvhStateCentroidLo + a]);
-        const float boundHi = lbvhFromOrderedBits(state[kLbvhStateCentroidHi + a]);
-        // Halves, so that extents near FLT_MAX do not overflow; a flat axis gives every centroid 0.
-        const float extent = 0.5f * boundHi - 0.5f * boundLo;
-        const float unit = extent > 0.0f ? (0.5f * c[a] - 0.5f * boundLo) / extent : 0.0f;
-        const uint cell = uint(clamp(unit * 1024.0f, 0.0f, 1023.0f));
-        code |= spreadBits(cell) << (2u - a);
+        boundLo[a] = lbvhFromOrderedBits(state[kLbvhStateCentroidLo + a]);
+        // Halves, so that extents near FLT_MAX do not overflow.
+        extent[a] = 0.5f * lbvhFromOrderedBits(state[kLbvhStateCentroidHi + a]) - 0.5f * boundLo[a];
+    }
+    const float largest = max(max(extent.x, extent.y), extent.z);
+    uint code = 0u;
+    if (largest > 0.0f) {
+        vec3 deficit;
+        for (uint a = 0u; a < 3u; ++a) deficit[a] = extent[a] > 0.0f ? log2(largest / extent[a]) : 1e30f;
+        uvec3 bits = uvec3(0u);
+        for (uint b = 0u; b < kLbvhMortonBits; ++b) ++bits[nextAxis(deficit, bits)];
+        uvec3 cell;
+        for (uint a = 0u; a < 3u; ++a) {
+            const float unit = extent[a] > 0.0f ? (0.5f * c[a] - 0.5f * boundLo[a]) / extent[a] : 0.0f;
+            // The last cell clamped as an integer: 2^bits - 1 has no float above 24 bits.
+            cell[a] = min(uint(clamp(unit, 0.0f, 1.0f) * float(1u << bits[a])), (1u << bits[a]) - 1u);
+        }
+        // The same choices again, now taking each axis's bits from its most significant down.
+        uvec3 taken = uvec3(0u);
+        for (uint b = 0u; b < kLbvhMortonBits; ++b) {
+            const uint a = nextAxis(deficit, taken);
+            ++taken[a];
+            code = (code << 1u) | ((cell[a] >> (bits[a] - taken[a])) & 1u);
+        }
     }
     keys[t] = code;
     values[t] = t;

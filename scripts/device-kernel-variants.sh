@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# Issue 14 on the lent H200 machine: variants of the binary single-ray kernel, each a raypack-cli of
+# its own (scripts/variant-cli.sh NAME "-DRP_VARIANT_..." "", carried as .device/bin/raypack-cli-NAME
+# by scripts/device-pack.sh), against the build itself (.device/bin/raypack-cli): the report suite
+# per binary, `bench --kernel single` at 1920x1080, ROUNDS interleaved rounds. OUT/variants.md: per
+# scene and ray kind, each binary's gpu-single Mrays/s, its ratio to the build's of the same round,
+# N_TR, N_IT and the pipeline's register count. Before the benches, the build and every variant
+# render each report scene's hits at 1920x1080 (its start view) and the hits files are compared
+# (OUT/hits.txt).
+#   scripts/device-kernel-variants.sh [OUT_DIR]   (default: $OUT)
+# Environment: VARIANTS (names after raypack-cli-, default: every one carried), ROUNDS (default 2),
+# REPEAT (default 10), BUDGET_S (default 420), TRACER (default gpu-single).
+set -u
+out=${1:-${OUT:-}}
+[ -n "$out" ] || { echo "usage: scripts/device-kernel-variants.sh OUT_DIR" >&2; exit 2; }
+mkdir -p "$out"
+[ -d .device/bin ] || tar xJf .device/round.tar.xz
+source scripts/device-env.sh > "$out/env.log" 2>&1
+variants=${VARIANTS:-$(cd .device/bin && ls raypack-cli-* 2>/dev/null | sed 's/^raypack-cli-//')}
+rounds=${ROUNDS:-2}
+repeat=${REPEAT:-10}
+budget=${BUDGET_S:-420}
+tracer=${TRACER:-gpu-single}
+start=$(date +%s)
+S=.device/scenes
+for scene in sibenik/sibenik_geom_75284.ply dabrovic_sponza/sponza.obj conference/conference_geom.ply \
+             stanford/armadillo_decimated_99976.obj stanford/dragon_vrip_res2.ply; do
+  name=$(basename "$scene" | sed 's/\..*//')
+  for v in build $variants; do
+    cli=.device/bin/raypack-cli; [ "$v" = build ] || cli=.device/bin/raypack-cli-$v
+    "$cli" render "$S/$scene" --device gpu --kernel single --width 1920 --height 1080 \
+      --hits "$out/hits-$name-$v.bin" > /dev/null 2>> "$out/hits.txt" ||
+      echo "$v $name: render failed" >> "$out/hits.txt"
+    if [ "$v" != build ]; then
+      if cmp -s "$out/hits-$name-build.bin" "$out/hits-$name-$v.bin"; then echo "$name $v: hits identical" >> "$out/hits.txt"
+      else echo "$name $v: hits DIFFER" >> "$out/hits.txt"; fi
+    fi
+  done
+  rm -f "$out"/hits-"$name"-*.bin
+done
+for round in $(seq 1 "$rounds"); do
+  for v in build $variants; do
+    cli=.device/bin/raypack-cli; [ "$v" = build ] || cli=.device/bin/raypack-cli-$v
+    if [ $(( $(date +%s) - start )) -gt "$budget" ]; then echo "$v round $round: skipped (budget)" >> "$out/errors.txt"; continue; fi
+    "$cli" bench --suite report --scene-dir .device/scenes --device gpu --kernel single --width 1920 --height 1080 \
+      --repeat "$repeat" --no-embree --no-driver-rt --pipeline-statistics --out "$out/$v-$round.json" > "$out/$v-$round.log" 2>&1 ||
+      echo "$v round $round: bench failed" >> "$out/errors.txt"
+  done
+done
+python3 - "$out" "$rounds" "$tracer" build $variants > "$out/variants.md" <<'PY'
+import json, os, sys
+out, rounds, tracer, names = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4:]
+def load(name, r):
+    p = os.path.join(out, f"{name}-{r}.json")
+    return json.load(open(p)) if os.path.exists(p) else None
+def mr(run, scene, kind):
+    for x in run["records"]:
+        if x["tracer"] == tracer and x["scene"] == scene and x["ray_kind"] == kind:
+            return x
+    return None
+print(f"| round | binary | scene | rays | {tracer} Mrays/s | / build, same round | N_TR | N_IT | registers |")
+print("|---|---|---|---|---:|---:|---:|---:|---:|")
+for r in range(1, rounds + 1):
+    base = load("build", r)
+    for name in names:
+        run = load(name, r)
+        if not run: continue
+        for scene in ("Sibenik", "Sponza", "Conference", "Armadillo", "Dragon"):
+            for kind in ("primary", "shadow"):
+                x = mr(run, scene, kind)
+                if not x: continue
+                b = mr(base, scene, kind) if base else None
+                regs = (x.get("pipeline_statistics") or {}).get("Register Count", "-")
+                rel = f"{x['perf_mrays_s'] / b['perf_mrays_s']:.3f}" if b else "-"
+                print(f"| {r} | {name} | {scene} | {kind} | {x['perf_mrays_s']:.0f} | {rel} | "
+                      f"{x.get('n_tr_nodes_per_ray') or 0:.1f} | {x.get('n_it_tests_per_ray') or 0:.2f} | {regs} |")
+PY
+echo "done in $(( $(date +%s) - start )) s" >> "$out/variants.md"
+(cd "$out" && files=$(ls | grep -v -e '^variants.md$' -e '^results.tgz$' -e '^errors.txt$' -e '^hits.txt$') &&
+  tar czf results.tgz $files && rm -f $files) || echo "could not pack $out" >&2
