@@ -64,17 +64,10 @@ layout(constant_id = kSpecWideBvh) const bool kWideBvh = false;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
-// The tree and the triangles are read-only for the whole dispatch and written through no other
-// binding: `restrict` lets a driver load them through its read-only (non-coherent) cache path.
-#ifdef RP_VARIANT_NO_RESTRICT
-#define RP_TREE_QUALIFIERS readonly
-#else
-#define RP_TREE_QUALIFIERS restrict readonly
-#endif
-layout(std430, set = 0, binding = kBindNodes) RP_TREE_QUALIFIERS buffer Nodes { GpuNode nodes[]; };
+layout(std430, set = 0, binding = kBindNodes) readonly buffer Nodes { GpuNode nodes[]; };
 // The same binding seen as the compressed 8-wide tree's nodes (kWideBvh): a pipeline reads one or the other.
-layout(std430, set = 0, binding = kBindNodes) RP_TREE_QUALIFIERS buffer WideNodes { GpuWideNode wideNodes[]; };
-layout(std430, set = 0, binding = kBindTriangles) RP_TREE_QUALIFIERS buffer Triangles { GpuTriangle triangles[]; };
+layout(std430, set = 0, binding = kBindNodes) readonly buffer WideNodes { GpuWideNode wideNodes[]; };
+layout(std430, set = 0, binding = kBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = kBindNormals) readonly buffer Normals { GpuTriangleNormals normals[]; };
 layout(std430, set = 0, binding = kBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
 layout(std430, set = 0, binding = kBindPrimaryHits) buffer PrimaryHits { GpuPrimaryHit primaryHits[]; };
@@ -104,9 +97,6 @@ shared uvec4 sVote[4];
 
 // +inf: the t of a miss (HitRecord). GLSL has no infinity literal; 1.0 / 0.0 folds to +inf.
 const float kInfinity = 1.0f / 0.0f;
-// fusedBoxTest's rounding bounds: 16u (u = 2^-24) of the ray's largest |org / dir|, and 1 + 16u.
-const float kSlabFusedSlack = 9.5367431640625e-07f;     // 2^-20
-const float kSlabFusedFarWiden = 1.0000009536743164f;  // 1 + 2^-20
 
 // One ray's state during a traversal.
 struct RayQuery {
@@ -121,9 +111,6 @@ struct RayQuery {
     bool isActive;   // takes part in the traversal (and in the vote)
     uint nodes;      // N_TR
     uint tests;      // N_IT
-    // The slab test's fused form (boxTest): -org / dir per axis and its rounding slack.
-    vec3 slabOffset;
-    float slabSlack;
 };
 
 RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, bool tracing) {
@@ -139,54 +126,13 @@ RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, b
     q.isActive = tracing;
     q.nodes = 0u;
     q.tests = 0u;
-    q.slabOffset = -org * q.ray.invDir;
-    const vec3 offset = abs(q.slabOffset);
-    q.slabSlack = kSlabFusedSlack * max(max(offset.x, offset.y), offset.z);
     return q;
 }
 
-#ifndef RP_VARIANT_SUBTRACTED_SLABS
-// The slab distances in fused form, t = bound * (1/dir) + (-org / dir): one multiply-add a plane
-// where intersectBox subtracts and multiplies (Aila and Laine 2009 store the ray the same way). Its
-// rounding is not relative to t alone: with i = fl(1/dir) (a GPU's division is 2.5 ulps off, the
-// same factor in both planes of an axis, so it scales t), a plane's distance is off by at most
-// |t| (2.5u + 2u) + 2u |org / dir| (u = 2^-24, the products rounded apart if the device does not
-// fuse). The test widens the far distance by kSlabFusedFarWiden (16u, for the relative part, between
-// the near plane of one axis and the far plane of another) and both sides by the ray's slack, 16u
-// of its largest |org / dir| (the absolute part, counted twice in the comparison against the far
-// distance); the entry distance is the near distance less the slack, so that culling against the
-// closest hit (widened by kBoxTmaxWiden as in intersectBox) stays conservative too. The CPU
-// reference keeps intersectBox; the two visit the same nodes but for boxes within that slack.
-bool fusedBoxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
-    const vec3 tLo = fma(lo, q.ray.invDir, q.slabOffset);
-    const vec3 tHi = fma(hi, q.ray.invDir, q.slabOffset);
-    const vec3 tNear3 = min(tLo, tHi);
-    vec3 tFar3 = max(tLo, tHi);
-    if (q.ray.anyParallel) {
-        // As in intersectBox: a parallel axis (invDir and offset 0, so t = 0 there) never limits
-        // the far distance, and the ray misses unless its origin lies in the slab.
-        tFar3 = tFar3 + q.ray.farBias;
-        const vec3 inSlab = step(lo, q.ray.org) * step(q.ray.org, hi);
-        if (dot(q.ray.parallel, vec3(1.0f) - inSlab) > 0.0f) {
-            tEntry = 0.0f;
-            return false;
-        }
-    }
-    const float tNear = max(max(tNear3.x, tNear3.y), max(tNear3.z, 0.0f)) - q.slabSlack;
-    const float tFar = fma(min(min(tFar3.x, tFar3.y), tFar3.z), kSlabFusedFarWiden, q.slabSlack);
-    tEntry = max(tNear, 0.0f);
-    return tNear <= min(tFar, q.tmax * kBoxTmaxWiden);
-}
-#endif
-
 // The box and triangle tests of the pipeline's IntersectMode.
-bool boxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
-    if (kFastIntersect) return intersectBoxFast(q.ray, lo, hi, q.tmax, tEntry);
-#ifdef RP_VARIANT_SUBTRACTED_SLABS
-    return intersectBox(q.ray, lo, hi, q.tmax, tEntry);
-#else
-    return fusedBoxTest(q, lo, hi, tEntry);
-#endif
+bool boxTest(TraceRay r, vec3 lo, vec3 hi, float tmax, out float tEntry) {
+    if (kFastIntersect) return intersectBoxFast(r, lo, hi, tmax, tEntry);
+    return intersectBox(r, lo, hi, tmax, tEntry);
 }
 
 bool triangleTest(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary, out bool inexactT) {
@@ -309,7 +255,7 @@ void tracePacket(inout RayQuery q) {
     const GpuNode root = nodes[0];
     float entry;
     uvec2 current = nodeEntry(root);
-    bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
+    bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
     q.isActive = wantCurrent;
     uint parity = 0u;
     uint stackSize = 0u;
@@ -357,9 +303,9 @@ void tracePacket(inout RayQuery q) {
             if (kStatistics && q.isActive) q.nodes += 1u;
             float entryLeft, entryRight;
             const bool hitLeft =
-                boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft) && q.isActive;
+                boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
             const bool hitRight =
-                boxTest(q, right.lo.xyz, right.hi.xyz, entryRight) && q.isActive;
+                boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
             const PacketVote votes = packetVote(hitLeft, hitRight, rightFirst, q.isActive,
                                                 countActive, parity);
@@ -460,8 +406,8 @@ void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
             const GpuNode right = nodes[current.x + 1u];
             if (kStatistics) q.nodes += 1u;
             float entryLeft, entryRight;
-            const bool hitLeft = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft);
-            const bool hitRight = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight);
+            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
+            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
             if (hitLeft && hitRight) {
                 const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
                 current = nodeEntry(rightFirst ? right : left);
@@ -499,7 +445,7 @@ bool startSingle(RayQuery q, out uvec2 current) {
     const GpuNode root = nodes[0];
     current = nodeEntry(root);
     float entry;
-    return q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
+    return q.isActive && !isEmptyRoot(current) && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
 }
 
 // The single-ray traversal (Aila and Laine 2009): each ray its own stack.
@@ -513,8 +459,8 @@ void traceSingle(inout RayQuery q) {
 // result, with the node's inner mask in its low byte (traceWide's node group), the leaves' triangles
 // as bits of triangleHits (bit k: the node's first triangle + k). The slab test is the grid's fused
 // form made conservative by its error bound (shaders/wide_node.h, kWideSlabError), or for rays
-// parallel to an axis and nodes of huge distances the decoded box and boxTest, the binary kernels'
-// slab test; the box test's tmax is the closest hit's, widened as there.
+// parallel to an axis and nodes of huge distances the decoded box and the slab test of
+// shaders/intersect.h; the box test's tmax is the closest hit's, widened as there.
 uint wideNodeHits(RayQuery q, GpuWideNode node, uint octant, out uint triangleHits) {
     const vec3 scale = wideScales(node);
     const uint innerMask = floatBitsToUint(node.origin.w) >> 24u;
@@ -559,7 +505,7 @@ uint wideNodeHits(RayQuery q, GpuWideNode node, uint octant, out uint triangleHi
             vec3 lo, hi;
             wideChildBox(node, scale, i, lo, hi);
             float entry;
-            if (!boxTest(q, lo, hi, entry)) continue;
+            if (!boxTest(q.ray, lo, hi, q.tmax, entry)) continue;
             if ((innerMask & (1u << i)) != 0u) innerHits |= 1u << (24u + (i ^ octant));
             else triangleHits |= (meta >> 5u) << (meta & 31u);
         }
@@ -688,7 +634,7 @@ void traceHybrid(inout RayQuery q) {
     const GpuNode root = nodes[0];
     float entry;
     uvec2 current = nodeEntry(root);
-    bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
+    bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
     q.isActive = wantCurrent;
     uint parity = 0u;
     uint stackSize = 0u;
@@ -734,8 +680,8 @@ void traceHybrid(inout RayQuery q) {
             const GpuNode right = nodes[current.x + 1u];
             if (kStatistics && q.isActive) q.nodes += 1u;
             float entryLeft, entryRight;
-            const bool hitLeft = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft) && q.isActive;
-            const bool hitRight = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight) && q.isActive;
+            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
+            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
             const HybridVote hv =
                 hybridVote(hitLeft, hitRight, rightFirst, q.isActive && wantCurrent, q.isActive, countActive, parity);
