@@ -65,40 +65,59 @@ uint nextAxis(vec3 deficit, uvec3 bits) {
     return best;
 }
 
+// The code bits of each axis (a mask per axis), the same for every triangle: worked out once per
+// workgroup into shared memory, since the choice of 30 bits costs more than a triangle's code.
+shared uint axisMasks[3];
+
+// `value`'s low bits, the least significant first, into the set bits of `mask` from the lowest up.
+uint depositBits(uint value, uint mask) {
+    uint result = 0u;
+    while (mask != 0u) {
+        result |= (value & 1u) << uint(findLSB(mask));
+        value >>= 1u;
+        mask &= mask - 1u;
+    }
+    return result;
+}
+
 // The code's 30 bits over the three axes in proportion to their extents: a flat terrain's height
 // axis, which a per-axis cube (Karras 2012) gives as many bits as the others, takes few, so that
 // neighbours in the code are neighbours on the ground.
 void morton() {
-    const uint t = gl_GlobalInvocationID.x;
-    if (t >= params.counts.x) return;
-    vec3 lo, hi;
-    const vec3 c = centroidOf(t, lo, hi);
     vec3 boundLo, extent;
     for (uint a = 0u; a < 3u; ++a) {
         boundLo[a] = lbvhFromOrderedBits(state[kLbvhStateCentroidLo + a]);
         // Halves, so that extents near FLT_MAX do not overflow.
         extent[a] = 0.5f * lbvhFromOrderedBits(state[kLbvhStateCentroidHi + a]) - 0.5f * boundLo[a];
     }
-    const float largest = max(max(extent.x, extent.y), extent.z);
+    if (gl_LocalInvocationIndex == 0u) {
+        // From the code's most significant bit down; no bits at all when every centroid is one point.
+        const float largest = max(max(extent.x, extent.y), extent.z);
+        uvec3 bits = uvec3(0u), masks = uvec3(0u);
+        if (largest > 0.0f) {
+            vec3 deficit;
+            for (uint a = 0u; a < 3u; ++a) deficit[a] = extent[a] > 0.0f ? log2(largest / extent[a]) : 1e30f;
+            for (uint b = 0u; b < kLbvhMortonBits; ++b) {
+                const uint a = nextAxis(deficit, bits);
+                ++bits[a];
+                masks[a] |= 1u << (kLbvhMortonBits - 1u - b);
+            }
+        }
+        for (uint a = 0u; a < 3u; ++a) axisMasks[a] = masks[a];
+    }
+    barrier();
+    const uint t = gl_GlobalInvocationID.x;
+    if (t >= params.counts.x) return;
+    vec3 lo, hi;
+    const vec3 c = centroidOf(t, lo, hi);
     uint code = 0u;
-    if (largest > 0.0f) {
-        vec3 deficit;
-        for (uint a = 0u; a < 3u; ++a) deficit[a] = extent[a] > 0.0f ? log2(largest / extent[a]) : 1e30f;
-        uvec3 bits = uvec3(0u);
-        for (uint b = 0u; b < kLbvhMortonBits; ++b) ++bits[nextAxis(deficit, bits)];
-        uvec3 cell;
-        for (uint a = 0u; a < 3u; ++a) {
-            const float unit = extent[a] > 0.0f ? (0.5f * c[a] - 0.5f * boundLo[a]) / extent[a] : 0.0f;
-            // The last cell clamped as an integer: 2^bits - 1 has no float above 24 bits.
-            cell[a] = min(uint(clamp(unit, 0.0f, 1.0f) * float(1u << bits[a])), (1u << bits[a]) - 1u);
-        }
-        // The same choices again, now taking each axis's bits from its most significant down.
-        uvec3 taken = uvec3(0u);
-        for (uint b = 0u; b < kLbvhMortonBits; ++b) {
-            const uint a = nextAxis(deficit, taken);
-            ++taken[a];
-            code = (code << 1u) | ((cell[a] >> (bits[a] - taken[a])) & 1u);
-        }
+    for (uint a = 0u; a < 3u; ++a) {
+        const uint mask = axisMasks[a];
+        const uint bits = uint(bitCount(mask));
+        const float unit = extent[a] > 0.0f ? (0.5f * c[a] - 0.5f * boundLo[a]) / extent[a] : 0.0f;
+        // The last cell clamped as an integer: 2^bits - 1 has no float above 24 bits.
+        const uint cell = min(uint(clamp(unit, 0.0f, 1.0f) * float(1u << bits)), (1u << bits) - 1u);
+        code |= depositBits(cell, mask);
     }
     keys[t] = code;
     values[t] = t;
