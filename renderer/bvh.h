@@ -87,19 +87,26 @@ struct BvhBuildOptions {
     // GpuPloc and GpuHploc only: clusters searched on either side for each one's nearest neighbour
     // (Meister and Bittner 2018's r), 1..kMaxPlocRadius: smaller builds faster, larger finds better
     // pairs. GpuHploc searches a workgroup's clusters, at most 31 either side (16 reaches all).
-    // 0: the builder's own, kPlocRadius or kHplocRadius (plocRadiusOf).
+    // 0: the builder's own (plocRadiusOf): kPlocRadius, or for GpuHploc by the scene's size.
     uint32_t plocRadius = 0;
 };
 inline constexpr uint32_t kMaxPlocRadius = 64;
 // The builders' own radii, measured on the H200 (docs/bvh.md): gpu-ploc's within a few percent of
-// Meister and Bittner's best SAH; gpu-hploc's builds 13-15% faster than 16 at 10M-13M triangles with
-// the SAH cost within 1.4%.
+// Meister and Bittner's best SAH. gpu-hploc's depends on the scene's size: from
+// kHplocLargeScene triangles 8, which builds 13-15% faster than 16 at 10M-13M triangles with the SAH
+// cost within 1.4% (and keeps the build ahead of the driver's there); below it 16, whose trees
+// traced 0.99-1.36x as fast as radius 8's on the report scenes for a build a few tenths of a
+// millisecond longer, where the fixed cost of a device build dominates anyway.
 inline constexpr uint32_t kPlocRadius = 16;
 inline constexpr uint32_t kHplocRadius = 8;
-// The radius a build with `options` searches (plocRadius, or the builder's own for 0).
-constexpr uint32_t plocRadiusOf(const BvhBuildOptions& options) {
+inline constexpr uint32_t kHplocSmallSceneRadius = 16;
+inline constexpr size_t kHplocLargeScene = size_t(1) << 19;
+// The radius a build with `options` of `triangles` triangles searches (plocRadius, or the builder's
+// own for 0).
+constexpr uint32_t plocRadiusOf(const BvhBuildOptions& options, size_t triangles) {
     if (options.plocRadius != 0) return options.plocRadius;
-    return options.builder == BvhBuilder::GpuHploc ? kHplocRadius : kPlocRadius;
+    if (options.builder != BvhBuilder::GpuHploc) return kPlocRadius;
+    return triangles < kHplocLargeScene ? kHplocSmallSceneRadius : kHplocRadius;
 }
 
 // Table 1 of the report, plus what raypack adds.

@@ -334,7 +334,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const bool ploc = options.builder == BvhBuilder::GpuPloc, hploc = options.builder == BvhBuilder::GpuHploc;
     // Both cluster the Morton-sorted triangles into a tree of their own, laid out by ploc.comp.
     const bool clustered = ploc || hploc;
-    const uint32_t radius = plocRadiusOf(options);
+    const uint32_t radius = plocRadiusOf(options, n);
     if (clustered && radius != s.plocRadius) {
         // The search radius is a specialization constant (it sizes gpu-ploc's shared memory): new
         // pipelines.

@@ -379,8 +379,8 @@ TEST_P(GpuBuilder, RefusesWhatItCannotBuild) {
 // The search radius of gpu-ploc and gpu-hploc (BvhBuildOptions::plocRadius) changes the pairs
 // found, never the tree's validity: radii 1, 4 and 64 on one builder (its nearest-neighbour pipelines
 // rebuilt for each) give valid trees, a wider search no worse a SAH cost than radius 1 on this
-// scene, 0 builds the tree of the builder's own radius (16 for gpu-ploc, 8 for gpu-hploc), and
-// radii above 64 are refused.
+// scene, 0 builds the tree of the builder's own radius (16 for gpu-ploc; for gpu-hploc 16 on this
+// small scene, 8 from kHplocLargeScene triangles), and radii above 64 are refused.
 TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
     for (const BvhBuilder builder : {BvhBuilder::GpuPloc, BvhBuilder::GpuHploc}) {
         SCOPED_TRACE(toString(builder));
@@ -399,8 +399,11 @@ TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
         }
         options.plocRadius = 0;
         const Bvh own = buildBvhOnDevice(validatedContext(), scene, options);
-        options.plocRadius = builder == BvhBuilder::GpuHploc ? 8u : 16u;
-        EXPECT_EQ(plocRadiusOf(options), options.plocRadius);
+        EXPECT_EQ(plocRadiusOf(options, scene.triangles.size()), 16u);
+        EXPECT_EQ(plocRadiusOf(options, kHplocLargeScene - 1), 16u);
+        EXPECT_EQ(plocRadiusOf(options, kHplocLargeScene), builder == BvhBuilder::GpuHploc ? 8u : 16u);
+        options.plocRadius = 16;
+        EXPECT_EQ(plocRadiusOf(options, kHplocLargeScene), 16u);
         const Bvh named = buildBvhOnDevice(validatedContext(), scene, options);
         EXPECT_EQ(own.primIndices, named.primIndices);
         ASSERT_EQ(own.nodes.size(), named.nodes.size());

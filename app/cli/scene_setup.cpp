@@ -65,7 +65,7 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
                     "gpu-ploc and gpu-hploc only: clusters searched on either side for each one's nearest neighbour "
                     "(Meister and Bittner's r), 1..64; smaller builds faster, larger finds better pairs "
                     "(gpu-hploc searches a workgroup's 32 clusters, all of them from 16 up); 0: the builder's own, "
-                    "16 for gpu-ploc and 8 for gpu-hploc")
+                    "16 for gpu-ploc; for gpu-hploc 16 below 524,288 triangles, else 8")
         ->check(CLI::Range(0u, kMaxPlocRadius))
         ->capture_default_str();
 }

@@ -14,7 +14,7 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const Bvh
         {"builder", toString(options.builder)},
         {"leaf_size", options.leafSize},
         {"ploc_radius", (options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc)
-                            ? nlohmann::json(plocRadiusOf(options))
+                            ? nlohmann::json(plocRadiusOf(options, scene.triangles))
                             : nlohmann::json()},
         {"n_l_leaves", bvh.leafCount},
         {"d_avg_leaf_depth", bvh.avgLeafDepth},
