@@ -1,15 +1,17 @@
 #!/usr/bin/env bash
-# Issue 14 on the lent H200 machine: variants of the binary single-ray kernel, each a raypack-cli of
-# its own (scripts/variant-cli.sh NAME "-DRP_VARIANT_..." "", carried as .device/bin/raypack-cli-NAME
+# Issue 14 on the lent H200 machine: variants of a single-ray kernel (TRACER: gpu-single, the binary
+# tree, or gpu-cwbvh, the compressed 8-wide tree's kernel and collapse), each a raypack-cli of its
+# own (scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO, carried as .device/bin/raypack-cli-NAME
 # by scripts/device-pack.sh), against the build itself (.device/bin/raypack-cli): the report suite
-# per binary, `bench --kernel single` at 1920x1080, ROUNDS interleaved rounds. OUT/variants.md: per
-# scene and ray kind, each binary's gpu-single Mrays/s, its ratio to the build's of the same round,
-# N_TR, N_IT and the pipeline's register count. Before the benches, the build and every variant
-# render each report scene's hits at 1920x1080 (its start view) and the hits files are compared
-# (OUT/hits.txt).
+# per binary, `bench --kernel single` (gpu-single beside gpu-cwbvh in each process) at 1920x1080,
+# ROUNDS interleaved rounds. OUT/variants.md: per scene and ray kind, each binary's Mrays/s of
+# TRACER, its ratio to the build's of the same round (for gpu-cwbvh also to gpu-single of the same
+# process), N_TR, N_IT and the pipeline's register count. Before the benches (HITS=1), the build and
+# every variant render each report scene's hits at 1920x1080 (its start view, TRACER's tree) and the
+# hits files are compared (OUT/hits.txt).
 #   scripts/device-kernel-variants.sh [OUT_DIR]   (default: $OUT)
 # Environment: VARIANTS (names after raypack-cli-, default: every one carried), ROUNDS (default 2),
-# REPEAT (default 10), BUDGET_S (default 420), TRACER (default gpu-single).
+# REPEAT (default 10), BUDGET_S (default 420), TRACER (default gpu-single), HITS (default 1).
 set -u
 out=${1:-${OUT:-}}
 [ -n "$out" ] || { echo "usage: scripts/device-kernel-variants.sh OUT_DIR" >&2; exit 2; }
@@ -21,14 +23,15 @@ rounds=${ROUNDS:-2}
 repeat=${REPEAT:-10}
 budget=${BUDGET_S:-420}
 tracer=${TRACER:-gpu-single}
+width=2; [ "$tracer" = gpu-cwbvh ] && width=8
 start=$(date +%s)
 S=.device/scenes
-for scene in sibenik/sibenik_geom_75284.ply dabrovic_sponza/sponza.obj conference/conference_geom.ply \
+[ "${HITS:-1}" = 1 ] && for scene in sibenik/sibenik_geom_75284.ply dabrovic_sponza/sponza.obj conference/conference_geom.ply \
              stanford/armadillo_decimated_99976.obj stanford/dragon_vrip_res2.ply; do
   name=$(basename "$scene" | sed 's/\..*//')
   for v in build $variants; do
     cli=.device/bin/raypack-cli; [ "$v" = build ] || cli=.device/bin/raypack-cli-$v
-    "$cli" render "$S/$scene" --device gpu --kernel single --width 1920 --height 1080 \
+    "$cli" render "$S/$scene" --device gpu --kernel single --bvh-width "$width" --width 1920 --height 1080 \
       --hits "$out/hits-$name-$v.bin" > /dev/null 2>> "$out/hits.txt" ||
       echo "$v $name: render failed" >> "$out/hits.txt"
     if [ "$v" != build ]; then
@@ -53,13 +56,16 @@ out, rounds, tracer, names = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.arg
 def load(name, r):
     p = os.path.join(out, f"{name}-{r}.json")
     return json.load(open(p)) if os.path.exists(p) else None
-def mr(run, scene, kind):
+def mr(run, scene, kind, of=tracer):
     for x in run["records"]:
-        if x["tracer"] == tracer and x["scene"] == scene and x["ray_kind"] == kind:
+        if x["tracer"] == of and x["scene"] == scene and x["ray_kind"] == kind:
             return x
     return None
-print(f"| round | binary | scene | rays | {tracer} Mrays/s | / build, same round | N_TR | N_IT | registers |")
-print("|---|---|---|---|---:|---:|---:|---:|---:|")
+# gpu-cwbvh's figures also against the binary tree's kernel of the same process.
+beside = tracer != "gpu-single"
+print(f"| round | binary | scene | rays | {tracer} Mrays/s |" + (" / gpu-single, same process |" if beside else "")
+      + " / build, same round | N_TR | N_IT | registers |")
+print("|---|---|---|---|---:|" + ("---:|" if beside else "") + "---:|---:|---:|---:|")
 for r in range(1, rounds + 1):
     base = load("build", r)
     for name in names:
@@ -67,12 +73,13 @@ for r in range(1, rounds + 1):
         if not run: continue
         for scene in ("Sibenik", "Sponza", "Conference", "Armadillo", "Dragon"):
             for kind in ("primary", "shadow"):
-                x = mr(run, scene, kind)
-                if not x: continue
+                x, s = mr(run, scene, kind), mr(run, scene, kind, "gpu-single")
+                if not x or not s: continue
                 b = mr(base, scene, kind) if base else None
                 regs = (x.get("pipeline_statistics") or {}).get("Register Count", "-")
                 rel = f"{x['perf_mrays_s'] / b['perf_mrays_s']:.3f}" if b else "-"
-                print(f"| {r} | {name} | {scene} | {kind} | {x['perf_mrays_s']:.0f} | {rel} | "
+                single = f" {x['perf_mrays_s'] / s['perf_mrays_s']:.3f} |" if beside else ""
+                print(f"| {r} | {name} | {scene} | {kind} | {x['perf_mrays_s']:.0f} |{single} {rel} | "
                       f"{x.get('n_tr_nodes_per_ray') or 0:.1f} | {x.get('n_it_tests_per_ray') or 0:.2f} | {regs} |")
 PY
 echo "done in $(( $(date +%s) - start )) s" >> "$out/variants.md"
