@@ -301,7 +301,11 @@ private:
     BvhNodes compact() {
         const uint32_t pairs = uint32_t(pairUsed_.size());  // arena slots 2k + 1 and 2k + 2
         const uint32_t wordCount = (pairs + 63) / 64;
-        constexpr uint32_t kWordsPerBlock = 256;
+        // Blocks of 1024 pairs: the copy's first writes into the fresh node array fault its pages
+        // in, on as many threads as there are blocks. Sibenik's 75k triangles made 5 blocks of 256
+        // words, so 5 of the H200 machine's 16 threads took every fault; with 16 words its
+        // compaction took 0.17-0.18 ms against 0.34-0.39 (docs/bvh.md, 2026-12-03).
+        constexpr uint32_t kWordsPerBlock = 16;
         const uint32_t blockCount = (wordCount + kWordsPerBlock - 1) / kWordsPerBlock;
         std::unique_ptr<uint64_t[]> usedBits = std::make_unique_for_overwrite<uint64_t[]>(wordCount);
         std::unique_ptr<uint32_t[]> usedBefore = std::make_unique_for_overwrite<uint32_t[]>(wordCount);  // by word

@@ -6,7 +6,11 @@
 # the other is warm), the runs repeated and interleaved; medians and ratios. The SAH cost of each
 # tree against sah-exact's comes from one sah-exact run (EXACT=0 skips it).
 # With dev/bin/raypack-cli-old (a raypack-cli with --build-repeat and the sah-binned builder before
-# the change) also the old sah-binned.
+# the change) also the old sah-binned (OLD_EMBREE=1: with Embree in its runs too, so that the old
+# builder's ratio to Embree is also measured within one process). VARIANTS="A B": further
+# dev/bin/raypack-cli-A ... run in every round without Embree; lines "PHASES n=<triangles> k=<ms>
+# ..." that a variant writes to stderr (a builder timing its phases) are collected, and the table
+# gives each variant's rate and the medians of its phases by scene.
 #
 # Prepare the carried bundle here (scenes are not on the device):
 #   scripts/device-bundle.sh dev build/raypack-cli            # + cp OLD_BUILD/raypack-cli dev/bin/raypack-cli-old
@@ -40,9 +44,15 @@ for i in $(seq 1 "$REPEATS"); do
     2>>"$OUT/stderr.txt" ||
     echo "FAILED new run $i" | tee -a "$OUT/build-rate.txt"
   if [ -x dev/bin/raypack-cli-old ]; then
-    dev/bin/raypack-cli-old "${common[@]}" --build-repeat "$BUILD_REPEAT" --no-embree --out "$OUT/build-rate-old-$i.json" >/dev/null \
+    old_embree=(--no-embree)
+    [ "${OLD_EMBREE:-0}" = 1 ] && old_embree=()
+    dev/bin/raypack-cli-old "${common[@]}" --build-repeat "$BUILD_REPEAT" "${old_embree[@]}" --out "$OUT/build-rate-old-$i.json" >/dev/null \
       2>>"$OUT/stderr.txt" || echo "FAILED old run $i" | tee -a "$OUT/build-rate.txt"
   fi
+  for v in ${VARIANTS:-}; do
+    dev/bin/raypack-cli-"$v" "${common[@]}" --build-repeat "$BUILD_REPEAT" --no-embree --out "$OUT/build-rate-var-$v-$i.json" \
+      >/dev/null 2>"$OUT/phases-$v-$i.txt" || echo "FAILED variant $v run $i" | tee -a "$OUT/build-rate.txt"
+  done
 done
 python3 - "$OUT" >>"$OUT/build-rate.txt" <<'EOF'
 import glob, json, statistics, sys
@@ -64,6 +74,9 @@ def times(kind):
     return result
 sah = {}
 new, old, exact = times("new"), times("old"), times("exact")
+def embree_ratio(by):
+    med = lambda xs: statistics.median(t for t, _ in xs)
+    return med(by["embree"]) / med(by["raypack"]) if "embree" in by else float("nan")
 print(f"{'scene':60s} {'tris':>10s} {'new Mtri/s':>10s} {'embree':>10s} {'old':>10s} {'new/embree':>10s} {'new/old':>8s} {'SAH/exact':>9s} (medians)")
 for scene, by in new.items():
     tris = by["raypack"][0][1]
@@ -73,5 +86,27 @@ for scene, by in new.items():
     rate = lambda s: tris / s / 1e6
     ratio = sah.get("new", {}).get(scene, float("nan")) / sah.get("exact", {}).get(scene, float("nan"))
     print(f"{scene[-60:]:60s} {tris:10d} {rate(n):10.2f} {rate(e):10.2f} {rate(o):10.2f} {e / n:10.2f} {o / n:8.2f} {ratio:9.4f}")
+if any("embree" in by for by in old.values()):
+    print("\nold builder / Embree, within the old binary's runs:")
+    for scene, by in old.items(): print(f"{scene[-60:]:60s} {embree_ratio(by):10.2f}")
+import os
+for v in os.environ.get("VARIANTS", "").split():
+    var = times(f"var-{v}")
+    print(f"\nvariant {v}: Mtri/s, new / variant, and its phases (medians, ms):")
+    phases = {}
+    for path in sorted(glob.glob(f"{out}/phases-{v}-*.txt")):
+        for line in open(path):
+            if not line.startswith("PHASES"): continue
+            fields = dict(kv.split("=") for kv in line.split()[1:])
+            phases.setdefault(int(fields.pop("n")), []).append({k: float(x) for k, x in fields.items()})
+    for scene, by in var.items():
+        tris = by["raypack"][0][1]
+        t = statistics.median(s for s, _ in by["raypack"])
+        nt = statistics.median(s for s, _ in new[scene]["raypack"]) if scene in new else float("nan")
+        rows = phases.get(tris, [])
+        text = " ".join(f"{k} {statistics.median(r[k] for r in rows):.2f}" for k in (rows[0] if rows else {}))
+        print(f"{scene[-60:]:60s} {tris / t / 1e6:10.2f} {t / nt:8.2f}  {text}")
 EOF
 cat "$OUT/build-rate.txt"
+# A call returns a few files only: everything in one archive beside the table.
+tar czf "$OUT/build-rate-all.tgz" -C "$OUT" $(cd "$OUT" && ls | grep -v -e build-rate.txt -e build-rate-all.tgz)
