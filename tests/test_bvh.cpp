@@ -528,6 +528,20 @@ TEST(BvhBinned, SahCostCloseToExact) {
     EXPECT_LE(binned.stats.sahCost, exact.stats.sahCost * 1.15);
 }
 
+// Conference's floor and ceiling (four triangles spanning the room) share their centroid bins with
+// small triangles; without the refined splits sah-binned's SAH cost was 1.059x sah-exact's there
+// (docs/bvh.md). Issue 13's bound is 1.02x. The tree stays valid with refined partitions.
+TEST(BvhSharedScenes, BinnedSahWithinTwoPercentOfExactOnConference) {
+    const std::filesystem::path path = std::filesystem::path(RAYPACK_SHARED_SCENES) / "conference/conference_geom.ply";
+    if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
+    const Scene scene = loadScene(path);
+    const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
+    const Bvh exact = buildBvh(bounds, optionsFor(BvhBuilder::SahExact));
+    const Bvh binned = buildBvh(bounds, optionsFor(BvhBuilder::SahBinned));
+    expectValidTree(binned, bounds);
+    EXPECT_LE(binned.stats.sahCost, exact.stats.sahCost * 1.02);
+}
+
 // Real scenes from ../shared/scenes, when present: invariants and statistics for both builders,
 // and O_AVG in the report's band [1, 2] with the default options.
 TEST(BvhSharedScenes, InvariantsOnRealScenes) {
