@@ -184,18 +184,10 @@ struct Split {
     Aabb leftBox, rightBox;
     uint32_t leftCount = 0;
     // A refined split (refine()): a reference goes left when its centroid on the axis is below
-    // `value`, or equal to it and its primitive index at most `prim`.
+    // `value`, or equal to it and its primitive index at most `prim` (partitionRange).
     bool refined = false;
     float value = 0.0f;
     uint32_t prim = 0;
-
-    // Whether `ref`, whose centroid is `centroid`, goes to the left child. Binning and partitioning
-    // both ask the same function, so the counts priced are the counts partitioned.
-    bool goesLeft(const Binning& binning, const Ref& ref, Vec4 centroid) const {
-        if (!refined) return binning.binsOf(centroid)[axis] <= int32_t(lastLeftBin);
-        const float c = centroid[axis];
-        return c < value || (c == value && ref.prim() <= prim);
-    }
 };
 
 class SahBinnedBuilder {
@@ -555,22 +547,18 @@ private:
         if (best.weightedMeasures == std::numeric_limits<double>::infinity()) return {};
         if (total >= kRefineMinPrimitives && total <= kParallelNodeMinPrimitives &&
             measure.kind == SahMeasureKind::Area &&
-            std::max(aabbHalfArea(best.leftBox), aabbHalfArea(best.rightBox)) >= kRefineAreaShare * aabbHalfArea(box))
+            std::max(SahMeasure::halfArea(best.leftBox), SahMeasure::halfArea(best.rightBox)) >=
+                kRefineAreaShare * SahMeasure::halfArea(box))
             refine(grid, binning, work, best);
         const double cost = splitCost(best.weightedMeasures, measure.of(box), options_);
         best.found = cost < leafCost(total, options_);
         return best;
     }
 
-    static double aabbHalfArea(const Aabb& box) {
-        const glm::vec3 e = box.hi - box.lo;
-        return double(e.x) * double(e.y) + double(e.y) * double(e.z) + double(e.z) * double(e.x);
-    }
-
     // Prices every position between the references of the two bins beside `best`'s boundary, in
     // the order of their centroids on its axis (ties by primitive index, a total order), and keeps
     // the cheapest in `best` when it is cheaper. The bins below the pair all go left and those
-    // above all right: binsOf is monotonic in the centroid, so `goesLeft`'s comparison with a
+    // above all right: binsOf is monotonic in the centroid, so partitionRange's comparison with a
     // centroid of the pair sends them the same way.
     void refine(const BinGrid& grid, const Binning& binning, const Work& work, Split& best) const {
         const int axis = best.axis;
@@ -744,14 +732,19 @@ private:
     }
 
     // Serial partition of refs_[begin, end) by the split (partitionRangeBy); returns the first right
-    // position. The kind of split is decided here, once, rather than for every reference.
+    // position. The kind of split is decided here, once, rather than for every reference. A binned
+    // split goes by the bin that counted each reference, so the counts priced are the counts
+    // partitioned; a refined one by the centroid and primitive index its sweep priced.
     uint32_t partitionRange(const Split& split, const Binning& binning, uint32_t begin, uint32_t end,
                             Box4& leftCentroids, Box4& rightCentroids) {
+        const int axis = split.axis;
         if (split.refined)
             return partitionRangeBy(
-                [&](const Ref& ref, Vec4 centroid) { return split.goesLeft(binning, ref, centroid); }, begin, end,
-                leftCentroids, rightCentroids);
-        const int axis = split.axis;
+                [&](const Ref& ref, Vec4 centroid) {
+                    const float c = centroid[axis];
+                    return c < split.value || (c == split.value && ref.prim() <= split.prim);
+                },
+                begin, end, leftCentroids, rightCentroids);
         const int32_t lastLeftBin = int32_t(split.lastLeftBin);
         return partitionRangeBy(
             [&](const Ref&, Vec4 centroid) { return binning.binsOf(centroid)[axis] <= lastLeftBin; }, begin, end,
