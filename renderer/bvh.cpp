@@ -69,6 +69,9 @@ void validateOptions(const BvhBuildOptions& options) {
         options.plocRadius > kMaxPlocRadius)
         throw Error("BVH build: plocRadius must be in 1.." + std::to_string(kMaxPlocRadius) +
                     " (or 0, the builder's own), got " + std::to_string(options.plocRadius));
+    if (options.treeletRounds > kMaxTreeletRounds)
+        throw Error("BVH build: treeletRounds must be in 0.." + std::to_string(kMaxTreeletRounds) + ", got " +
+                    std::to_string(options.treeletRounds));
     if (options.builder == BvhBuilder::SahSplit) {
         if (!(options.splitAlpha >= 0.0f && options.splitAlpha <= 1.0f))
             throw Error("BVH build: splitAlpha must be in 0..1, got " + std::to_string(options.splitAlpha));

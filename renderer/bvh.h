@@ -89,8 +89,14 @@ struct BvhBuildOptions {
     // pairs. GpuHploc searches a workgroup's clusters, at most 31 either side (16 reaches all).
     // 0: the builder's own (plocRadiusOf): kPlocRadius, or for GpuHploc by the scene's size.
     uint32_t plocRadius = 0;
+    // GpuPloc and GpuHploc only: rounds of treelet restructuring (Karras and Aila 2013) over the
+    // clustered tree before its layout, 0..kMaxTreeletRounds; each round rebuilds every treelet of
+    // seven leaves below a node of at least seven triangles into its cheapest topology by the SAH
+    // (shaders/treelet.comp). 0: none.
+    uint32_t treeletRounds = 0;
 };
 inline constexpr uint32_t kMaxPlocRadius = 64;
+inline constexpr uint32_t kMaxTreeletRounds = 8;
 // The builders' own radii, measured on the H200 (docs/bvh.md): gpu-ploc's within a few percent of
 // Meister and Bittner's best SAH. gpu-hploc's depends on the scene's size: from
 // kHplocLargeScene triangles 8, which builds 13-15% faster than 16 at 10M-13M triangles with the SAH

@@ -11,6 +11,7 @@
 #include "ploc.spv.h"
 #include "prefix_scan.spv.h"
 #include "radix_sort.spv.h"
+#include "treelet.spv.h"
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
@@ -30,7 +31,7 @@ static_assert(gpu::kLbvhMaxLeafPrimitives == kMaxLeafPrimitives, "one leaf bound
 
 namespace {
 
-constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseHplocBuild + 1;
+constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseTreelet + 1;
 // gpu-ploc: levels listed per submission while looking for the tree's depth, and the deepest tree it
 // lays out (an agglomerative tree has no depth bound of its own; the tracers' stacks need one).
 constexpr uint32_t kPlocLevelBatch = 64;
@@ -69,6 +70,8 @@ uint32_t moduleOf(uint32_t phase) {
     case gpu::kLbvhPhasePlocSetup: return 4;
     case gpu::kLbvhPhaseHplocInit:
     case gpu::kLbvhPhaseHplocBuild: return 5;
+    case gpu::kLbvhPhaseTreeletParents:
+    case gpu::kLbvhPhaseTreelet: return 6;
     default: return 3;
     }
 }
@@ -113,7 +116,7 @@ struct GpuBvhBuilder::State {
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
     vk::StorageSetLayout layout;  // every build kernel's storage buffers and push constants
-    std::array<VkShaderModule, 6> modules{};
+    std::array<VkShaderModule, 7> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
     uint32_t plocRadius = kPlocRadius;  // the nearest-neighbour pipelines' r
     // Timestamps: the build's start, the end of the key sort, the start of the layout, the end.
@@ -203,6 +206,7 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
         s.modules[3] = vk::createShaderModule(context, lbvh_spv, sizeof(lbvh_spv), "lbvh.comp");
         s.modules[4] = vk::createShaderModule(context, ploc_spv, sizeof(ploc_spv), "ploc.comp");
         s.modules[5] = vk::createShaderModule(context, hploc_spv, sizeof(hploc_spv), "hploc.comp");
+        s.modules[6] = vk::createShaderModule(context, treelet_spv, sizeof(treelet_spv), "treelet.comp");
         for (uint32_t phase = 0; phase < kPhaseCount; ++phase)
             s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
 
@@ -564,6 +568,19 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         }
     };
 
+    // gpu-ploc, gpu-hploc: the treelet rounds over the clustered tree, each after listing its parents.
+    const uint32_t treeletGroups =
+        std::max(1u, uint32_t(std::min<uint64_t>((uint64_t(n) + gpu::kTreeletGroupSize - 1) / gpu::kTreeletGroupSize,
+                                                 s.ctx.info.maxWorkgroupCount[0])));
+    const auto restructure = [&](const Recorder& r) {
+        for (uint32_t round = 0; round < options.treeletRounds; ++round) {
+            gpu::LbvhParams p = base;
+            p.counts.z = gpu::kTreeletLeaves;
+            r.dispatch(gpu::kLbvhPhaseTreeletParents, treeletGroups, p);
+            r.dispatch(gpu::kLbvhPhaseTreelet, treeletGroups, p);
+        }
+    };
+
     submit([&](const Recorder& r) {
         const VkCommandBuffer cmd = r.cmd;
         if (s.queries) {
@@ -606,6 +623,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             r.barrier();
             r.dispatch(gpu::kLbvhPhaseHplocInit, hplocGroups, base);
             r.dispatch(gpu::kLbvhPhaseHplocBuild, hplocGroups, base);
+            restructure(r);
             r.stamp(kStampLayout);
             listLevels(r, 0);
         }
@@ -667,7 +685,10 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                 throw Error(std::string(toString(options.builder)) + ": the tree is deeper than " +
                             std::to_string(levels) + " levels");
             submit([&](const Recorder& r) {
-                if (first == 0) r.stamp(kStampLayout);
+                if (first == 0) {
+                    restructure(r);
+                    r.stamp(kStampLayout);
+                }
                 listLevels(r, first);
             });
             depth = readState()[gpu::kLbvhStateListedDepth];

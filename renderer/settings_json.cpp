@@ -131,10 +131,10 @@ nlohmann::json toJson(const RenderSettings& s) {
 }
 
 nlohmann::json toJson(const BvhBuildOptions& o) {
-    return {{"builder", toString(o.builder)},    {"leaf_size", o.leafSize},
-            {"traversal_cost", o.traversalCost}, {"intersection_cost", o.intersectionCost},
-            {"bin_count", o.binCount},           {"split_alpha", o.splitAlpha},
-            {"split_budget", o.splitBudget},     {"ploc_radius", o.plocRadius}};
+    return {
+        {"builder", toString(o.builder)},          {"leaf_size", o.leafSize},     {"traversal_cost", o.traversalCost},
+        {"intersection_cost", o.intersectionCost}, {"bin_count", o.binCount},     {"split_alpha", o.splitAlpha},
+        {"split_budget", o.splitBudget},           {"ploc_radius", o.plocRadius}, {"treelet_rounds", o.treeletRounds}};
 }
 
 nlohmann::json toJson(const RenderSetup& setup) {
@@ -246,6 +246,9 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     readUint(j, "ploc_radius", "bvh.", o.plocRadius);
     if (o.plocRadius > kMaxPlocRadius)
         badKey("bvh.ploc_radius", "must be in 1.." + std::to_string(kMaxPlocRadius) + ", or 0 for the builder's own");
+    readUint(j, "treelet_rounds", "bvh.", o.treeletRounds);
+    if (o.treeletRounds > kMaxTreeletRounds)
+        badKey("bvh.treelet_rounds", "must be in 0.." + std::to_string(kMaxTreeletRounds));
     if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
         badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
     return o;

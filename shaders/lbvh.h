@@ -108,19 +108,30 @@ const uint kLbvhPhasePlocSetup = 20u;    // one invocation: an iteration's clust
 // gpu-hploc (shaders/hploc.comp) instead of gpu-ploc's iterations, then gpu-ploc's layout:
 const uint kLbvhPhaseHplocInit = 21u;   // every sorted triangle a cluster, its box and triangle count
 const uint kLbvhPhaseHplocBuild = 22u;  // the whole clustering: Apetrei's climb, PLOC in each workgroup
+// Treelet restructuring of gpu-ploc's and gpu-hploc's trees (shaders/treelet.comp), before the layout:
+const uint kLbvhPhaseTreeletParents = 23u;  // every node's parent, every inner node's arrival count zeroed
+const uint kLbvhPhaseTreelet = 24u;         // one round: the climb, each treelet of >= gamma triangles rebuilt
 
 // gpu-hploc's workgroups: each one climbs from kHplocGroupSize sorted triangles at a time and merges a
 // range's clusters together, at most kHplocGroupSize of them (both children's, up to kHplocThreshold
 // each), until kHplocThreshold are left (one at the root).
 const uint kHplocGroupSize = 32u;
 const uint kHplocThreshold = kHplocGroupSize / 2u;
+// Treelet restructuring (Karras and Aila 2013): a treelet is an inner node and up to
+// kTreeletLeaves - 1 nodes below it, grown by opening its leaf of the largest area; its best
+// topology over those leaves is found by dynamic programming over their 2^kTreeletLeaves - 1
+// subsets. Each workgroup climbs from kTreeletGroupSize sorted triangles.
+const uint kTreeletLeaves = 7u;
+const uint kTreeletGroupSize = 32u;
+
 // An entry of gpu-hploc's parent slots and cluster array that holds nothing yet.
 const uint kHplocEmpty = 0xFFFFFFFFu;
 
 // Push constants of every phase, 48 bytes.
 struct LbvhParams {
-    // x: triangle count n; y: leaf size; z: the sort's bit shift, the emitted level, or the scan's
-    // element count; w: attribute bits (kLbvhHas*)
+    // x: triangle count n; y: leaf size; z: the sort's bit shift, the emitted level, the scan's
+    // element count, or a treelet round's gamma (the fewest triangles a treelet root has); w:
+    // attribute bits (kLbvhHas*)
     uvec4 counts;
     // x: the sort's block count or the scan's input offset (in uints); y: the scan's block-sums
     // offset; z: the sort's (and gpu-ploc's) source half, 1 = B, or for the scan 1 + the level L

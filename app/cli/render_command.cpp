@@ -53,7 +53,7 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio, *plocRadius, *bvhWidth;
+        *hybridMinRays, *hybridVisitRatio, *plocRadius, *treeletRounds, *bvhWidth;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -97,6 +97,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.splitAlpha)) setup.bvh.splitAlpha = f.bvh.splitAlpha;
     if (given(o.splitBudget)) setup.bvh.splitBudget = f.bvh.splitBudget;
     if (given(o.plocRadius)) setup.bvh.plocRadius = f.bvh.plocRadius;
+    if (given(o.treeletRounds)) setup.bvh.treeletRounds = f.bvh.treeletRounds;
     if (given(o.eye)) s.camera.eye = parseVec3("--eye", f.eye);
     if (given(o.at)) s.camera.at = parseVec3("--at", f.at);
     if (given(o.up)) s.camera.up = parseVec3("--up", f.up);
@@ -190,6 +191,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
     o.splitAlpha = command->get_option("--split-alpha");
     o.splitBudget = command->get_option("--split-budget");
     o.plocRadius = command->get_option("--ploc-radius");
+    o.treeletRounds = command->get_option("--treelet-rounds");
     command
         ->add_option("--device", f.device,
                      "Tracer: cpu (the reference, or the CPU packet tracer with --kernel packet) "

@@ -68,6 +68,13 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
                     "16 for gpu-ploc; for gpu-hploc 16 below 524,288 triangles, else 8")
         ->check(CLI::Range(0u, kMaxPlocRadius))
         ->capture_default_str();
+    command
+        .add_option("--treelet-rounds", flags.treeletRounds,
+                    "gpu-ploc and gpu-hploc only: rounds of treelet restructuring (Karras and Aila 2013) of the "
+                    "clustered tree, 0..8: each rebuilds every treelet of 7 leaves into its cheapest topology by the "
+                    "SAH; 0: none")
+        ->check(CLI::Range(0u, kMaxTreeletRounds))
+        ->capture_default_str();
 }
 
 BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
@@ -78,6 +85,7 @@ BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
     options.splitAlpha = flags.splitAlpha;
     options.splitBudget = flags.splitBudget;
     options.plocRadius = flags.plocRadius;
+    options.treeletRounds = flags.treeletRounds;
     return options;
 }
 

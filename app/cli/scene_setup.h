@@ -28,6 +28,7 @@ struct BvhFlags {
     float splitAlpha = BvhBuildOptions{}.splitAlpha;
     float splitBudget = BvhBuildOptions{}.splitBudget;
     uint32_t plocRadius = BvhBuildOptions{}.plocRadius;
+    uint32_t treeletRounds = BvhBuildOptions{}.treeletRounds;
 };
 void addBvhFlags(CLI::App& command, BvhFlags& flags);
 // Throws raypack::Error for an unknown builder name.

@@ -16,6 +16,9 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const Bvh
         {"ploc_radius", (options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc)
                             ? nlohmann::json(plocRadiusOf(options, scene.triangles))
                             : nlohmann::json()},
+        {"treelet_rounds", (options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc)
+                               ? nlohmann::json(options.treeletRounds)
+                               : nlohmann::json()},
         {"n_l_leaves", bvh.leafCount},
         {"d_avg_leaf_depth", bvh.avgLeafDepth},
         {"d_max_leaf_depth", bvh.maxLeafDepth},
