@@ -414,6 +414,70 @@ TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
     EXPECT_EQ(vk::validationMessageCount(validatedContext()), 0u);
 }
 
+// Treelet restructuring (BvhBuildOptions::treeletRounds, shaders/treelet.comp) rebuilds treelets of the
+// clustered trees: every round count gives a valid tree (on an ordinary scene, on one of 5,000
+// identical triangles whose treelets are all ties, and at 1e30), the same tree on every run, an SAH
+// cost no higher than the round before it (each treelet's optimum includes its old topology), and
+// hits equal to the CPU reference over the same tree; more than kMaxTreeletRounds is refused.
+TEST(GpuTreelets, EveryRoundCountBuildsAValidTreeOfNoHigherCost) {
+    std::vector<glm::vec3> identical;
+    for (int i = 0; i < 5000; ++i) identical.insert(identical.end(), {{-1, -1, 0}, {1, -1, 0}, {0, 2, 0}});
+    Scene huge = makeSphereFlake(3000);
+    for (glm::vec3& p : huge.positions) p *= 1e30f;
+    const Scene scenes[] = {makeTerrain(12000), sceneOfTriangles(identical), huge};
+    for (const BvhBuilder builder : {BvhBuilder::GpuPloc, BvhBuilder::GpuHploc}) {
+        for (const Scene& scene : scenes) {
+            SCOPED_TRACE(std::string(toString(builder)) + ", " + std::to_string(scene.triangleCount()) + " triangles");
+            BvhBuildOptions options;
+            options.builder = builder;
+            options.leafSize = 2;
+            double previous = 0.0;
+            for (const uint32_t rounds : {0u, 1u, 2u}) {
+                SCOPED_TRACE("rounds " + std::to_string(rounds));
+                options.treeletRounds = rounds;
+                const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, options);
+                expectValidTree(scene, bvh, 2);
+                EXPECT_TRUE(std::isfinite(bvh.stats.sahCost));
+                if (rounds > 0) EXPECT_LE(bvh.stats.sahCost, previous * (1.0 + 1e-5));
+                previous = bvh.stats.sahCost;
+                if (rounds == 2) {
+                    const Bvh again = buildBvhOnDevice(validatedContext(), scene, options);
+                    EXPECT_EQ(bvh.primIndices, again.primIndices);
+                    ASSERT_EQ(bvh.nodes.size(), again.nodes.size());
+                    EXPECT_EQ(0, std::memcmp(bvh.nodes.data(), again.nodes.data(), bvh.nodes.size() * sizeof(BvhNode)));
+                }
+            }
+        }
+        BvhBuildOptions restructured;
+        restructured.builder = builder;
+        restructured.treeletRounds = 2;
+        const Bvh terrain = buildBvhOnDevice(validatedContext(), scenes[0], restructured);
+        restructured.treeletRounds = 0;
+        EXPECT_LT(terrain.stats.sahCost, buildBvhOnDevice(validatedContext(), scenes[0], restructured).stats.sahCost)
+            << "the rounds find cheaper treelets on a terrain";
+        restructured.treeletRounds = kMaxTreeletRounds + 1;
+        EXPECT_THROW(buildBvhOnDevice(validatedContext(), scenes[0], restructured), Error);
+    }
+    // Traced: the GPU over a restructured tree hits what the CPU reference hits over it.
+    const Scene sibenik = openScene(test::sharedScene("sibenik/sibenik_geom_75284.ply"));
+    BvhBuildOptions options;
+    options.builder = BvhBuilder::GpuHploc;
+    options.treeletRounds = 2;
+    RenderSettings settings;
+    settings.width = 160;
+    settings.height = 120;
+    settings.camera = frameScene(sibenik.bounds());
+    settings.kernel = KernelKind::Single;
+    const FrameRequest request{true, true, false};
+    GpuTracer tracer(validatedContext());
+    tracer.buildOnDevice(sibenik, options);
+    test::expectMatchesReference(tracer.render(settings, request),
+                                 renderCpu(sibenik, buildBvhOnDevice(validatedContext(), sibenik, options), settings,
+                                           request),
+                                 "sibenik, 2 treelet rounds");
+    test::expectNoValidationMessages();
+}
+
 INSTANTIATE_TEST_SUITE_P(Device, GpuBuilder,
                          ::testing::Values(BvhBuilder::GpuLbvh, BvhBuilder::GpuPloc, BvhBuilder::GpuHploc),
                          [](const ::testing::TestParamInfo<BvhBuilder>& info) {

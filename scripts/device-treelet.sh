@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# Issue 13 on the lent H200 machine: gpu-hploc's treelet rounds (--treelet-rounds, shaders/treelet.comp).
+# For the report scenes, terrain 1M and 10M and the dragon subdivided to 13M: bench --device gpu --kernel
+# single at 1920x1080 with --builder gpu-hploc at each of ROUNDS (default "0 1 3"), the list run twice
+# interleaved (rounds 0 with the driver's ray tracing peer first, for its BLAS build), then sah-exact.
+# Prepare here: scripts/device-pack.sh build. On the device (carry [".gl", ".device"]):
+# bash scripts/device-treelet.sh; the table goes to $OUT/treelet.txt, the records into $OUT/results.tgz.
+set -uo pipefail
+out=${OUT:-out}
+mkdir -p "$out/runs"
+if [ ! -x .device/bin/raypack-cli ] && [ -f .device/round.tar.xz ]; then tar xJf .device/round.tar.xz; fi
+source scripts/device-env.sh
+S=.device/scenes
+scenes="$S/sibenik/sibenik_geom_75284.ply,$S/dabrovic_sponza/sponza.obj,$S/conference/conference_geom.ply"
+scenes+=",$S/stanford/armadillo_decimated_99976.obj,$S/stanford/dragon_vrip_res2.ply"
+scenes+=",gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"
+scenes=${SCENE_LIST:-$scenes}
+rounds=${ROUNDS:-0 1 3}
+common=(bench --scenes "$scenes" --device gpu --kernel single --width 1920 --height 1080 --repeat 3)
+run() {  # NAME BUILDER [FLAGS...]
+  local name=$1 builder=$2
+  shift 2
+  timeout "${RUN_TIMEOUT_S:-100}" .device/bin/raypack-cli "${common[@]}" --builder "$builder" "$@" --out "$out/runs/$name.json" \
+    > /dev/null 2>> "$out/runs/progress.log" || echo "FAILED $name" | tee -a "$out/treelet.txt"
+}
+run driver gpu-hploc --build-repeat 1
+for pass in 1 2; do
+  for r in $rounds; do run "r$r-$pass" gpu-hploc --no-driver-rt --treelet-rounds "$r"; done
+done
+run exact sah-exact --no-driver-rt
+python3 - "$out/runs" "$rounds" >> "$out/treelet.txt" <<'PY'
+import json, statistics, sys
+runs, rounds = sys.argv[1], sys.argv[2].split()
+def load(name):
+    try:
+        return json.load(open(f"{runs}/{name}.json"))["records"]
+    except Exception:
+        return []
+def cells(name, tracer="gpu-single", kind="primary"):
+    return {r["scene"]: r for r in load(name) if r.get("tracer") == tracer and r.get("ray_kind", "primary") == kind}
+driver, exact = cells("driver", "driver-rt"), cells("exact")
+print(f"{'rounds':>6s} {'scene':24s} {'tris':>9s} {'device ms':>9s} {'hier ms':>8s} {'drv ms':>7s} {'drv/dev':>7s}"
+      f" {'SAH/exact':>9s} {'N_TR':>6s} {'exact':>6s} {'trace/exact p1':>14s} {'p2':>6s} {'shadow p1':>9s} {'p2':>6s}")
+for r in rounds:
+    a, b = cells(f"r{r}-1"), cells(f"r{r}-2")
+    sa, sb, se = cells(f"r{r}-1", kind="shadow"), cells(f"r{r}-2", kind="shadow"), cells("exact", kind="shadow")
+    for scene, x in a.items():
+        e = exact.get(scene)
+        y = b.get(scene, x)
+        dev = statistics.median([x["t_b_device_s"], y["t_b_device_s"]])
+        hier = statistics.median([x.get("t_b_device_hierarchy_s", 0), y.get("t_b_device_hierarchy_s", 0)])
+        d = driver.get(scene, {}).get("t_b_blas_s", float("nan"))
+        def ratio(c, ref): return c["perf_mrays_s"] / ref["perf_mrays_s"] if c and ref else float("nan")
+        print(f"{r:>6s} {scene[-24:]:24s} {x['triangles']:9d} {dev*1e3:9.2f} {hier*1e3:8.2f} {d*1e3:7.2f} {d/dev:7.2f}"
+              f" {x['sah_cost']/e['sah_cost']:9.3f} {x['n_tr_nodes_per_ray']:6.2f} {e['n_tr_nodes_per_ray']:6.2f}"
+              f" {ratio(x, e):14.3f} {ratio(y, e):6.3f} {ratio(sa.get(scene), se.get(scene)):9.3f} {ratio(sb.get(scene), se.get(scene)):6.3f}")
+print("device: the build's timestamps (median of the two passes), hier: its clustering + treelet part; drv: the driver's"
+      " BLAS build (driver-rt peer); SAH, N_TR (primary) and Mrays/s against the sah-exact tree (another process)")
+PY
+cat "$out/treelet.txt"
+tar czf "$out/results.tgz" -C "$out" runs
+rm -rf "$out/runs"
