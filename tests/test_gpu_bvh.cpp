@@ -471,10 +471,10 @@ TEST(GpuTreelets, EveryRoundCountBuildsAValidTreeOfNoHigherCost) {
     const FrameRequest request{true, true, false};
     GpuTracer tracer(validatedContext());
     tracer.buildOnDevice(sibenik, options);
-    test::expectMatchesReference(tracer.render(settings, request),
-                                 renderCpu(sibenik, buildBvhOnDevice(validatedContext(), sibenik, options), settings,
-                                           request),
-                                 "sibenik, 2 treelet rounds");
+    test::expectMatchesReference(
+        tracer.render(settings, request),
+        renderCpu(sibenik, buildBvhOnDevice(validatedContext(), sibenik, options), settings, request),
+        "sibenik, 2 treelet rounds");
     test::expectNoValidationMessages();
 }
 
