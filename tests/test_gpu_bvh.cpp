@@ -415,16 +415,16 @@ TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
 }
 
 // Treelet restructuring (BvhBuildOptions::treeletRounds, shaders/treelet.comp) rebuilds treelets of the
-// clustered trees: every round count gives a valid tree (on an ordinary scene, on one of 5,000
+// clustered trees: every round count gives a valid tree (on an ordinary scene, on one of 2,000
 // identical triangles whose treelets are all ties, and at 1e30), the same tree on every run, an SAH
 // cost no higher than the round before it (each treelet's optimum includes its old topology), and
 // hits equal to the CPU reference over the same tree; more than kMaxTreeletRounds is refused.
 TEST(GpuTreelets, EveryRoundCountBuildsAValidTreeOfNoHigherCost) {
     std::vector<glm::vec3> identical;
-    for (int i = 0; i < 5000; ++i) identical.insert(identical.end(), {{-1, -1, 0}, {1, -1, 0}, {0, 2, 0}});
-    Scene huge = makeSphereFlake(3000);
+    for (int i = 0; i < 2000; ++i) identical.insert(identical.end(), {{-1, -1, 0}, {1, -1, 0}, {0, 2, 0}});
+    Scene huge = makeSphereFlake(1500);
     for (glm::vec3& p : huge.positions) p *= 1e30f;
-    const Scene scenes[] = {makeTerrain(12000), sceneOfTriangles(identical), huge};
+    const Scene scenes[] = {makeTerrain(6000), sceneOfTriangles(identical), huge};
     for (const BvhBuilder builder : {BvhBuilder::GpuPloc, BvhBuilder::GpuHploc}) {
         for (const Scene& scene : scenes) {
             SCOPED_TRACE(std::string(toString(builder)) + ", " + std::to_string(scene.triangleCount()) + " triangles");
