@@ -351,11 +351,14 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         }
         s.plocRadius = radius;
     }
-    // gpu-hploc: one workgroup per kHplocGroupSize sorted triangles, fewer where the device's row of
-    // workgroups is shorter (each then takes several in turn).
-    const uint32_t hplocGroups =
-        std::max(1u, uint32_t(std::min<uint64_t>((uint64_t(n) + gpu::kHplocGroupSize - 1) / gpu::kHplocGroupSize,
-                                                 s.ctx.info.maxWorkgroupCount[0])));
+    // gpu-hploc's clustering and the treelet rounds climb from groupSize sorted triangles per
+    // workgroup, with fewer workgroups where the device's row of them is shorter (each then takes
+    // several chunks in turn).
+    const auto climbGroups = [&](uint32_t groupSize) {
+        return std::max(1u, uint32_t(std::min<uint64_t>((uint64_t(n) + groupSize - 1) / groupSize,
+                                                        s.ctx.info.maxWorkgroupCount[0])));
+    };
+    const uint32_t hplocGroups = climbGroups(gpu::kHplocGroupSize);
     // Its parent slots, one per inner node of the Morton order's radix tree.
     const uint64_t hplocParentWords = inner;
     const ScanPlan scan = planScan(uint64_t(sortBlocks) * gpu::kLbvhRadixDigits);
@@ -569,9 +572,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     };
 
     // gpu-ploc, gpu-hploc: the treelet rounds over the clustered tree, each after listing its parents.
-    const uint32_t treeletGroups =
-        std::max(1u, uint32_t(std::min<uint64_t>((uint64_t(n) + gpu::kTreeletGroupSize - 1) / gpu::kTreeletGroupSize,
-                                                 s.ctx.info.maxWorkgroupCount[0])));
+    const uint32_t treeletGroups = climbGroups(gpu::kTreeletGroupSize);
     const auto restructure = [&](const Recorder& r) {
         for (uint32_t round = 0; round < options.treeletRounds; ++round) {
             gpu::LbvhParams p = base;

@@ -17,15 +17,7 @@
 # on the device's GPU with the validation layer, output in $OUT/tests.txt),
 # SKIP_BINNED=1 (no sah-binned run), RUN_TIMEOUT_S (default 140 per bench run).
 set -uo pipefail
-out=${OUT:-${OUT_DIR:-out}}
-mkdir -p "$out/runs"
-if [ ! -x .device/bin/raypack-cli ] && [ -f .device/round.tar.xz ]; then tar xJf .device/round.tar.xz; fi
-source scripts/device-env.sh
-S=.device/scenes
-scenes="$S/sibenik/sibenik_geom_75284.ply,$S/dabrovic_sponza/sponza.obj,$S/conference/conference_geom.ply"
-scenes+=",$S/stanford/armadillo_decimated_99976.obj,$S/stanford/dragon_vrip_res2.ply"
-scenes+=",gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"
-scenes=${SCENE_LIST:-$scenes}
+source scripts/device-gpu-scenes.sh
 nvidia-smi --query-gpu=name,driver_version --format=csv > "$out/runs/gpu.txt" 2>&1
 common=(bench --scenes "$scenes" --device gpu --kernel single --width 1920 --height 1080)
 run() {  # NAME BUILDER [FLAGS...]

@@ -6,15 +6,7 @@
 # Prepare here: scripts/device-pack.sh build. On the device (carry [".gl", ".device"]):
 # bash scripts/device-treelet.sh; the table goes to $OUT/treelet.txt, the records into $OUT/results.tgz.
 set -uo pipefail
-out=${OUT:-out}
-mkdir -p "$out/runs"
-if [ ! -x .device/bin/raypack-cli ] && [ -f .device/round.tar.xz ]; then tar xJf .device/round.tar.xz; fi
-source scripts/device-env.sh
-S=.device/scenes
-scenes="$S/sibenik/sibenik_geom_75284.ply,$S/dabrovic_sponza/sponza.obj,$S/conference/conference_geom.ply"
-scenes+=",$S/stanford/armadillo_decimated_99976.obj,$S/stanford/dragon_vrip_res2.ply"
-scenes+=",gen:terrain:1M,gen:terrain:10M,subdiv:3:$S/stanford/dragon_vrip_res2.ply"
-scenes=${SCENE_LIST:-$scenes}
+source scripts/device-gpu-scenes.sh
 rounds=${ROUNDS:-0 1 3}
 common=(bench --scenes "$scenes" --device gpu --kernel single --width 1920 --height 1080 --repeat 3)
 run() {  # NAME BUILDER [FLAGS...]

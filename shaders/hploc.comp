@@ -80,18 +80,8 @@ void init() {
     }
 }
 
-// A workgroup's ballot: bit i for invocation i. Every invocation must call it (it has barriers).
-shared uint groupBits[kHplocGroupSize];
-uint groupBallot(bool value) {
-    const uvec4 bits = subgroupBallot(value);
-    if (subgroupElect())
-        groupBits[gl_SubgroupID] = gl_SubgroupSize >= kHplocGroupSize ? bits.x : bits.x << (gl_SubgroupID * gl_SubgroupSize);
-    barrier();
-    uint mask = 0u;
-    for (uint s = 0u; s < gl_NumSubgroups; ++s) mask |= groupBits[s];
-    barrier();
-    return mask;
-}
+#include "workgroup_ballot.h"
+
 uint below(uint mask) { return bitCount(mask & ((1u << gl_LocalInvocationIndex) - 1u)); }
 
 // Length of the common prefix of the sorted codes at a and a + 1, extended by the positions where

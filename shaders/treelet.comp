@@ -75,20 +75,27 @@ float nodeCost(float area, uint count, float split) {
     return count <= kLbvhMaxLeafPrimitives ? min(leaf, inner) : inner;
 }
 
-shared uint groupBits[kTreeletGroupSize];
-// A workgroup's ballot (hploc.comp's): bit i for invocation i; every invocation calls it.
-uint groupBallot(bool value) {
-    const uvec4 bits = subgroupBallot(value);
-    if (subgroupElect())
-        groupBits[gl_SubgroupID] = gl_SubgroupSize >= kTreeletGroupSize ? bits.x : bits.x << (gl_SubgroupID * gl_SubgroupSize);
-    barrier();
-    uint mask = 0u;
-    for (uint s = 0u; s < gl_NumSubgroups; ++s) mask |= groupBits[s];
-    barrier();
-    return mask;
-}
+#include "workgroup_ballot.h"
 
 const uint kSubsets = 1u << kTreeletLeaves;
+
+// The treelet's leaves: boxes and triangle counts (at module scope, so that subsetBounds takes no
+// array parameter, which GLSL would copy).
+vec3 leafLo[kTreeletLeaves], leafHi[kTreeletLeaves];
+uint leafCount[kTreeletLeaves];
+
+// The box and triangle count of the leaves in subset s of the treelet's first `leaves` leaves.
+void subsetBounds(uint s, uint leaves, out vec3 l, out vec3 h, out uint triangles) {
+    l = vec3(3.402823466e38f);
+    h = vec3(-3.402823466e38f);
+    triangles = 0u;
+    for (uint i = 0u; i < leaves; ++i) {
+        if (((s >> i) & 1u) == 0u) continue;
+        l = min(l, leafLo[i]);
+        h = max(h, leafHi[i]);
+        triangles += leafCount[i];
+    }
+}
 
 // Rebuilds the treelet below inner node `root`, or, where it has fewer than three leaves, only sets
 // the node's cost.
@@ -119,18 +126,16 @@ void restructure(uint root, float unit) {
             leaf[leaves++] = opened.y;
         }
     }
-    vec3 lo[kTreeletLeaves], hi[kTreeletLeaves];
     float cost[kTreeletLeaves];
-    uint count[kTreeletLeaves];
     for (uint i = 0u; i < leaves; ++i) {
         const uint b = boxIndex(leaf[i]);
-        lo[i] = boxes[2u * b].xyz;
-        hi[i] = boxes[2u * b + 1u].xyz;
+        leafLo[i] = boxes[2u * b].xyz;
+        leafHi[i] = boxes[2u * b + 1u].xyz;
         if (isTriangle(leaf[i])) {
-            count[i] = 1u;
-            cost[i] = plocArea(lo[i], hi[i], unit) * params.costs.y;
+            leafCount[i] = 1u;
+            cost[i] = plocArea(leafLo[i], leafHi[i], unit) * params.costs.y;
         } else {
-            count[i] = inner[leaf[i]].z;
+            leafCount[i] = inner[leaf[i]].z;
             cost[i] = costs[leaf[i]];
         }
     }
@@ -145,14 +150,9 @@ void restructure(uint root, float unit) {
             best[s] = cost[findLSB(s)];
             continue;
         }
-        vec3 l = vec3(3.402823466e38f), h = vec3(-3.402823466e38f);
-        uint triangles = 0u;
-        for (uint i = 0u; i < leaves; ++i) {
-            if (((s >> i) & 1u) == 0u) continue;
-            l = min(l, lo[i]);
-            h = max(h, hi[i]);
-            triangles += count[i];
-        }
+        vec3 l, h;
+        uint triangles;
+        subsetBounds(s, leaves, l, h, triangles);
         const uint lowest = s & (0u - s), rest = s ^ lowest;
         float split = 3.402823466e38f;
         uint chosen = lowest;
@@ -194,14 +194,9 @@ void restructure(uint root, float unit) {
                 ++depth;
             }
         }
-        vec3 l = vec3(3.402823466e38f), h = vec3(-3.402823466e38f);
-        uint triangles = 0u;
-        for (uint i = 0u; i < leaves; ++i) {
-            if (((s >> i) & 1u) == 0u) continue;
-            l = min(l, lo[i]);
-            h = max(h, hi[i]);
-            triangles += count[i];
-        }
+        vec3 l, h;
+        uint triangles;
+        subsetBounds(s, leaves, l, h, triangles);
         inner[name] = uvec4(named[0], named[1], triangles, 0u);
         const uint b = boxIndex(name);
         boxes[2u * b] = vec4(l, uintBitsToFloat(triangles));

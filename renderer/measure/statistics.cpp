@@ -4,6 +4,8 @@ namespace raypack {
 
 nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const BvhBuildOptions& options) {
     const double triangles = double(scene.triangles);
+    // The clustering device builders, whose radius and treelet rounds apply.
+    const bool clustered = options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc;
     return {
         {"scene", scene.spec},
         {"triangles", scene.triangles},
@@ -13,12 +15,8 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const Bvh
         {"load_mb_s", scene.loadMegabytesPerSecond()},
         {"builder", toString(options.builder)},
         {"leaf_size", options.leafSize},
-        {"ploc_radius", (options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc)
-                            ? nlohmann::json(plocRadiusOf(options, scene.triangles))
-                            : nlohmann::json()},
-        {"treelet_rounds", (options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc)
-                               ? nlohmann::json(options.treeletRounds)
-                               : nlohmann::json()},
+        {"ploc_radius", clustered ? nlohmann::json(plocRadiusOf(options, scene.triangles)) : nlohmann::json()},
+        {"treelet_rounds", clustered ? nlohmann::json(options.treeletRounds) : nlohmann::json()},
         {"n_l_leaves", bvh.leafCount},
         {"d_avg_leaf_depth", bvh.avgLeafDepth},
         {"d_max_leaf_depth", bvh.maxLeafDepth},
