@@ -8,7 +8,8 @@ shared uint groupBits[gl_WorkGroupSize.x];
 uint groupBallot(bool value) {
     const uvec4 bits = subgroupBallot(value);
     if (subgroupElect())
-        groupBits[gl_SubgroupID] = gl_SubgroupSize >= gl_WorkGroupSize.x ? bits.x : bits.x << (gl_SubgroupID * gl_SubgroupSize);
+        groupBits[gl_SubgroupID] =
+            gl_SubgroupSize >= gl_WorkGroupSize.x ? bits.x : bits.x << (gl_SubgroupID * gl_SubgroupSize);
     barrier();
     uint mask = 0u;
     for (uint s = 0u; s < gl_NumSubgroups; ++s) mask |= groupBits[s];
