@@ -72,6 +72,9 @@ void validateOptions(const BvhBuildOptions& options) {
     if (options.treeletRounds > kMaxTreeletRounds)
         throw Error("BVH build: treeletRounds must be in 0.." + std::to_string(kMaxTreeletRounds) + ", got " +
                     std::to_string(options.treeletRounds));
+    if (options.treeletGamma < kMinTreeletGamma)
+        throw Error("BVH build: treeletGamma must be at least " + std::to_string(kMinTreeletGamma) + ", got " +
+                    std::to_string(options.treeletGamma));
     if (options.builder == BvhBuilder::SahSplit) {
         if (!(options.splitAlpha >= 0.0f && options.splitAlpha <= 1.0f))
             throw Error("BVH build: splitAlpha must be in 0..1, got " + std::to_string(options.splitAlpha));

@@ -71,6 +71,11 @@ inline constexpr uint32_t kMaxLeafPrimitives = 1024;
 
 // Defaults chosen so that O_AVG lands between 1 and 2 as in the report (3.1); docs/bvh.md has the
 // measurements behind them.
+// The leaves of a restructured treelet (shaders/lbvh.h's kTreeletLeaves) and the least gamma, at which
+// every inner node is a treelet's root.
+inline constexpr uint32_t kTreeletLeaves = 7;
+inline constexpr uint32_t kMinTreeletGamma = 2;
+
 struct BvhBuildOptions {
     BvhBuilder builder = BvhBuilder::SahExact;
     uint32_t leafSize = 1;          // a node with at most this many primitives becomes a leaf
@@ -91,9 +96,13 @@ struct BvhBuildOptions {
     uint32_t plocRadius = 0;
     // GpuPloc and GpuHploc only: rounds of treelet restructuring (Karras and Aila 2013) over the
     // clustered tree before its layout, 0..kMaxTreeletRounds; each round rebuilds every treelet of
-    // seven leaves below a node of at least seven triangles into its cheapest topology by the SAH
-    // (shaders/treelet.comp). 0: none.
+    // seven leaves below a node of at least treeletGamma triangles into its cheapest topology by the
+    // SAH (shaders/treelet.comp). 0: none.
     uint32_t treeletRounds = 0;
+    // GpuPloc and GpuHploc only: the least triangles below a node whose treelet a round rebuilds
+    // (Karras and Aila's gamma), at least kMinTreeletGamma. Larger rebuilds fewer, larger treelets
+    // (near the root, where the area and so the SAH's gain is), for a faster round (docs/bvh.md).
+    uint32_t treeletGamma = kTreeletLeaves;
 };
 inline constexpr uint32_t kMaxPlocRadius = 64;
 inline constexpr uint32_t kMaxTreeletRounds = 8;

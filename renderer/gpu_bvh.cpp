@@ -28,6 +28,18 @@
 namespace raypack {
 
 static_assert(gpu::kLbvhMaxLeafPrimitives == kMaxLeafPrimitives, "one leaf bound for every builder");
+static_assert(gpu::kTreeletLeaves == kTreeletLeaves, "one treelet size for the library and the shader");
+
+// The most splits of one subset size of a treelet's leaves (shaders/treelet.comp's shared array).
+constexpr uint32_t treeletMostSplits() {
+    uint32_t most = 0, subsets = 1;  // subsets: C(kTreeletLeaves, size)
+    for (uint32_t size = 1; size <= gpu::kTreeletLeaves; ++size) {
+        subsets = subsets * (gpu::kTreeletLeaves - size + 1) / size;
+        most = std::max(most, subsets * ((1u << (size - 1)) - 1));
+    }
+    return most;
+}
+static_assert(treeletMostSplits() == gpu::kTreeletMostSplits, "one size's splits fit the shared array");
 
 namespace {
 
@@ -576,7 +588,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const auto restructure = [&](const Recorder& r) {
         for (uint32_t round = 0; round < options.treeletRounds; ++round) {
             gpu::LbvhParams p = base;
-            p.counts.z = gpu::kTreeletLeaves;
+            p.counts.z = options.treeletGamma;
             r.dispatch(gpu::kLbvhPhaseTreeletParents, treeletGroups, p);
             r.dispatch(gpu::kLbvhPhaseTreelet, treeletGroups, p);
         }

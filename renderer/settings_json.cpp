@@ -131,10 +131,11 @@ nlohmann::json toJson(const RenderSettings& s) {
 }
 
 nlohmann::json toJson(const BvhBuildOptions& o) {
-    return {
-        {"builder", toString(o.builder)},          {"leaf_size", o.leafSize},     {"traversal_cost", o.traversalCost},
-        {"intersection_cost", o.intersectionCost}, {"bin_count", o.binCount},     {"split_alpha", o.splitAlpha},
-        {"split_budget", o.splitBudget},           {"ploc_radius", o.plocRadius}, {"treelet_rounds", o.treeletRounds}};
+    return {{"builder", toString(o.builder)},    {"leaf_size", o.leafSize},
+            {"traversal_cost", o.traversalCost}, {"intersection_cost", o.intersectionCost},
+            {"bin_count", o.binCount},           {"split_alpha", o.splitAlpha},
+            {"split_budget", o.splitBudget},     {"ploc_radius", o.plocRadius},
+            {"treelet_rounds", o.treeletRounds}, {"treelet_gamma", o.treeletGamma}};
 }
 
 nlohmann::json toJson(const RenderSetup& setup) {
@@ -249,6 +250,9 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     readUint(j, "treelet_rounds", "bvh.", o.treeletRounds);
     if (o.treeletRounds > kMaxTreeletRounds)
         badKey("bvh.treelet_rounds", "must be in 0.." + std::to_string(kMaxTreeletRounds));
+    readUint(j, "treelet_gamma", "bvh.", o.treeletGamma);
+    if (o.treeletGamma < kMinTreeletGamma)
+        badKey("bvh.treelet_gamma", "must be at least " + std::to_string(kMinTreeletGamma));
     if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
         badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
     return o;

@@ -123,6 +123,9 @@ const uint kHplocThreshold = kHplocGroupSize / 2u;
 // subsets. Each workgroup climbs from kTreeletGroupSize sorted triangles.
 const uint kTreeletLeaves = 7u;
 const uint kTreeletGroupSize = 32u;
+// The most splits the subsets of one size have together, over every size k: C(7, k) subsets of
+// 2^(k-1) - 1 splits each, the most at k = 5 (21 * 15).
+const uint kTreeletMostSplits = 315u;
 
 // An entry of gpu-hploc's parent slots and cluster array that holds nothing yet.
 const uint kHplocEmpty = 0xFFFFFFFFu;

@@ -418,6 +418,8 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     setup.bvh.intersectionCost = 0.75f;
     setup.bvh.binCount = 16;
     setup.bvh.plocRadius = 7;
+    setup.bvh.treeletRounds = 2;
+    setup.bvh.treeletGamma = 40;
 
     // Through text, as a file would carry it.
     const RenderSetup back = renderSetupFromJson(nlohmann::json::parse(toJson(setup).dump()));
@@ -445,6 +447,8 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     EXPECT_EQ(back.bvh.builder, setup.bvh.builder);
     EXPECT_EQ(back.bvh.leafSize, setup.bvh.leafSize);
     EXPECT_EQ(back.bvh.plocRadius, setup.bvh.plocRadius);
+    EXPECT_EQ(back.bvh.treeletRounds, setup.bvh.treeletRounds);
+    EXPECT_EQ(back.bvh.treeletGamma, setup.bvh.treeletGamma);
     EXPECT_EQ(back.bvh.traversalCost, setup.bvh.traversalCost);
     EXPECT_EQ(back.bvh.intersectionCost, setup.bvh.intersectionCost);
     EXPECT_EQ(back.bvh.binCount, setup.bvh.binCount);

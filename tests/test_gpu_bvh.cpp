@@ -418,7 +418,9 @@ TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
 // clustered trees: every round count gives a valid tree (on an ordinary scene, on one of 2,000
 // identical triangles whose treelets are all ties, and at 1e30), the same tree on every run, an SAH
 // cost no higher than the round before it (each treelet's optimum includes its old topology), and
-// hits equal to the CPU reference over the same tree; more than kMaxTreeletRounds is refused.
+// hits equal to the CPU reference over the same tree; more than kMaxTreeletRounds is refused. A larger
+// gamma (BvhBuildOptions::treeletGamma) rebuilds fewer treelets: a valid tree, no costlier than none
+// rebuilt; gamma below kMinTreeletGamma is refused.
 TEST(GpuTreelets, EveryRoundCountBuildsAValidTreeOfNoHigherCost) {
     std::vector<glm::vec3> identical;
     for (int i = 0; i < 2000; ++i) identical.insert(identical.end(), {{-1, -1, 0}, {1, -1, 0}, {0, 2, 0}});
@@ -453,8 +455,16 @@ TEST(GpuTreelets, EveryRoundCountBuildsAValidTreeOfNoHigherCost) {
         restructured.treeletRounds = 2;
         const Bvh terrain = buildBvhOnDevice(validatedContext(), scenes[0], restructured);
         restructured.treeletRounds = 0;
-        EXPECT_LT(terrain.stats.sahCost, buildBvhOnDevice(validatedContext(), scenes[0], restructured).stats.sahCost)
-            << "the rounds find cheaper treelets on a terrain";
+        const double unrestructured = buildBvhOnDevice(validatedContext(), scenes[0], restructured).stats.sahCost;
+        EXPECT_LT(terrain.stats.sahCost, unrestructured) << "the rounds find cheaper treelets on a terrain";
+        restructured.treeletRounds = 1;
+        restructured.treeletGamma = 64;
+        const Bvh fewer = buildBvhOnDevice(validatedContext(), scenes[0], restructured);
+        expectValidTree(scenes[0], fewer, BvhBuildOptions{}.leafSize);
+        EXPECT_LT(fewer.stats.sahCost, unrestructured);
+        restructured.treeletGamma = kMinTreeletGamma - 1;
+        EXPECT_THROW(buildBvhOnDevice(validatedContext(), scenes[0], restructured), Error);
+        restructured.treeletGamma = kTreeletLeaves;
         restructured.treeletRounds = kMaxTreeletRounds + 1;
         EXPECT_THROW(buildBvhOnDevice(validatedContext(), scenes[0], restructured), Error);
     }

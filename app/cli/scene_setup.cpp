@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <limits>
 
 namespace raypack::cli {
 
@@ -71,9 +72,16 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
     command
         .add_option("--treelet-rounds", flags.treeletRounds,
                     "gpu-ploc and gpu-hploc only: rounds of treelet restructuring (Karras and Aila 2013) of the "
-                    "clustered tree, 0..8: each rebuilds every treelet of 7 leaves into its cheapest topology by the "
-                    "SAH; 0: none")
+                    "clustered tree, 0..8: each rebuilds every treelet of 7 leaves below a node of at least "
+                    "--treelet-gamma triangles into its cheapest topology by the SAH; 0: none")
         ->check(CLI::Range(0u, kMaxTreeletRounds))
+        ->capture_default_str();
+    command
+        .add_option("--treelet-gamma", flags.treeletGamma,
+                    "gpu-ploc and gpu-hploc only: the least triangles below a node whose treelet a round rebuilds "
+                    "(Karras and Aila's gamma), 2 or more; larger rebuilds fewer treelets, those near the root, "
+                    "for a faster round")
+        ->check(CLI::Range(kMinTreeletGamma, std::numeric_limits<uint32_t>::max()))
         ->capture_default_str();
 }
 
@@ -86,6 +94,7 @@ BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
     options.splitBudget = flags.splitBudget;
     options.plocRadius = flags.plocRadius;
     options.treeletRounds = flags.treeletRounds;
+    options.treeletGamma = flags.treeletGamma;
     return options;
 }
 

@@ -29,6 +29,7 @@ struct BvhFlags {
     float splitBudget = BvhBuildOptions{}.splitBudget;
     uint32_t plocRadius = BvhBuildOptions{}.plocRadius;
     uint32_t treeletRounds = BvhBuildOptions{}.treeletRounds;
+    uint32_t treeletGamma = BvhBuildOptions{}.treeletGamma;
 };
 void addBvhFlags(CLI::App& command, BvhFlags& flags);
 // Throws raypack::Error for an unknown builder name.

@@ -17,6 +17,7 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const Bvh
         {"leaf_size", options.leafSize},
         {"ploc_radius", clustered ? nlohmann::json(plocRadiusOf(options, scene.triangles)) : nlohmann::json()},
         {"treelet_rounds", clustered ? nlohmann::json(options.treeletRounds) : nlohmann::json()},
+        {"treelet_gamma", clustered ? nlohmann::json(options.treeletGamma) : nlohmann::json()},
         {"n_l_leaves", bvh.leafCount},
         {"d_avg_leaf_depth", bvh.avgLeafDepth},
         {"d_max_leaf_depth", bvh.maxLeafDepth},
