@@ -5,6 +5,7 @@
 #include "renderer/measure/spread.h"  // secondsSince
 #include "shaders/lbvh.h"
 
+#include "cluster_layout.spv.h"
 #include "hploc.spv.h"
 #include "lbvh.spv.h"
 #include "lbvh_prepare.spv.h"
@@ -43,10 +44,7 @@ static_assert(treeletMostSplits() == gpu::kTreeletMostSplits, "one size's splits
 
 namespace {
 
-constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseTreelet + 1;
-// gpu-ploc: levels listed per submission while looking for the tree's depth, and the deepest tree it
-// lays out (an agglomerative tree has no depth bound of its own; the tracers' stacks need one).
-constexpr uint32_t kPlocLevelBatch = 64;
+constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseClusterEmit + 1;
 // gpu-ploc: clustering iterations per submission at most (those after the last merge cost a few
 // empty dispatches each). The batch halves while a submission takes longer than
 // kPlocSubmissionSeconds and doubles again below a quarter of it: on a CPU device (lavapipe) 16
@@ -54,7 +52,13 @@ constexpr uint32_t kPlocLevelBatch = 64;
 // cancelled nor report its merges.
 constexpr uint32_t kPlocIterationBatch = 16;
 constexpr double kPlocSubmissionSeconds = 0.1;
-constexpr uint32_t kPlocMaxDepth = 4096;
+// gpu-ploc, gpu-hploc: the deepest tree their layout lays out (an agglomerative tree has no depth
+// bound of its own; the tracers' stacks need one): its pointer-jumping rounds finish every path of
+// up to 2^rounds - 1 inner nodes below the root, so leaves are at most 2^rounds deep.
+constexpr uint32_t kClusterPathRounds = 12;
+constexpr uint32_t kPlocMaxDepth = 1u << kClusterPathRounds;
+// The path records of cluster_layout.comp, two halves of n - 1 uvec4, fit in the output triangles.
+static_assert(sizeof(gpu::GpuTriangle) >= 2 * 16, "the layout's path records fit the triangle array");
 constexpr VkBufferUsageFlags kStorage = vk::StagedUpload::kUsage;
 // The build's timestamps: its start, the end of the key sort, the start of the layout (after the
 // hierarchy or the clustering), its end.
@@ -77,13 +81,16 @@ uint32_t moduleOf(uint32_t phase) {
     case gpu::kLbvhPhasePlocNearest:
     case gpu::kLbvhPhasePlocFlags:
     case gpu::kLbvhPhasePlocApply:
-    case gpu::kLbvhPhasePlocOffsets:
     case gpu::kLbvhPhasePlocReorder:
     case gpu::kLbvhPhasePlocSetup: return 4;
     case gpu::kLbvhPhaseHplocInit:
     case gpu::kLbvhPhaseHplocBuild: return 5;
-    case gpu::kLbvhPhaseTreeletParents:
     case gpu::kLbvhPhaseTreelet: return 6;
+    case gpu::kLbvhPhaseClusterParents:
+    case gpu::kLbvhPhaseClusterCosts:
+    case gpu::kLbvhPhaseClusterPathStart:
+    case gpu::kLbvhPhaseClusterPathJump:
+    case gpu::kLbvhPhaseClusterEmit: return 7;
     default: return 3;
     }
 }
@@ -128,7 +135,7 @@ struct GpuBvhBuilder::State {
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
     vk::StorageSetLayout layout;  // every build kernel's storage buffers and push constants
-    std::array<VkShaderModule, 7> modules{};
+    std::array<VkShaderModule, 8> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
     uint32_t plocRadius = kPlocRadius;  // the nearest-neighbour pipelines' r
     // Timestamps: the build's start, the end of the key sort, the start of the layout, the end.
@@ -219,6 +226,8 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
         s.modules[4] = vk::createShaderModule(context, ploc_spv, sizeof(ploc_spv), "ploc.comp");
         s.modules[5] = vk::createShaderModule(context, hploc_spv, sizeof(hploc_spv), "hploc.comp");
         s.modules[6] = vk::createShaderModule(context, treelet_spv, sizeof(treelet_spv), "treelet.comp");
+        s.modules[7] =
+            vk::createShaderModule(context, cluster_layout_spv, sizeof(cluster_layout_spv), "cluster_layout.comp");
         for (uint32_t phase = 0; phase < kPhaseCount; ++phase)
             s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
 
@@ -348,7 +357,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const uint32_t inner = n < 2 ? 0u : n - 1u;
     const uint32_t sortBlocks = std::max(1u, (n + gpu::kLbvhSortBlock - 1) / gpu::kLbvhSortBlock);
     const bool ploc = options.builder == BvhBuilder::GpuPloc, hploc = options.builder == BvhBuilder::GpuHploc;
-    // Both cluster the Morton-sorted triangles into a tree of their own, laid out by ploc.comp.
+    // Both cluster the Morton-sorted triangles into a tree of their own, laid out by cluster_layout.comp.
     const bool clustered = ploc || hploc;
     const uint32_t radius = plocRadiusOf(options, n);
     if (clustered && radius != s.plocRadius) {
@@ -376,7 +385,8 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const ScanPlan scan = planScan(uint64_t(sortBlocks) * gpu::kLbvhRadixDigits);
     // gpu-ploc scans two flags per cluster, from n clusters down.
     const ScanPlan keepScan = planScan(n, 0), mergeScan = planScan(n, keepScan.words);
-    const uint32_t levels = std::min(inner, clustered ? kPlocMaxDepth : gpu::kLbvhMaxDepth);
+    // gpu-lbvh's levels (the clustered trees' layout lists none).
+    const uint32_t levels = clustered ? 0u : std::min(inner, gpu::kLbvhMaxDepth);
 
     // Scratch, sized from the triangle count and freed when the build returns.
     const VkMemoryPropertyFlags local = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
@@ -413,7 +423,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         vk::createBuffer(s.ctx, uint64_t(clustered ? sizes.nodes : inner) * 32, kStorage, local, "the build's boxes");
     x.costs = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's SAH costs");
     x.flags = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's node flags");
-    x.queue = vk::createBuffer(s.ctx, uint64_t(inner) * 4, kStorage, local, "the build's level queue");
+    x.queue = vk::createBuffer(s.ctx, clustered ? 0 : uint64_t(inner) * 4, kStorage, local, "the build's level queue");
     // gpu-ploc also sizes its clustering there: one entry for the clusters and one per scan level.
     const uint64_t indirectEntries = std::max<uint64_t>(levels + 1, ploc ? 1 + keepScan.levels.size() : 0);
     x.indirect = vk::createBuffer(s.ctx, indirectEntries * 16, kStorage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, local,
@@ -551,18 +561,16 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             vkCmdCopyBuffer(cmd, x.state.buffer, x.readback.buffer, 1, &region);
         });
     };
-    // The last steps of both builders: the levels top down (gpu-lbvh; gpu-ploc lists them itself),
-    // boxes and costs bottom up, the root, the nodes top down.
-    const auto finish = [&](const Recorder& r, uint32_t depth, bool listLevels) {
+    // The last steps of gpu-lbvh (and of every builder below 2 triangles, depth 0): the levels top
+    // down, boxes and costs bottom up, the root, the nodes top down.
+    const auto finish = [&](const Recorder& r, uint32_t depth) {
         if (n >= 2) {
-            if (listLevels) {
-                r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
-                for (uint32_t level = 0; level + 1 < depth; ++level) {
-                    r.level(gpu::kLbvhPhaseEnumerate, level, base);
-                    gpu::LbvhParams p = base;
-                    p.counts.z = level;
-                    r.dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
-                }
+            r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
+            for (uint32_t level = 0; level + 1 < depth; ++level) {
+                r.level(gpu::kLbvhPhaseEnumerate, level, base);
+                gpu::LbvhParams p = base;
+                p.counts.z = level;
+                r.dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
             }
             for (uint32_t level = depth; level-- > 0;) r.level(gpu::kLbvhPhaseBottomUp, level, base);
         }
@@ -571,16 +579,24 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         r.stamp(kStampEnd);
     };
 
-    // gpu-ploc, gpu-hploc: the levels of their trees from `first` on, kPlocLevelBatch of them at
-    // most; kLbvhStateListedDepth says where they end once a level comes out empty.
-    const auto listLevels = [&](const Recorder& r, uint32_t first) {
-        if (first == 0) r.dispatch(gpu::kLbvhPhaseLevelRoot, 1, base);
-        for (uint32_t level = first; level < std::min(first + kPlocLevelBatch, levels); ++level) {
-            r.level(gpu::kLbvhPhaseEnumerate, level, base);
+    // gpu-ploc, gpu-hploc: the clustered tree's layout (cluster_layout.comp), then the triangles in
+    // its leaf order; a fixed number of dispatches, whatever the tree's depth.
+    const auto layOut = [&](const Recorder& r) {
+        r.dispatch(gpu::kLbvhPhaseClusterParents, groupsFor(inner), base);
+        r.dispatch(gpu::kLbvhPhaseClusterCosts, groupsFor(n), base);
+        r.dispatch(gpu::kLbvhPhaseClusterPathStart, groupsFor(inner), base);
+        for (uint32_t round = 0; round <= kClusterPathRounds; ++round) {
             gpu::LbvhParams p = base;
-            p.counts.z = level;
-            r.dispatch(gpu::kLbvhPhaseNextLevel, 1, p);
+            p.counts.z = round;
+            r.dispatch(round < kClusterPathRounds ? gpu::kLbvhPhaseClusterPathJump : gpu::kLbvhPhaseClusterEmit,
+                       groupsFor(inner), p);
         }
+        r.dispatch(gpu::kLbvhPhasePlocReorder, groupsFor(n), base);
+        const VkBufferCopy region{0, 0, uint64_t(n) * 4};
+        vkCmdCopyBuffer(r.cmd, x.keysB.buffer, s.order.buffer, 1, &region);
+        r.barrier();
+        r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
+        r.stamp(kStampEnd);
     };
 
     // gpu-ploc, gpu-hploc: the treelet rounds over the clustered tree, each after listing its parents.
@@ -589,7 +605,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         for (uint32_t round = 0; round < options.treeletRounds; ++round) {
             gpu::LbvhParams p = base;
             p.counts.z = options.treeletGamma;
-            r.dispatch(gpu::kLbvhPhaseTreeletParents, treeletGroups, p);
+            r.dispatch(gpu::kLbvhPhaseClusterParents, groupsFor(inner), p);
             r.dispatch(gpu::kLbvhPhaseTreelet, treeletGroups, p);
         }
     };
@@ -629,7 +645,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         // 5: leaf order (gpu-ploc: Morton order, for the clusters' boxes; again at the end; gpu-hploc
         // makes its boxes from the scene's arrays and gathers at the end only).
         if (!hploc || n < 2) r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
-        if (!clustered) finish(r, levels, true);
+        if (!clustered) finish(r, levels);
         if (hploc && n >= 2) {
             // The whole clustering in one dispatch, after its parent slots are emptied.
             vkCmdFillBuffer(cmd, x.scan.buffer, 0, hplocParentWords * 4, gpu::kHplocEmpty);
@@ -638,7 +654,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
             r.dispatch(gpu::kLbvhPhaseHplocBuild, hplocGroups, base);
             restructure(r);
             r.stamp(kStampLayout);
-            listLevels(r, 0);
+            layOut(r);
         }
     });
     if (hploc && n >= 2) {
@@ -689,36 +705,16 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                     batch = std::min(kPlocIterationBatch, batch * 2);
             }
             RAYPACK_CHECK_MSG(made == n - 1, "gpu-ploc made n - 1 inner nodes");
-        }
-        // The levels, a batch per submission until one comes out empty (gpu-hploc listed the first
-        // batch in its first submission).
-        uint32_t depth = hploc ? readState()[gpu::kLbvhStateListedDepth] : 0;
-        for (uint32_t first = hploc ? kPlocLevelBatch : 0; depth == 0; first += kPlocLevelBatch) {
-            if (first >= levels)
-                throw Error(std::string(toString(options.builder)) + ": the tree is deeper than " +
-                            std::to_string(levels) + " levels");
             submit([&](const Recorder& r) {
-                if (first == 0) {
-                    restructure(r);
-                    r.stamp(kStampLayout);
-                }
-                listLevels(r, first);
+                restructure(r);
+                r.stamp(kStampLayout);
+                layOut(r);
             });
-            depth = readState()[gpu::kLbvhStateListedDepth];
         }
-        submit([&](const Recorder& r) {
-            for (uint32_t level = 0; level < depth; ++level) r.level(gpu::kLbvhPhasePlocOffsets, level, base);
-            r.dispatch(gpu::kLbvhPhasePlocReorder, groupsFor(n), base);
-            const VkBufferCopy region{0, 0, uint64_t(n) * 4};
-            vkCmdCopyBuffer(r.cmd, x.keysB.buffer, s.order.buffer, 1, &region);
-            r.barrier();
-            r.dispatch(gpu::kLbvhPhaseGather, groupsFor(n), base);
-            finish(r, depth, false);
-        });
     } else if (clustered) {
         submit([&](const Recorder& r) {
             r.stamp(kStampLayout);
-            finish(r, 0, false);
+            finish(r, 0);
         });
     }
 
@@ -726,14 +722,14 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     if (state[gpu::kLbvhStateStatus] & gpu::kLbvhStatusSubgroupLayout)
         throw Error("gpu-lbvh: the radix sort's subgroups on " + s.ctx.info.name + " are not consecutive runs of " +
                     std::to_string(s.ctx.info.subgroupSize) + " invocations as the device reports (use a CPU builder)");
+    if (state[gpu::kLbvhStateStatus] & gpu::kLbvhStatusTooDeep)
+        throw Error(std::string(toString(options.builder)) + ": the tree is deeper than " +
+                    std::to_string(kPlocMaxDepth) + " levels");
     Result result;
     BvhStats& stats = result.stats;
-    uint64_t depthSum = 0;
-    for (uint32_t depth = 0; depth <= gpu::kLbvhMaxDepth; ++depth) {
-        const uint32_t leaves = state[gpu::kLbvhStateLeaves + depth];
-        stats.leafCount += leaves;
-        depthSum += uint64_t(depth) * leaves;
-    }
+    stats.leafCount = state[gpu::kLbvhStateLeafCount];
+    const uint64_t depthSum = uint64_t(state[gpu::kLbvhStateDepthSum]) | uint64_t(state[gpu::kLbvhStateDepthSum + 1])
+                                                                             << 32;
     stats.nodeCount = 1 + 2 * state[gpu::kLbvhStateInnerCount];
     stats.maxLeafDepth = state[gpu::kLbvhStateMaxDepth];
     stats.avgLeafDepth = stats.leafCount ? double(depthSum) / double(stats.leafCount) : 0.0;

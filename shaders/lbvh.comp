@@ -37,6 +37,8 @@ layout(std430, set = 0, binding = kLbvhBindUvs) writeonly buffer Uvs { GpuTriang
 layout(std430, set = 0, binding = kLbvhBindVertexColors) readonly buffer VertexColors { uint vertexColors[]; };
 layout(std430, set = 0, binding = kLbvhBindColors) writeonly buffer Colors { GpuTriangleColors colors[]; };
 
+#include "emit.h"
+
 uint triangleCount() { return params.counts.x; }
 uint leafId(uint sorted) { return triangleCount() - 1u + sorted; }
 
@@ -170,8 +172,6 @@ void nextLevel() {
     const uint begin = level.x + level.y;
     const uint count = state[kLbvhStateQueueTail] - begin;
     setLevel(params.counts.z + 1u, begin, count);
-    state[kLbvhStateNextCount] = count;
-    if (count == 0u && state[kLbvhStateListedDepth] == 0u) state[kLbvhStateListedDepth] = params.counts.z + 1u;
 }
 
 // ---- Step 7: boxes and SAH costs, bottom up.
@@ -239,26 +239,12 @@ void bottomUp() {
 
 // ---- Step 8: the tracers' nodes, top down.
 
-GpuNode innerNode(vec3 lo, vec3 hi, uint left) {
-    GpuNode node;
-    node.lo = vec4(lo, uintBitsToFloat(left));
-    node.hi = vec4(hi, uintBitsToFloat(0u));
-    return node;
-}
-GpuNode leafNode(vec3 lo, vec3 hi, uint first, uint count) {
-    GpuNode node;
-    node.lo = vec4(lo, uintBitsToFloat(first));
-    node.hi = vec4(hi, uintBitsToFloat(count));
-    return node;
-}
-
 void root() {
     const uint n = triangleCount();
-    state[kLbvhStateLeaves] = 0u;
     if (n == 0u) {
         // An empty scene: a root leaf of no triangles whose box no ray hits.
         nodes[0] = leafNode(vec3(3.402823466e38f), vec3(-3.402823466e38f), 0u, 0u);
-        state[kLbvhStateLeaves] = 1u;
+        state[kLbvhStateLeafCount] = 1u;
         return;
     }
     vec3 lo, hi;
@@ -268,14 +254,14 @@ void root() {
         const float area = sahArea(lo, hi, sceneUnit());
         state[kLbvhStateRootCost] = floatBitsToUint(area * params.costs.y);
         state[kLbvhStateRootArea] = floatBitsToUint(area);
-        state[kLbvhStateLeaves] = 1u;
+        state[kLbvhStateLeafCount] = 1u;
         return;
     }
     lo = boxes[0].xyz;
     hi = boxes[1].xyz;
     if ((flags[0] & kLbvhCollapsed) != 0u) {
         nodes[0] = leafNode(lo, hi, 0u, n);
-        state[kLbvhStateLeaves] = 1u;
+        state[kLbvhStateLeafCount] = 1u;
         return;
     }
     nodes[0] = innerNode(lo, hi, 1u);
@@ -324,14 +310,9 @@ void emit() {
         }
     }
     // The statistics: one atomic per subgroup and counter.
-    const uint subgroupLeaves = subgroupAdd(leaves), subgroupInners = subgroupAdd(inners);
-    if (subgroupElect()) {
-        if (subgroupLeaves > 0u) {
-            atomicAdd(state[kLbvhStateLeaves + level + 1u], subgroupLeaves);
-            atomicMax(state[kLbvhStateMaxDepth], level + 1u);
-        }
-        if (subgroupInners > 0u) atomicAdd(state[kLbvhStateInnerCount], subgroupInners);
-    }
+    addLeaves(leaves, level + 1u);
+    const uint subgroupInners = subgroupAdd(inners);
+    if (subgroupElect() && subgroupInners > 0u) atomicAdd(state[kLbvhStateInnerCount], subgroupInners);
 }
 
 void main() {

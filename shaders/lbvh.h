@@ -18,19 +18,23 @@
 //   7. bottom up, level by level from the deepest, each inner node's box and SAH cost
 //      S(node) = min(leaf: A·N·C_isect, inner: A·C_trav + S(left) + S(right)), and whether the node
 //      is better as one leaf (it must be when N <= leafSize, it may not when N > kMaxLeafPrimitives);
-//   (gpu-ploc replaces step 4 by Meister and Bittner 2018's locally-ordered clustering over the
-//   sorted triangles, shaders/ploc.comp, then lays its tree out in depth-first leaf order, so that
-//   steps 5-8 apply to it unchanged. gpu-hploc clusters in one kernel instead, shaders/hploc.comp:
-//   Benthin et al. 2024's hierarchical PLOC, the same layout after it.)
+//   (gpu-ploc replaces steps 4-8 by Meister and Bittner 2018's locally-ordered clustering over the
+//   sorted triangles, shaders/ploc.comp; gpu-hploc clusters in one kernel instead, shaders/hploc.comp:
+//   Benthin et al. 2024's hierarchical PLOC. Both trees are laid out by
+//   shaders/cluster_layout.comp in a fixed number of dispatches, whatever their depth: S and the
+//   collapse by a climb from the leaves, every node's depth-first leaf offset and depth by pointer
+//   jumping, then the same node emission and leaf order as steps 5 and 8 would give.)
 //   8. top down again, every node reached from the root that is not a leaf writes its two children
 //      into the node array; Karras' inner node i's children go to slots 1 + 2i and 2 + 2i, so
 //      siblings are adjacent as the kernels require. Slots below a collapsed node are never written
 //      and never reached.
 // Steps 6-8 walk levels rather than climbing from the leaves with one atomic counter per node
 // (Karras 2012, section 4): on lavapipe (Mesa 22.3) that counter's atomics returned the same value to
-// two invocations of one subgroup, and the levels need no communication within a dispatch.
-// The statistics (leaves per depth, inner nodes, the deepest leaf, the root's SAH cost) are summed
-// on the way and read back: a few hundred bytes, never the tree.
+// two invocations of one subgroup, and the levels need no communication within a dispatch. (A Karras
+// tree is at most kLbvhMaxDepth deep; the clustered trees' climbs keep their atomics behind an if in
+// a loop the whole workgroup runs, which lavapipe counts right.)
+// The statistics (leaves, the sum of their depths, inner nodes, the deepest leaf, the root's SAH
+// cost) are summed on the way and read back: a hundred bytes, never the tree.
 #ifndef RAYPACK_SHADERS_LBVH_H
 #define RAYPACK_SHADERS_LBVH_H
 #include "common.h"
@@ -47,14 +51,14 @@ const uint kLbvhBindValuesB = 4u;         // uint[]
 const uint kLbvhBindScan = 5u;            // uint[]: digit counts per sort block, then their prefix sums
 const uint kLbvhBindState = 6u;           // uint[kLbvhStateWords]: bounds, counters, statistics
 const uint kLbvhBindInner = 7u;           // uvec4[n - 1]: left id, right id, first, last
-const uint kLbvhBindLevels = 8u;          // uint[2 levels]: each level's first queue entry and count
+const uint kLbvhBindLevels = 8u;          // uint[2 levels]: each level's first queue entry and count (gpu-lbvh)
 const uint kLbvhBindBoxes = 9u;           // vec4[2 (n - 1)]: lo, hi of every inner node
 const uint kLbvhBindCosts = 10u;          // float[n - 1]: S(inner node), area in units of the scene
 const uint kLbvhBindFlags = 11u;          // uint[n - 1]: kLbvhCollapsed, kLbvhLive
-const uint kLbvhBindQueue = 12u;          // uint[n - 1]: the inner nodes, level after level
+const uint kLbvhBindQueue = 12u;          // uint[n - 1]: the inner nodes, level after level (gpu-lbvh)
 const uint kLbvhBindIndirect = 13u;       // uvec4[levels]: the emission's dispatch per level
 const uint kLbvhBindNodes = 14u;          // GpuNode[2n - 1]: the tracers' nodes (output)
-const uint kLbvhBindTriangles = 15u;      // GpuTriangle[n]: leaf order (output)
+const uint kLbvhBindTriangles = 15u;      // GpuTriangle[n]: leaf order (output; cluster_layout.comp's paths before)
 const uint kLbvhBindVertexNormals = 16u;  // float[3 per vertex] (kLbvhHasNormals)
 const uint kLbvhBindNormals = 17u;        // GpuTriangleNormals[] leaf order (output)
 const uint kLbvhBindVertexUvs = 18u;      // float[2 per vertex] (kLbvhHasUvs)
@@ -97,20 +101,24 @@ const uint kLbvhPhaseNextLevel = 10u;    // lbvh.comp: one invocation, the next 
 const uint kLbvhPhaseBottomUp = 11u;     // lbvh.comp: one level's boxes and costs
 const uint kLbvhPhaseRoot = 12u;         // lbvh.comp: one invocation, the root's node
 const uint kLbvhPhaseEmit = 13u;         // lbvh.comp: one level's children into the node array
-// gpu-ploc (shaders/ploc.comp) instead of step 4, then steps 6-8 as gpu-lbvh:
+// gpu-ploc (shaders/ploc.comp) instead of step 4, then the clustered trees' layout below:
 const uint kLbvhPhasePlocInit = 14u;     // every sorted triangle a cluster, its box
 const uint kLbvhPhasePlocNearest = 15u;  // each cluster's nearest neighbour within the radius
 const uint kLbvhPhasePlocFlags = 16u;    // which clusters stay and which merge
 const uint kLbvhPhasePlocApply = 17u;    // the merged nodes and the next cluster array
-const uint kLbvhPhasePlocOffsets = 18u;  // one level: each node's first slot in the leaf order
-const uint kLbvhPhasePlocReorder = 19u;  // the triangles' order by those slots
-const uint kLbvhPhasePlocSetup = 20u;    // one invocation: an iteration's cluster count and dispatch sizes
-// gpu-hploc (shaders/hploc.comp) instead of gpu-ploc's iterations, then gpu-ploc's layout:
-const uint kLbvhPhaseHplocInit = 21u;   // every sorted triangle a cluster, its box and triangle count
-const uint kLbvhPhaseHplocBuild = 22u;  // the whole clustering: Apetrei's climb, PLOC in each workgroup
-// Treelet restructuring of gpu-ploc's and gpu-hploc's trees (shaders/treelet.comp), before the layout:
-const uint kLbvhPhaseTreeletParents = 23u;  // every node's parent, every inner node's arrival count zeroed
-const uint kLbvhPhaseTreelet = 24u;         // one round: the climb, each treelet of >= gamma triangles rebuilt
+const uint kLbvhPhasePlocReorder = 18u;  // the triangles' order by their slots in the leaf order
+const uint kLbvhPhasePlocSetup = 19u;    // one invocation: an iteration's cluster count and dispatch sizes
+// gpu-hploc (shaders/hploc.comp) instead of gpu-ploc's iterations, then the same layout:
+const uint kLbvhPhaseHplocInit = 20u;   // every sorted triangle a cluster, its box and triangle count
+const uint kLbvhPhaseHplocBuild = 21u;  // the whole clustering: Apetrei's climb, PLOC in each workgroup
+// The clustered trees (gpu-ploc, gpu-hploc), shaders/cluster_layout.comp, and their treelet
+// restructuring, shaders/treelet.comp:
+const uint kLbvhPhaseClusterParents = 22u;    // every node's parent, every inner node's arrival count zeroed
+const uint kLbvhPhaseTreelet = 23u;           // one round: the climb, each treelet of >= gamma triangles rebuilt
+const uint kLbvhPhaseClusterCosts = 24u;      // the climb: every inner node's S and whether it collapses
+const uint kLbvhPhaseClusterPathStart = 25u;  // every inner node's step to its parent (below)
+const uint kLbvhPhaseClusterPathJump = 26u;   // one round of pointer jumping over those steps
+const uint kLbvhPhaseClusterEmit = 27u;       // the tracers' nodes and every triangle's leaf-order slot
 
 // gpu-hploc's workgroups: each one climbs from kHplocGroupSize sorted triangles at a time and merges a
 // range's clusters together, at most kHplocGroupSize of them (both children's, up to kHplocThreshold
@@ -175,22 +183,24 @@ const uint kLbvhStateMaxDepth = 13u;      // the deepest leaf (root 0)
 const uint kLbvhStateQueueTail = 14u;     // entries of kLbvhBindQueue pushed so far
 const uint kLbvhStateRootCost = 15u;      // float bits: S(root)
 const uint kLbvhStateRootArea = 16u;      // float bits: the root's half area, same units
+const uint kLbvhStatePathRounds = 17u;    // clustered layout: 1 + the last jump round that left a path unfinished
 const uint kLbvhStateStatus = 19u;        // kLbvhStatus* bits: 0 after a good build
 const uint kLbvhStateClusters = 20u;      // gpu-ploc: clusters in this iteration
 const uint kLbvhStateMerged = 21u;        // gpu-ploc: inner nodes made before this iteration
-const uint kLbvhStateNextCount = 22u;     // entries of the level the last kLbvhPhaseNextLevel set up
+const uint kLbvhStateLeafCount = 22u;     // leaves of the laid out tree
 const uint kLbvhStateNextClusters = 23u;  // gpu-ploc: clusters after this iteration
 const uint kLbvhStateNextMerged = 24u;    // gpu-ploc: inner nodes made after it (gpu-hploc: all)
-const uint kLbvhStateListedDepth = 25u;   // the first level kLbvhPhaseNextLevel found empty, 0 before
+const uint kLbvhStateDepthSum = 25u;      // 2 words, low then high: the sum of every leaf's depth
 // gpu-ploc's dispatch arguments in kLbvhBindIndirect while clustering: the clusters' at entry 0,
 // the scan's level L at entry 1 + L.
 const uint kPlocIndirectClusters = 0u;
 const uint kPlocIndirectScan = 1u;
-const uint kLbvhStateLeaves = 32u;  // kLbvhMaxDepth + 1 words: leaves at each depth
-const uint kLbvhStateWords = 96u;
+const uint kLbvhStateWords = 32u;
 
 // A radix sort workgroup found its subgroups other than the host assumed (radix_sort.comp).
 const uint kLbvhStatusSubgroupLayout = 1u;
+// A clustered tree is deeper than the layout's pointer-jumping rounds reach (cluster_layout.comp).
+const uint kLbvhStatusTooDeep = 2u;
 
 // Floats as uints whose unsigned order is the floats' order (for atomicMin / atomicMax).
 RP_FUNC uint lbvhOrderedBits(float f) {

@@ -9,12 +9,12 @@
 // dispatches (indirect), so the host records many iterations per submission and reads the count
 // back only between submissions.
 //
-// The inner nodes are written in gpu-lbvh's record format (lbvh.comp: left, right, then a range),
-// numbered so that the root (the last one made) is inner node 0, children that are triangles as
-// n - 1 + their position. A PLOC subtree's triangles are not contiguous in Morton order, so once the
-// levels are listed (lbvh.comp, step 6) kLbvhPhasePlocOffsets gives every node its first slot in
-// depth-first order, kLbvhPhasePlocReorder reorders the triangles by it, and gpu-lbvh's gather,
-// bottom-up and emission finish the tree.
+// The inner nodes are written as shaders/cluster_tree.h names them (children as lbvh.comp's records
+// name them, the triangle count in z), numbered so that the root (the last one made) is inner node
+// 0, children that are triangles as n - 1 + their position. A PLOC subtree's triangles are not
+// contiguous in Morton order, so once cluster_layout.comp has given every triangle its slot in the
+// depth-first leaf order, kLbvhPhasePlocReorder reorders the triangles by it and gpu-lbvh's gather
+// writes them there.
 #extension GL_GOOGLE_include_directive : require
 
 #include "gpu_types.h"
@@ -30,16 +30,13 @@ layout(push_constant) uniform Params { LbvhParams params; };
 layout(std430, set = 0, binding = kLbvhBindKeysA) buffer ClustersA { uint clustersA[]; };
 layout(std430, set = 0, binding = kLbvhBindValuesA) buffer Order { uint order[]; };
 layout(std430, set = 0, binding = kLbvhBindKeysB) buffer ClustersB { uint clustersB[]; };
-// The nearest neighbours while clustering, then each triangle's slot in the leaf order.
+// The nearest neighbours while clustering, then each triangle's slot in the leaf order
+// (cluster_layout.comp).
 layout(std430, set = 0, binding = kLbvhBindValuesB) buffer Neighbours { uint neighbours[]; };
 layout(std430, set = 0, binding = kLbvhBindScan) buffer Scan { uint scan[]; };
 layout(std430, set = 0, binding = kLbvhBindState) buffer State { uint state[]; };
 layout(std430, set = 0, binding = kLbvhBindInner) buffer Inner { uvec4 inner[]; };
-layout(std430, set = 0, binding = kLbvhBindLevels) readonly buffer Levels { uvec2 levels[]; };
 layout(std430, set = 0, binding = kLbvhBindBoxes) buffer Boxes { vec4 boxes[]; };  // by cluster id
-// Each inner node's first slot in the leaf order (kLbvhPhasePlocOffsets).
-layout(std430, set = 0, binding = kLbvhBindFlags) buffer Offsets { uint offsets[]; };
-layout(std430, set = 0, binding = kLbvhBindQueue) readonly buffer Queue { uint queue[]; };
 layout(std430, set = 0, binding = kLbvhBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = kLbvhBindIndirect) writeonly buffer Indirect { uvec4 indirect[]; };
 
@@ -170,33 +167,8 @@ void apply() {
     }
 }
 
-// Level params.counts.z of the listed levels: each node, whose first slot its parent wrote (the
-// root's is 0), gives its children theirs (the left child first), triangles their final slot, and
-// rewrites its record as lbvh.comp reads it: children named by final slots, then first and last.
-void levelOffsets() {
-    const uvec2 level = levels[params.counts.z];
-    if (gl_GlobalInvocationID.x >= level.y) return;
-    const uint node = queue[level.x + gl_GlobalInvocationID.x];
-    const uvec4 record = inner[node];
-    const uint first = offsets[node];
-    const uint leftCount = record.x < n() - 1u ? inner[record.x].z : 1u;
-    uint left = record.x, right = record.y;
-    if (record.x < n() - 1u) {
-        offsets[record.x] = first;
-    } else {
-        neighbours[record.x - (n() - 1u)] = first;
-        left = n() - 1u + first;
-    }
-    if (record.y < n() - 1u) {
-        offsets[record.y] = first + leftCount;
-    } else {
-        neighbours[record.y - (n() - 1u)] = first + leftCount;
-        right = n() - 1u + first + leftCount;
-    }
-    inner[node] = uvec4(left, right, first, first + record.z - 1u);
-}
-
-// The triangles in depth-first leaf order: the sorted triangle k goes to the slot the levels gave it.
+// The triangles in depth-first leaf order: the sorted triangle k goes to the slot cluster_layout.comp
+// gave it.
 void reorder() {
     const uint k = gl_GlobalInvocationID.x;
     if (k >= n()) return;
@@ -212,8 +184,6 @@ void main() {
         flags();
     else if (kPhase == kLbvhPhasePlocApply)
         apply();
-    else if (kPhase == kLbvhPhasePlocOffsets)
-        levelOffsets();
     else if (kPhase == kLbvhPhasePlocReorder)
         reorder();
     else if (gl_GlobalInvocationID.x == 0u)

@@ -22,8 +22,8 @@
 //
 // What a round rewrites: the records of the treelets' inner nodes (children, triangle count, as
 // ploc.comp and hploc.comp make them), their boxes by cluster id, and their costs. Parents are listed
-// again before each round (kLbvhPhaseTreeletParents); gpu-ploc's layout then lists the levels of the
-// restructured tree from the root, record 0, which keeps its record.
+// again before each round (cluster_layout.comp's kLbvhPhaseClusterParents); the layout then works
+// from the root, record 0, which keeps its record.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_ballot : require
@@ -32,42 +32,22 @@
 #include "lbvh.h"
 
 layout(local_size_x = kTreeletGroupSize) in;
-layout(constant_id = kLbvhSpecPhase) const uint kPhase = kLbvhPhaseTreeletParents;
 layout(push_constant) uniform Params { LbvhParams params; };
 
-// Records as ploc.comp's: children named as lbvh.comp names them (an inner node by its record, sorted
-// triangle k as n - 1 + k), the triangle count in z.
+// Records and boxes as shaders/cluster_tree.h names them.
 layout(std430, set = 0, binding = kLbvhBindInner) coherent buffer Inner { uvec4 inner[]; };
-// By cluster id (sorted triangle k is id k, record r is id 2n - 2 - r): lo, hi.
 layout(std430, set = 0, binding = kLbvhBindBoxes) coherent buffer Boxes { vec4 boxes[]; };
 // S of every inner node by record, in the area units of plocAreaUnit.
 layout(std430, set = 0, binding = kLbvhBindCosts) coherent buffer Costs { float costs[]; };
-// The parent record of every inner node (by record) and of every sorted triangle.
-layout(std430, set = 0, binding = kLbvhBindScan) buffer InnerParents { uint innerParents[]; };
-layout(std430, set = 0, binding = kLbvhBindKeysA) buffer LeafParents { uint leafParents[]; };
+// The parent record of every inner node (by record) and of every sorted triangle
+// (cluster_layout.comp's kLbvhPhaseClusterParents).
+layout(std430, set = 0, binding = kLbvhBindScan) readonly buffer InnerParents { uint innerParents[]; };
+layout(std430, set = 0, binding = kLbvhBindKeysA) readonly buffer LeafParents { uint leafParents[]; };
 // How many of each inner node's children have climbed to it (the second goes on).
 layout(std430, set = 0, binding = kLbvhBindValuesB) coherent buffer Arrivals { uint arrivals[]; };
 layout(std430, set = 0, binding = kLbvhBindState) readonly buffer State { uint state[]; };
 
-uint n() { return params.counts.x; }
-bool isTriangle(uint name) { return name >= n() - 1u; }
-uint boxIndex(uint name) { return isTriangle(name) ? name - (n() - 1u) : 2u * n() - 2u - name; }
-uint parentOf(uint name) { return isTriangle(name) ? leafParents[name - (n() - 1u)] : innerParents[name]; }
-
-void listParents() {
-    const uint stride = gl_NumWorkGroups.x * kTreeletGroupSize;
-    for (uint r = gl_GlobalInvocationID.x; r + 1u < n(); r += stride) {
-        const uvec4 record = inner[r];
-        for (uint c = 0u; c < 2u; ++c) {
-            const uint child = record[c];
-            if (isTriangle(child))
-                leafParents[child - (n() - 1u)] = r;
-            else
-                innerParents[child] = r;
-        }
-        arrivals[r] = 0u;
-    }
-}
+#include "cluster_tree.h"
 
 // S of a node of `count` triangles and half area `area` whose children's S sum to `split`.
 float nodeCost(float area, uint count, float split) {
@@ -335,9 +315,4 @@ void climb() {
     }
 }
 
-void main() {
-    if (kPhase == kLbvhPhaseTreeletParents)
-        listParents();
-    else
-        climb();
-}
+void main() { climb(); }

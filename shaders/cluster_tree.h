@@ -1,0 +1,15 @@
+// Names in the clustered trees (gpu-ploc, gpu-hploc; shaders/lbvh.h) as cluster_layout.comp and
+// treelet.comp read them. Records are ploc.comp's and hploc.comp's: children named as lbvh.comp
+// names them (an inner node by its record, sorted triangle k as n - 1 + k), the triangle count in z;
+// the root is record 0. Boxes are by cluster id: sorted triangle k is id k, record r is id 2n - 2 - r.
+// Include after `params`, `inner`, `innerParents` and `leafParents` are declared.
+#ifndef RAYPACK_SHADERS_CLUSTER_TREE_H
+#define RAYPACK_SHADERS_CLUSTER_TREE_H
+
+uint n() { return params.counts.x; }
+bool isTriangle(uint name) { return name >= n() - 1u; }
+uint boxIndex(uint name) { return isTriangle(name) ? name - (n() - 1u) : 2u * n() - 2u - name; }
+uint parentOf(uint name) { return isTriangle(name) ? leafParents[name - (n() - 1u)] : innerParents[name]; }
+uint countOf(uint name) { return isTriangle(name) ? 1u : inner[name].z; }
+
+#endif
