@@ -187,7 +187,9 @@ void jump() {
         paths[to + r] = path;
         open = path.y != kNoAncestor;
     }
-    if (subgroupAny(open) && subgroupElect()) atomicMax(state[kLbvhStatePathRounds], round + 1u);
+    // Read first: after the first subgroups, the word says so already.
+    if (subgroupAny(open) && subgroupElect() && state[kLbvhStatePathRounds] <= round)
+        atomicMax(state[kLbvhStatePathRounds], round + 1u);
 }
 
 // ---- Step 4: the tracers' nodes and the leaf order.
@@ -236,9 +238,7 @@ void emit() {
             depth = 0u;  // the root is the one leaf
         }
     }
-    addLeaves(leaves, depth);
-    const uint subgroupInners = subgroupAdd(inners);
-    if (subgroupElect() && subgroupInners > 0u) atomicAdd(state[kLbvhStateInnerCount], subgroupInners);
+    addStatistics(leaves, depth, inners);
 }
 
 void main() {

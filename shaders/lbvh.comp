@@ -309,10 +309,8 @@ void emit() {
             }
         }
     }
-    // The statistics: one atomic per subgroup and counter.
-    addLeaves(leaves, level + 1u);
-    const uint subgroupInners = subgroupAdd(inners);
-    if (subgroupElect() && subgroupInners > 0u) atomicAdd(state[kLbvhStateInnerCount], subgroupInners);
+    // The statistics: one atomic per workgroup and counter.
+    addStatistics(leaves, level + 1u, inners);
 }
 
 void main() {
