@@ -21,35 +21,27 @@ GpuNode leafNode(vec3 lo, vec3 hi, uint first, uint count) {
 // The statistics of this invocation's emission: `leaves` leaves at depth `depth`, `inners` inner
 // nodes. Summed over the subgroup, then over the workgroup, so that one invocation of each workgroup
 // adds to each word (a few hundred thousand atomics on one word cost a millisecond at 13M
-// triangles). Every invocation of the workgroup must call it: it has a barrier.
-shared uint groupLeaves[gl_WorkGroupSize.x], groupDepths[gl_WorkGroupSize.x], groupDeepest[gl_WorkGroupSize.x],
-    groupInners[gl_WorkGroupSize.x];
+// triangles); groupSums holds each subgroup's (leaves, their depths' sum, the deepest, inner nodes).
+// Every invocation of the workgroup must call it: it has a barrier.
+shared uvec4 groupSums[gl_WorkGroupSize.x];
 void addStatistics(uint leaves, uint depth, uint inners) {
-    const uint subgroupLeaves = subgroupAdd(leaves), subgroupDepths = subgroupAdd(leaves * depth);
-    const uint deepest = subgroupMax(leaves > 0u ? depth : 0u), subgroupInners = subgroupAdd(inners);
-    if (subgroupElect()) {
-        groupLeaves[gl_SubgroupID] = subgroupLeaves;
-        groupDepths[gl_SubgroupID] = subgroupDepths;
-        groupDeepest[gl_SubgroupID] = deepest;
-        groupInners[gl_SubgroupID] = subgroupInners;
-    }
+    const uvec4 sums = uvec4(subgroupAdd(leaves), subgroupAdd(leaves * depth), subgroupMax(leaves > 0u ? depth : 0u),
+                             subgroupAdd(inners));
+    if (subgroupElect()) groupSums[gl_SubgroupID] = sums;
     barrier();
     if (gl_LocalInvocationIndex == 0u) {
-        uint total = 0u, depths = 0u, deepestOfAll = 0u, innerTotal = 0u;
-        for (uint s = 0u; s < gl_NumSubgroups; ++s) {
-            total += groupLeaves[s];
-            depths += groupDepths[s];
-            deepestOfAll = max(deepestOfAll, groupDeepest[s]);
-            innerTotal += groupInners[s];
-        }
-        if (total > 0u) {
-            atomicAdd(state[kLbvhStateLeafCount], total);
+        uvec4 all = uvec4(0u);
+        for (uint s = 0u; s < gl_NumSubgroups; ++s)
+            all = uvec4(all.x + groupSums[s].x, all.y + groupSums[s].y, max(all.z, groupSums[s].z),
+                        all.w + groupSums[s].w);
+        if (all.x > 0u) {
+            atomicAdd(state[kLbvhStateLeafCount], all.x);
             // The depth sum in two words: the low word's carry goes to the high one.
-            const uint low = atomicAdd(state[kLbvhStateDepthSum], depths);
-            if (low + depths < low) atomicAdd(state[kLbvhStateDepthSum + 1u], 1u);
-            atomicMax(state[kLbvhStateMaxDepth], deepestOfAll);
+            const uint low = atomicAdd(state[kLbvhStateDepthSum], all.y);
+            if (low + all.y < low) atomicAdd(state[kLbvhStateDepthSum + 1u], 1u);
+            atomicMax(state[kLbvhStateMaxDepth], all.z);
         }
-        if (innerTotal > 0u) atomicAdd(state[kLbvhStateInnerCount], innerTotal);
+        if (all.w > 0u) atomicAdd(state[kLbvhStateInnerCount], all.w);
     }
 }
 
