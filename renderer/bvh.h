@@ -103,9 +103,15 @@ struct BvhBuildOptions {
     // (Karras and Aila's gamma), at least kMinTreeletGamma. Larger rebuilds fewer, larger treelets
     // (near the root, where the area and so the SAH's gain is), for a faster round (docs/bvh.md).
     uint32_t treeletGamma = kTreeletLeaves;
+    // GpuPloc and GpuHploc only: the top of the clustered tree, every node of at least topRebuild
+    // triangles, rebuilt top down by the binned SAH over the subtrees below it (shaders/top.comp),
+    // before any treelet round; 0: not rebuilt, else at least kMinTopRebuild. Smaller rebuilds more
+    // of the tree, for a longer build (docs/bvh.md).
+    uint32_t topRebuild = 0;
 };
 inline constexpr uint32_t kMaxPlocRadius = 64;
 inline constexpr uint32_t kMaxTreeletRounds = 8;
+inline constexpr uint32_t kMinTopRebuild = 2;
 // The builders' own radii, measured on the H200 (docs/bvh.md): gpu-ploc's within a few percent of
 // Meister and Bittner's best SAH. gpu-hploc's depends on the scene's size: from
 // kHplocLargeScene triangles 8, which builds 13-15% faster than 16 at 10M-13M triangles with the SAH
@@ -142,6 +148,9 @@ struct BvhStats {
     double deviceHierarchySeconds = 0.0;
     double deviceLayoutSeconds = 0.0;
     uint64_t buildScratchBytes = 0;  // a device build's temporary device memory (freed after it)
+    // gpu-ploc, gpu-hploc with BvhBuildOptions::topRebuild: the subtrees the top was rebuilt over
+    // (0: no top rebuilt).
+    uint32_t topRebuildItems = 0;
     // A device build's host time creating buffers (the tree's arrays and the scratch), in buildSeconds.
     double buildAllocationSeconds = 0.0;
     double sahCost = 0.0;  // SAH cost of the whole tree, relative to the root's area

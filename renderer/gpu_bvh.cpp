@@ -12,6 +12,7 @@
 #include "ploc.spv.h"
 #include "prefix_scan.spv.h"
 #include "radix_sort.spv.h"
+#include "top.spv.h"
 #include "treelet.spv.h"
 
 #include <oneapi/tbb/blocked_range.h>
@@ -44,7 +45,7 @@ static_assert(treeletMostSplits() == gpu::kTreeletMostSplits, "one size's splits
 
 namespace {
 
-constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseClusterEmit + 1;
+constexpr uint32_t kPhaseCount = gpu::kLbvhPhaseTopFinish + 1;
 // gpu-ploc: clustering iterations per submission at most (those after the last merge cost a few
 // empty dispatches each). The batch halves while a submission takes longer than
 // kPlocSubmissionSeconds and doubles again below a quarter of it: on a CPU device (lavapipe) 16
@@ -91,6 +92,8 @@ uint32_t moduleOf(uint32_t phase) {
     case gpu::kLbvhPhaseClusterPathStart:
     case gpu::kLbvhPhaseClusterPathJump:
     case gpu::kLbvhPhaseClusterEmit: return 7;
+    case gpu::kLbvhPhaseTopStart:
+    case gpu::kLbvhPhaseTopFinish: return 8;
     default: return 3;
     }
 }
@@ -135,7 +138,7 @@ struct GpuBvhBuilder::State {
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
     vk::StorageSetLayout layout;  // every build kernel's storage buffers and push constants
-    std::array<VkShaderModule, 8> modules{};
+    std::array<VkShaderModule, 9> modules{};
     std::array<VkPipeline, kPhaseCount> pipelines{};
     uint32_t plocRadius = kPlocRadius;  // the nearest-neighbour pipelines' r
     // Timestamps: the build's start, the end of the key sort, the start of the layout, the end.
@@ -228,6 +231,7 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
         s.modules[6] = vk::createShaderModule(context, treelet_spv, sizeof(treelet_spv), "treelet.comp");
         s.modules[7] =
             vk::createShaderModule(context, cluster_layout_spv, sizeof(cluster_layout_spv), "cluster_layout.comp");
+        s.modules[8] = vk::createShaderModule(context, top_spv, sizeof(top_spv), "top.comp");
         for (uint32_t phase = 0; phase < kPhaseCount; ++phase)
             s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
 
@@ -599,9 +603,18 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         r.stamp(kStampEnd);
     };
 
-    // gpu-ploc, gpu-hploc: the treelet rounds over the clustered tree, each after listing its parents.
+    // gpu-ploc, gpu-hploc: the top rebuilt by the binned SAH (top.comp: one workgroup starts, one per
+    // node it leaves finishes), then the treelet rounds over the clustered tree, each after listing
+    // its parents.
     const uint32_t treeletGroups = climbGroups(gpu::kTreeletGroupSize);
+    const bool topRebuilt = clustered && options.topRebuild != 0 && n >= std::max(options.topRebuild, 2u);
     const auto restructure = [&](const Recorder& r) {
+        if (topRebuilt) {
+            gpu::LbvhParams p = base;
+            p.counts.z = options.topRebuild;
+            r.dispatch(gpu::kLbvhPhaseTopStart, 1, p);
+            r.indirect(gpu::kLbvhPhaseTopFinish, 0, p);
+        }
         for (uint32_t round = 0; round < options.treeletRounds; ++round) {
             gpu::LbvhParams p = base;
             p.counts.z = options.treeletGamma;
@@ -757,6 +770,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     result.scratchBytes = x.bytes();
     stats.deviceBuildSeconds = result.deviceSeconds;
     stats.buildScratchBytes = result.scratchBytes;
+    stats.topRebuildItems = topRebuilt ? state[gpu::kLbvhStateTopItems] : 0;
     stats.buildAllocationSeconds = allocationSeconds;
     s.orderCount = n;
     stats.buildSeconds = secondsSince(start);
@@ -923,6 +937,7 @@ Bvh downloadGpuTree(const GpuTree& tree) {
     bvh.stats.deviceHierarchySeconds = tree.stats.deviceHierarchySeconds;
     bvh.stats.deviceLayoutSeconds = tree.stats.deviceLayoutSeconds;
     bvh.stats.buildScratchBytes = tree.stats.buildScratchBytes;
+    bvh.stats.topRebuildItems = tree.stats.topRebuildItems;
     bvh.stats.buildAllocationSeconds = tree.stats.buildAllocationSeconds;
     return bvh;
 }

@@ -131,11 +131,11 @@ nlohmann::json toJson(const RenderSettings& s) {
 }
 
 nlohmann::json toJson(const BvhBuildOptions& o) {
-    return {{"builder", toString(o.builder)},    {"leaf_size", o.leafSize},
-            {"traversal_cost", o.traversalCost}, {"intersection_cost", o.intersectionCost},
-            {"bin_count", o.binCount},           {"split_alpha", o.splitAlpha},
-            {"split_budget", o.splitBudget},     {"ploc_radius", o.plocRadius},
-            {"treelet_rounds", o.treeletRounds}, {"treelet_gamma", o.treeletGamma}};
+    return {
+        {"builder", toString(o.builder)},          {"leaf_size", o.leafSize},     {"traversal_cost", o.traversalCost},
+        {"intersection_cost", o.intersectionCost}, {"bin_count", o.binCount},     {"split_alpha", o.splitAlpha},
+        {"split_budget", o.splitBudget},           {"ploc_radius", o.plocRadius}, {"treelet_rounds", o.treeletRounds},
+        {"treelet_gamma", o.treeletGamma},         {"top_rebuild", o.topRebuild}};
 }
 
 nlohmann::json toJson(const RenderSetup& setup) {
@@ -253,6 +253,9 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     readUint(j, "treelet_gamma", "bvh.", o.treeletGamma);
     if (o.treeletGamma < kMinTreeletGamma)
         badKey("bvh.treelet_gamma", "must be at least " + std::to_string(kMinTreeletGamma));
+    readUint(j, "top_rebuild", "bvh.", o.topRebuild);
+    if (o.topRebuild != 0 && o.topRebuild < kMinTopRebuild)
+        badKey("bvh.top_rebuild", "must be 0 (none) or at least " + std::to_string(kMinTopRebuild));
     if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
         badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
     return o;

@@ -2,7 +2,8 @@
 # Issue 13 on the lent H200 machine: the treelet rounds over gpu-hploc's tree (--treelet-rounds,
 # --treelet-gamma; shaders/treelet.comp). For the report scenes, terrain 1M and 10M and the dragon
 # subdivided to 13M: bench --device gpu --kernel single at 1920x1080 with --builder gpu-hploc at each of
-# CONFIGS (default "0 1 3"; an entry R or R:G, R rounds at gamma G, 7 if not given), the list run twice
+# CONFIGS (default "0 1 3"; an entry R, R:G or R:G:T: R rounds at gamma G, 7 if not given, after the
+# top rebuilt from T triangles, --top-rebuild T, none if not given), the list run twice
 # interleaved (a run with the driver's ray tracing peer first, for its BLAS build), then sah-exact.
 # Prepare here: scripts/device-pack.sh build. On the device (carry [".gl", ".device"]):
 # bash scripts/device-treelet.sh; the table goes to $OUT/treelet.txt, the records into $OUT/results.tgz.
@@ -21,10 +22,10 @@ run() {  # NAME BUILDER [FLAGS...]
   timeout "${RUN_TIMEOUT_S:-100}" "$cli" "${common[@]}" --builder "$builder" "$@" --out "$out/runs/$name.json" \
     > /dev/null 2>> "$out/runs/progress.log" || echo "FAILED $name" | tee -a "$out/treelet.txt"
 }
-treelet_flags() {  # R or R:G
-  local r=${1%%:*} g=7
-  [ "$r" = "$1" ] || g=${1#*:}
-  echo --treelet-rounds "$r" --treelet-gamma "$g"
+treelet_flags() {  # R, R:G or R:G:T
+  local r g t
+  IFS=: read -r r g t <<< "$1"
+  echo --treelet-rounds "$r" --treelet-gamma "${g:-7}" --top-rebuild "${t:-0}"
 }
 run driver gpu-hploc --build-repeat 1
 for pass in 1 2; do

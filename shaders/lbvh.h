@@ -119,6 +119,9 @@ const uint kLbvhPhaseClusterCosts = 24u;      // the climb: every inner node's S
 const uint kLbvhPhaseClusterPathStart = 25u;  // every inner node's step to its parent (below)
 const uint kLbvhPhaseClusterPathJump = 26u;   // one round of pointer jumping over those steps
 const uint kLbvhPhaseClusterEmit = 27u;       // the tracers' nodes and every triangle's leaf-order slot
+// top.comp (gpu-ploc, gpu-hploc): the clustered tree's top rebuilt by the binned SAH.
+const uint kLbvhPhaseTopStart = 28u;   // one workgroup: the top listed, its first splits
+const uint kLbvhPhaseTopFinish = 29u;  // a workgroup per subtree the start left (indirect)
 
 // gpu-hploc's workgroups: each one climbs from kHplocGroupSize sorted triangles at a time and merges a
 // range's clusters together, at most kHplocGroupSize of them (both children's, up to kHplocThreshold
@@ -135,13 +138,24 @@ const uint kTreeletGroupSize = 32u;
 // 2^(k-1) - 1 splits each, the most at k = 5 (21 * 15).
 const uint kTreeletMostSplits = 315u;
 
+// The top rebuild (top.comp): teams of kTopTeam invocations, kTopTeams a workgroup, each splitting
+// one node a turn over kTopTeam bins per axis (one an invocation); the start phase stops splitting
+// once kTopFrontier nodes wait, and each of those is finished by a workgroup of its own. A node of
+// more than kTopSample items is binned from kTopSample of them, evenly spaced.
+const uint kTopTeam = 32u;
+const uint kTopTeams = 8u;
+const uint kTopGroupSize = kTopTeam * kTopTeams;
+const uint kTopFrontier = 128u;
+const uint kTopSample = 1024u;
+
 // An entry of gpu-hploc's parent slots and cluster array that holds nothing yet.
 const uint kHplocEmpty = 0xFFFFFFFFu;
 
 // Push constants of every phase, 48 bytes.
 struct LbvhParams {
     // x: triangle count n; y: leaf size; z: the sort's bit shift, the emitted level, the scan's
-    // element count, or a treelet round's gamma (the fewest triangles a treelet root has); w:
+    // element count, a treelet round's gamma (the fewest triangles a treelet root has) or the top
+    // rebuild's (the fewest triangles of a node it rebuilds); w:
     // attribute bits (kLbvhHas*)
     uvec4 counts;
     // x: the sort's block count or the scan's input offset (in uints); y: the scan's block-sums
@@ -191,6 +205,9 @@ const uint kLbvhStateLeafCount = 22u;     // leaves of the laid out tree
 const uint kLbvhStateNextClusters = 23u;  // gpu-ploc: clusters after this iteration
 const uint kLbvhStateNextMerged = 24u;    // gpu-ploc: inner nodes made after it (gpu-hploc: all)
 const uint kLbvhStateDepthSum = 25u;      // 2 words, low then high: the sum of every leaf's depth
+const uint kLbvhStateTopHead = 27u;       // top.comp: the first node its start phase left unsplit
+const uint kLbvhStateTopTail = 28u;       // top.comp: the nodes its start phase made
+const uint kLbvhStateTopItems = 29u;      // top.comp: the subtrees the top was rebuilt over
 // gpu-ploc's dispatch arguments in kLbvhBindIndirect while clustering: the clusters' at entry 0,
 // the scan's level L at entry 1 + L.
 const uint kPlocIndirectClusters = 0u;

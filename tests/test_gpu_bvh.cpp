@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <cstring>
 #include <filesystem>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -468,11 +469,13 @@ TEST(GpuTreelets, EveryRoundCountBuildsAValidTreeOfNoHigherCost) {
         restructured.treeletRounds = kMaxTreeletRounds + 1;
         EXPECT_THROW(buildBvhOnDevice(validatedContext(), scenes[0], restructured), Error);
     }
-    // Traced: the GPU over a restructured tree hits what the CPU reference hits over it.
+    // Traced: the GPU over a restructured tree (its top rebuilt, top.comp, then the treelet rounds)
+    // hits what the CPU reference hits over it.
     const Scene sibenik = openScene(test::sharedScene("sibenik/sibenik_geom_75284.ply"));
     BvhBuildOptions options;
     options.builder = BvhBuilder::GpuHploc;
     options.treeletRounds = 2;
+    options.topRebuild = 256;
     RenderSettings settings;
     settings.width = 160;
     settings.height = 120;
@@ -484,7 +487,60 @@ TEST(GpuTreelets, EveryRoundCountBuildsAValidTreeOfNoHigherCost) {
     test::expectMatchesReference(
         tracer.render(settings, request),
         renderCpu(sibenik, buildBvhOnDevice(validatedContext(), sibenik, options), settings, request),
-        "sibenik, 2 treelet rounds");
+        "sibenik, the top rebuilt from 256 triangles, 2 treelet rounds");
+    test::expectNoValidationMessages();
+}
+
+TEST(GpuTopRebuild, EveryThresholdBuildsAValidTreeTheSameOnEveryRun) {
+    std::vector<glm::vec3> identical;
+    for (int i = 0; i < 600; ++i) identical.insert(identical.end(), {{-1, -1, 0}, {1, -1, 0}, {0, 2, 0}});
+    Scene huge = makeSphereFlake(800);
+    for (glm::vec3& p : huge.positions) p *= 1e30f;
+    Scene tiny = makeSphereFlake(800);
+    for (glm::vec3& p : tiny.positions) p *= 1e-30f;
+    const Scene scenes[] = {makeTerrain(3000), sceneOfTriangles(identical), huge, tiny, makeTerrain(3)};
+    // gpu-ploc's tree goes through the same rebuild as gpu-hploc's: the terrain alone for it.
+    for (const BvhBuilder builder : {BvhBuilder::GpuHploc, BvhBuilder::GpuPloc}) {
+        for (const Scene& scene : scenes) {
+            if (builder == BvhBuilder::GpuPloc && &scene != &scenes[0]) continue;
+            SCOPED_TRACE(std::string(toString(builder)) + ", " + std::to_string(scene.triangleCount()) + " triangles");
+            BvhBuildOptions options;
+            options.builder = builder;
+            options.leafSize = 2;
+            std::optional<Bvh> previous;  // the last build at 16
+            // 2: the whole tree rebuilt over its triangles; 16: a top over tens to hundreds of
+            // subtrees (twice: the same tree again); beyond the scene: nothing rebuilt.
+            for (const uint32_t threshold : {2u, 16u, 16u, 100000u}) {
+                if (threshold > 16 && &scene != &scenes[0]) continue;
+                SCOPED_TRACE("top rebuild " + std::to_string(threshold));
+                options.topRebuild = threshold;
+                const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, options);
+                expectValidTree(scene, bvh, 2);
+                EXPECT_TRUE(std::isfinite(bvh.stats.sahCost));
+                if (threshold > scene.triangleCount())
+                    EXPECT_EQ(bvh.stats.topRebuildItems, 0u);
+                else
+                    EXPECT_GE(bvh.stats.topRebuildItems, 2u);
+                if (threshold == 2) EXPECT_EQ(bvh.stats.topRebuildItems, scene.triangleCount());
+                if (threshold != 16) continue;
+                if (previous) {
+                    EXPECT_EQ(bvh.primIndices, previous->primIndices);
+                    ASSERT_EQ(bvh.nodes.size(), previous->nodes.size());
+                    EXPECT_EQ(
+                        0, std::memcmp(bvh.nodes.data(), previous->nodes.data(), bvh.nodes.size() * sizeof(BvhNode)));
+                }
+                previous = bvh;
+            }
+            if (&scene != &scenes[0]) continue;
+            options.topRebuild = 16;
+            options.treeletRounds = 1;
+            expectValidTree(scene, buildBvhOnDevice(validatedContext(), scene, options), 2);
+        }
+    }
+    BvhBuildOptions refused;
+    refused.builder = BvhBuilder::GpuHploc;
+    refused.topRebuild = kMinTopRebuild - 1;
+    EXPECT_THROW(buildBvhOnDevice(validatedContext(), scenes[0], refused), Error);
     test::expectNoValidationMessages();
 }
 

@@ -53,7 +53,7 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio, *plocRadius, *treeletRounds, *treeletGamma, *bvhWidth;
+        *hybridMinRays, *hybridVisitRatio, *plocRadius, *treeletRounds, *treeletGamma, *topRebuild, *bvhWidth;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -99,6 +99,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.plocRadius)) setup.bvh.plocRadius = f.bvh.plocRadius;
     if (given(o.treeletRounds)) setup.bvh.treeletRounds = f.bvh.treeletRounds;
     if (given(o.treeletGamma)) setup.bvh.treeletGamma = f.bvh.treeletGamma;
+    if (given(o.topRebuild)) setup.bvh.topRebuild = f.bvh.topRebuild;
     if (given(o.eye)) s.camera.eye = parseVec3("--eye", f.eye);
     if (given(o.at)) s.camera.at = parseVec3("--at", f.at);
     if (given(o.up)) s.camera.up = parseVec3("--up", f.up);
@@ -194,6 +195,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
     o.plocRadius = command->get_option("--ploc-radius");
     o.treeletRounds = command->get_option("--treelet-rounds");
     o.treeletGamma = command->get_option("--treelet-gamma");
+    o.topRebuild = command->get_option("--top-rebuild");
     command
         ->add_option("--device", f.device,
                      "Tracer: cpu (the reference, or the CPU packet tracer with --kernel packet) "

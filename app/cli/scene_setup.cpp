@@ -83,6 +83,21 @@ void addBvhFlags(CLI::App& command, BvhFlags& flags) {
                     "for a faster round")
         ->check(CLI::Range(kMinTreeletGamma, std::numeric_limits<uint32_t>::max()))
         ->capture_default_str();
+    command
+        .add_option("--top-rebuild", flags.topRebuild,
+                    "gpu-ploc and gpu-hploc only: rebuild the clustered tree's top, every node of at least this "
+                    "many triangles, top down by the binned SAH over the subtrees below it (before any treelet "
+                    "round); 2 or more, smaller rebuilds more of the tree; 0: none")
+        ->check(CLI::Validator(
+            [](const std::string& text) -> std::string {
+                uint32_t value = 0;
+                if (!CLI::detail::lexical_cast(text, value)) return "not a count: " + text;
+                return value == 0 || value >= kMinTopRebuild
+                           ? std::string()
+                           : "must be 0 (none) or at least " + std::to_string(kMinTopRebuild);
+            },
+            "0 or >= 2"))
+        ->capture_default_str();
 }
 
 BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
@@ -95,6 +110,7 @@ BvhBuildOptions toBvhOptions(const BvhFlags& flags) {
     options.plocRadius = flags.plocRadius;
     options.treeletRounds = flags.treeletRounds;
     options.treeletGamma = flags.treeletGamma;
+    options.topRebuild = flags.topRebuild;
     return options;
 }
 

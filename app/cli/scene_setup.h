@@ -30,6 +30,7 @@ struct BvhFlags {
     uint32_t plocRadius = BvhBuildOptions{}.plocRadius;
     uint32_t treeletRounds = BvhBuildOptions{}.treeletRounds;
     uint32_t treeletGamma = BvhBuildOptions{}.treeletGamma;
+    uint32_t topRebuild = BvhBuildOptions{}.topRebuild;
 };
 void addBvhFlags(CLI::App& command, BvhFlags& flags);
 // Throws raypack::Error for an unknown builder name.
