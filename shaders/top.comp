@@ -36,6 +36,7 @@
 // items arrays in kLbvhBindKeysB and kLbvhBindValuesB, and per node made its items' range in
 // kLbvhBindKeysA (first item, bit 31: which items array) and kLbvhBindCosts (end).
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 
 #include "gpu_types.h"
 #include "lbvh.h"
@@ -161,6 +162,22 @@ vec3 centroidOf(vec3 lo, vec3 hi) {
     return c;
 }
 
+// Items are read kBatch at a time, their names and then their boxes, so that a lane waits for one
+// batch's loads rather than for each item's two in turn.
+const uint kBatch = 8u;
+void loadBatch(uint fromB, uint first, uint step, uint end, out uint names[kBatch], out vec3 los[kBatch],
+               out vec3 his[kBatch]) {
+    [[unroll]] for (uint k = 0u; k < kBatch; ++k) {
+        const uint i = first + k * step;
+        names[k] = i < end ? itemAt(fromB, i) : kNone;
+    }
+    [[unroll]] for (uint k = 0u; k < kBatch; ++k) {
+        los[k] = vec3(0.0f);
+        his[k] = vec3(0.0f);
+        if (names[k] != kNone) boxOf(names[k], los[k], his[k]);
+    }
+}
+
 shared uint queueHead, queueTail;  // the workgroup's nodes: split before head, waiting up to tail
 // Per team: the lanes' centroid bounds, boxes and triangles (13 words a lane), then one axis's bins
 // (box and items, 7 words a lane).
@@ -174,12 +191,9 @@ uint binOf(float c, float lo, float scale) {
     return uint(min(float(kTopTeam - 1u), max(0.0f, at)));
 }
 
-// Whether item `name` goes left of `boundary` on `axis`: by its bin, or (exact) by its rank there,
-// which only the lane holding the item knows.
-bool goesLeft(uint name, bool exact, uint rank, uint axis, uint boundary, vec3 cLo, vec3 scale) {
-    if (exact) return rank <= boundary;
-    vec3 lo, hi;
-    boxOf(name, lo, hi);
+// Whether the item of box lo, hi goes left of `boundary` on `axis` by its bin. (A node swept
+// exactly goes by its items' ranks instead, which only the lane holding the item knows.)
+bool goesLeft(vec3 lo, vec3 hi, uint axis, uint boundary, vec3 cLo, vec3 scale) {
     return binOf(centroidOf(lo, hi)[axis], cLo[axis], scale[axis]) <= boundary;
 }
 
@@ -201,16 +215,19 @@ void turns(bool start) {
         // The node's centroid bounds, box and triangles.
         vec3 cLo = vec3(kHuge), cHi = vec3(-kHuge), lo = vec3(kHuge), hi = vec3(-kHuge);
         uint triangles = 0u;
-        for (uint i = begin + l; i < end; i += kTopTeam) {
-            const uint name = itemAt(fromB, i);
-            vec3 bl, bh;
-            boxOf(name, bl, bh);
-            const vec3 c = centroidOf(bl, bh);
-            cLo = min(cLo, c);
-            cHi = max(cHi, c);
-            lo = min(lo, bl);
-            hi = max(hi, bh);
-            triangles += countOf(name);
+        for (uint first = begin + l; first < end; first += kBatch * kTopTeam) {
+            uint names[kBatch];
+            vec3 bl[kBatch], bh[kBatch];
+            loadBatch(fromB, first, kTopTeam, end, names, bl, bh);
+            [[unroll]] for (uint k = 0u; k < kBatch; ++k) {
+                if (names[k] == kNone) continue;
+                const vec3 c = centroidOf(bl[k], bh[k]);
+                cLo = min(cLo, c);
+                cHi = max(cHi, c);
+                lo = min(lo, bl[k]);
+                hi = max(hi, bh[k]);
+                triangles += countOf(names[k]);
+            }
         }
         for (uint a = 0u; a < 3u; ++a) {
             teamWords[t][13u * l + a] = cLo[a];
@@ -277,16 +294,19 @@ void turns(bool start) {
             // A node of more than kTopSample items is binned from every stride-th: the bins only
             // choose the boundary, and the partition counts what it makes.
             const uint stride = (end - begin + kTopSample - 1u) / kTopSample;
-            for (uint i = begin; i < end; i += stride) {
-                const uint name = itemAt(fromB, i);
-                vec3 bl, bh;
-                boxOf(name, bl, bh);
-                const vec3 c = centroidOf(bl, bh);
-                for (uint a = 0u; a < 3u; ++a) {
-                    if (!usable[a] || binOf(c[a], cLo[a], scale[a]) != l) continue;
-                    binLo[a] = min(binLo[a], bl);
-                    binHi[a] = max(binHi[a], bh);
-                    ++binItems[a];
+            for (uint first = begin; first < end; first += kBatch * stride) {
+                uint names[kBatch];
+                vec3 bl[kBatch], bh[kBatch];
+                loadBatch(fromB, first, stride, end, names, bl, bh);
+                [[unroll]] for (uint k = 0u; k < kBatch; ++k) {
+                    if (names[k] == kNone) continue;
+                    const vec3 c = centroidOf(bl[k], bh[k]);
+                    for (uint a = 0u; a < 3u; ++a) {
+                        if (!usable[a] || binOf(c[a], cLo[a], scale[a]) != l) continue;
+                        binLo[a] = min(binLo[a], bl[k]);
+                        binHi[a] = max(binHi[a], bh[k]);
+                        ++binItems[a];
+                    }
                 }
             }
         }
@@ -351,8 +371,17 @@ void turns(bool start) {
         const uint runBegin = min(end, begin + l * run), runEnd = min(end, runBegin + run);
         uint lefts = 0u;
         if (chosen != kNone) {
-            for (uint i = runBegin; i < runEnd; ++i)
-                if (goesLeft(itemAt(fromB, i), exact, rank[axis], axis, boundary, cLo, scale)) ++lefts;
+            if (exact) {
+                if (runBegin < runEnd && rank[axis] <= boundary) ++lefts;
+            } else {
+                for (uint first = runBegin; first < runEnd; first += kBatch) {
+                    uint names[kBatch];
+                    vec3 bl[kBatch], bh[kBatch];
+                    loadBatch(fromB, first, 1u, runEnd, names, bl, bh);
+                    [[unroll]] for (uint k = 0u; k < kBatch; ++k)
+                        if (names[k] != kNone && goesLeft(bl[k], bh[k], axis, boundary, cLo, scale)) ++lefts;
+                }
+            }
         }
         laneLefts[gl_LocalInvocationIndex] = lefts;
         barrier();
@@ -370,11 +399,17 @@ void turns(bool start) {
         const uint toB = 1u - fromB;
         if (taking) {
             uint lefts = begin + leftBefore, rights = begin + leftCount + (runBegin - begin - leftBefore);
-            for (uint i = runBegin; i < runEnd; ++i) {
-                const uint name = itemAt(fromB, i);
-                const bool left = byPosition ? i - begin < leftCount
-                                             : goesLeft(name, exact, rank[axis], axis, boundary, cLo, scale);
-                putItem(toB, left ? lefts++ : rights++, name);
+            for (uint first = runBegin; first < runEnd; first += kBatch) {
+                uint names[kBatch];
+                vec3 bl[kBatch], bh[kBatch];
+                loadBatch(fromB, first, 1u, runEnd, names, bl, bh);
+                [[unroll]] for (uint k = 0u; k < kBatch; ++k) {
+                    if (names[k] == kNone) continue;
+                    const bool left = byPosition ? first + k - begin < leftCount
+                                      : exact    ? rank[axis] <= boundary
+                                                 : goesLeft(bl[k], bh[k], axis, boundary, cLo, scale);
+                    putItem(toB, left ? lefts++ : rights++, names[k]);
+                }
             }
         }
         memoryBarrierBuffer();
