@@ -75,9 +75,6 @@ void validateOptions(const BvhBuildOptions& options) {
     if (options.treeletGamma < kMinTreeletGamma)
         throw Error("BVH build: treeletGamma must be at least " + std::to_string(kMinTreeletGamma) + ", got " +
                     std::to_string(options.treeletGamma));
-    if (options.topRebuild != 0 && options.topRebuild < kMinTopRebuild)
-        throw Error("BVH build: topRebuild must be 0 (none) or at least " + std::to_string(kMinTopRebuild) + ", got " +
-                    std::to_string(options.topRebuild));
     if (options.builder == BvhBuilder::SahSplit) {
         if (!(options.splitAlpha >= 0.0f && options.splitAlpha <= 1.0f))
             throw Error("BVH build: splitAlpha must be in 0..1, got " + std::to_string(options.splitAlpha));

@@ -105,13 +105,13 @@ struct BvhBuildOptions {
     uint32_t treeletGamma = kTreeletLeaves;
     // GpuPloc and GpuHploc only: the top of the clustered tree, every node of at least topRebuild
     // triangles, rebuilt top down by the binned SAH over the subtrees below it (shaders/top.comp),
-    // before any treelet round; 0: not rebuilt, else at least kMinTopRebuild. Smaller rebuilds more
-    // of the tree, for a longer build (docs/bvh.md).
+    // before any treelet round. Smaller rebuilds more of the tree, for a longer build (docs/bvh.md).
+    // 0: the builder's own (topRebuildOf); kNoTopRebuild: none.
     uint32_t topRebuild = 0;
 };
 inline constexpr uint32_t kMaxPlocRadius = 64;
 inline constexpr uint32_t kMaxTreeletRounds = 8;
-inline constexpr uint32_t kMinTopRebuild = 2;
+inline constexpr uint32_t kNoTopRebuild = 1;
 // The builders' own radii, measured on the H200 (docs/bvh.md): gpu-ploc's within a few percent of
 // Meister and Bittner's best SAH. gpu-hploc's depends on the scene's size: from
 // kHplocLargeScene triangles 8, which builds 13-15% faster than 16 at 10M-13M triangles with the SAH
@@ -128,6 +128,19 @@ constexpr uint32_t plocRadiusOf(const BvhBuildOptions& options, size_t triangles
     if (options.plocRadius != 0) return options.plocRadius;
     if (options.builder != BvhBuilder::GpuHploc) return kPlocRadius;
     return triangles < kHplocLargeScene ? kHplocSmallSceneRadius : kHplocRadius;
+}
+// gpu-hploc's own top rebuild, measured on the H200 (docs/bvh.md): from kHplocLargeScene triangles
+// every node of kHplocTopRebuild triangles or more, which made the 13M-triangle dragon's tree trace
+// 0.96-0.98x as fast as sah-exact's (0.73x without) at an SAH cost 1.085x sah-exact's (1.112x), for
+// 2.6 ms more of a 20.5 ms build, still 1.05x the driver's BLAS build rate; none below, where the
+// architecture's trees traced no faster with it. gpu-ploc's: none.
+inline constexpr uint32_t kHplocTopRebuild = 8192;
+// The least triangles of a node a build with `options` of `triangles` triangles rebuilds at the top
+// (topRebuild, or the builder's own for 0); 0 for none.
+constexpr uint32_t topRebuildOf(const BvhBuildOptions& options, size_t triangles) {
+    if (options.topRebuild == kNoTopRebuild) return 0;
+    if (options.topRebuild != 0) return options.topRebuild;
+    return options.builder == BvhBuilder::GpuHploc && triangles >= kHplocLargeScene ? kHplocTopRebuild : 0;
 }
 
 // Table 1 of the report, plus what raypack adds.

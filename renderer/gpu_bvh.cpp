@@ -607,11 +607,12 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     // node it leaves finishes), then the treelet rounds over the clustered tree, each after listing
     // its parents.
     const uint32_t treeletGroups = climbGroups(gpu::kTreeletGroupSize);
-    const bool topRebuilt = clustered && options.topRebuild != 0 && n >= std::max(options.topRebuild, 2u);
+    const uint32_t topThreshold = clustered ? topRebuildOf(options, n) : 0;
+    const bool topRebuilt = topThreshold != 0 && n >= topThreshold && n >= 2;
     const auto restructure = [&](const Recorder& r) {
         if (topRebuilt) {
             gpu::LbvhParams p = base;
-            p.counts.z = options.topRebuild;
+            p.counts.z = topThreshold;
             r.dispatch(gpu::kLbvhPhaseTopStart, 1, p);
             r.indirect(gpu::kLbvhPhaseTopFinish, 0, p);
         }

@@ -254,8 +254,6 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
     if (o.treeletGamma < kMinTreeletGamma)
         badKey("bvh.treelet_gamma", "must be at least " + std::to_string(kMinTreeletGamma));
     readUint(j, "top_rebuild", "bvh.", o.topRebuild);
-    if (o.topRebuild != 0 && o.topRebuild < kMinTopRebuild)
-        badKey("bvh.top_rebuild", "must be 0 (none) or at least " + std::to_string(kMinTopRebuild));
     if (!(o.traversalCost >= 0.0f) || !(o.intersectionCost > 0.0f))
         badKey("bvh", "traversal_cost must be >= 0 and intersection_cost > 0");
     return o;

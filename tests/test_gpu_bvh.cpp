@@ -537,10 +537,19 @@ TEST(GpuTopRebuild, EveryThresholdBuildsAValidTreeTheSameOnEveryRun) {
             expectValidTree(scene, buildBvhOnDevice(validatedContext(), scene, options), 2);
         }
     }
-    BvhBuildOptions refused;
-    refused.builder = BvhBuilder::GpuHploc;
-    refused.topRebuild = kMinTopRebuild - 1;
-    EXPECT_THROW(buildBvhOnDevice(validatedContext(), scenes[0], refused), Error);
+    // 0: the builder's own, gpu-hploc's from kHplocLargeScene triangles only; 1: none.
+    BvhBuildOptions own;
+    own.builder = BvhBuilder::GpuHploc;
+    EXPECT_EQ(topRebuildOf(own, kHplocLargeScene), kHplocTopRebuild);
+    EXPECT_EQ(topRebuildOf(own, kHplocLargeScene - 1), 0u);
+    EXPECT_EQ(buildBvhOnDevice(validatedContext(), scenes[0], own).stats.topRebuildItems, 0u);
+    own.topRebuild = kNoTopRebuild;
+    EXPECT_EQ(topRebuildOf(own, kHplocLargeScene), 0u);
+    own.topRebuild = 5000;
+    EXPECT_EQ(topRebuildOf(own, 10), 5000u);
+    own.builder = BvhBuilder::GpuPloc;
+    own.topRebuild = 0;
+    EXPECT_EQ(topRebuildOf(own, kHplocLargeScene), 0u);
     test::expectNoValidationMessages();
 }
 

@@ -18,7 +18,7 @@ nlohmann::json table1Json(const SceneInfo& scene, const BvhStats& bvh, const Bvh
         {"ploc_radius", clustered ? nlohmann::json(plocRadiusOf(options, scene.triangles)) : nlohmann::json()},
         {"treelet_rounds", clustered ? nlohmann::json(options.treeletRounds) : nlohmann::json()},
         {"treelet_gamma", clustered ? nlohmann::json(options.treeletGamma) : nlohmann::json()},
-        {"top_rebuild", clustered ? nlohmann::json(options.topRebuild) : nlohmann::json()},
+        {"top_rebuild", clustered ? nlohmann::json(topRebuildOf(options, scene.triangles)) : nlohmann::json()},
         {"top_rebuild_items", clustered ? nlohmann::json(bvh.topRebuildItems) : nlohmann::json()},
         {"n_l_leaves", bvh.leafCount},
         {"d_avg_leaf_depth", bvh.avgLeafDepth},
@@ -62,7 +62,7 @@ void printTable1(std::FILE* out, const SceneInfo& scene, const BvhStats& bvh, co
                      double(bvh.buildScratchBytes) / 1e6);
     if (bvh.topRebuildItems > 0)
         std::fprintf(out, "           top rebuilt by the binned SAH over %u subtrees (nodes of %u or more triangles)\n",
-                     bvh.topRebuildItems, options.topRebuild);
+                     bvh.topRebuildItems, topRebuildOf(options, scene.triangles));
     std::fprintf(out, "           nodes %u, SAH cost %.3f, %.2f MB (%.1f bytes/triangle)\n", bvh.nodeCount, bvh.sahCost,
                  double(bvh.bytes) / 1e6, scene.triangles ? double(bvh.bytes) / double(scene.triangles) : 0.0);
     std::fprintf(out, "           triangle references %llu (%.3f per triangle; O_AVG counts references)\n",
