@@ -420,6 +420,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     setup.bvh.plocRadius = 7;
     setup.bvh.treeletRounds = 2;
     setup.bvh.treeletGamma = 40;
+    setup.bvh.topRebuild = 4096;
 
     // Through text, as a file would carry it.
     const RenderSetup back = renderSetupFromJson(nlohmann::json::parse(toJson(setup).dump()));
@@ -449,6 +450,7 @@ TEST(SettingsJson, RoundTripKeepsEveryValueExactly) {
     EXPECT_EQ(back.bvh.plocRadius, setup.bvh.plocRadius);
     EXPECT_EQ(back.bvh.treeletRounds, setup.bvh.treeletRounds);
     EXPECT_EQ(back.bvh.treeletGamma, setup.bvh.treeletGamma);
+    EXPECT_EQ(back.bvh.topRebuild, setup.bvh.topRebuild);
     EXPECT_EQ(back.bvh.traversalCost, setup.bvh.traversalCost);
     EXPECT_EQ(back.bvh.intersectionCost, setup.bvh.intersectionCost);
     EXPECT_EQ(back.bvh.binCount, setup.bvh.binCount);
