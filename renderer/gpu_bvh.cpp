@@ -608,7 +608,7 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     // its parents.
     const uint32_t treeletGroups = climbGroups(gpu::kTreeletGroupSize);
     const uint32_t topThreshold = clustered ? topRebuildOf(options, n) : 0;
-    const bool topRebuilt = topThreshold != 0 && n >= topThreshold && n >= 2;
+    const bool topRebuilt = topThreshold != 0 && n >= topThreshold;
     const auto restructure = [&](const Recorder& r) {
         if (topRebuilt) {
             gpu::LbvhParams p = base;

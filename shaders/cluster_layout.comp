@@ -83,15 +83,6 @@ void listParents() {
 
 // ---- Step 2: S and the collapse, bottom up.
 
-float sceneUnit() {
-    vec3 sceneLo, sceneHi;
-    for (uint a = 0u; a < 3u; ++a) {
-        sceneLo[a] = lbvhFromOrderedBits(state[kLbvhStateBoxLo + a]);
-        sceneHi[a] = lbvhFromOrderedBits(state[kLbvhStateBoxHi + a]);
-    }
-    return plocAreaUnit(sceneLo, sceneHi);
-}
-
 void childOf(uint name, float unit, out vec3 lo, out vec3 hi, out float cost) {
     const uint b = boxIndex(name);
     lo = boxes[2u * b].xyz;
@@ -135,7 +126,7 @@ bool groupAny(bool value) {
 }
 
 void climbCosts() {
-    const float unit = sceneUnit();
+    const float unit = sceneAreaUnit();
     const uint k = gl_GlobalInvocationID.x;
     bool climbing = k < n();
     uint node = n() - 1u + k;

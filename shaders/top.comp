@@ -452,15 +452,6 @@ void turns(bool start) {
     }
 }
 
-float sceneUnit() {
-    vec3 sceneLo, sceneHi;
-    for (uint a = 0u; a < 3u; ++a) {
-        sceneLo[a] = lbvhFromOrderedBits(state[kLbvhStateBoxLo + a]);
-        sceneHi[a] = lbvhFromOrderedBits(state[kLbvhStateBoxHi + a]);
-    }
-    return plocAreaUnit(sceneLo, sceneHi);
-}
-
 void startTop() {
     listTop();
     if (gl_LocalInvocationIndex == 0u) {
@@ -502,7 +493,7 @@ void finishTop() {
 }
 
 void main() {
-    unit = sceneUnit();
+    unit = sceneAreaUnit();
     if (kPhase == kLbvhPhaseTopStart)
         startTop();
     else

@@ -275,12 +275,7 @@ void updateCost(uint node, uvec4 record, float unit) {
 }
 
 void climb() {
-    vec3 sceneLo, sceneHi;
-    for (uint a = 0u; a < 3u; ++a) {
-        sceneLo[a] = lbvhFromOrderedBits(state[kLbvhStateBoxLo + a]);
-        sceneHi[a] = lbvhFromOrderedBits(state[kLbvhStateBoxHi + a]);
-    }
-    const float unit = plocAreaUnit(sceneLo, sceneHi);
+    const float unit = sceneAreaUnit();
     orderSubsetsBySize();
     const uint chunks = (n() + kTreeletGroupSize - 1u) / kTreeletGroupSize;
     for (uint chunk = gl_WorkGroupID.x; chunk < chunks; chunk += gl_NumWorkGroups.x) {
