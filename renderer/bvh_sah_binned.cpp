@@ -198,8 +198,7 @@ public:
     Bvh build(const Aabb& rootBox) {
         const uint32_t n = uint32_t(bounds_.size());
         // Not value-initialised: the pass below writes every reference (and first touches its page).
-        refs_ = std::make_unique_for_overwrite<Ref[]>(n);
-        adviseHugePages(refs_.get(), size_t(n) * sizeof(Ref));
+        refs_ = LargeArray<Ref>(n);
         const Box4 rootCentroids = tbb::parallel_reduce(
             tbb::blocked_range<uint32_t>(0, n, kCancelCheckInterval), Box4::empty(),
             [&](const tbb::blocked_range<uint32_t>& range, Box4 box) {
@@ -222,8 +221,7 @@ public:
         // thread builds which part. Leaves of more than one reference leave some of their
         // subtree's slots unused; compact() closes those gaps. Not value-initialised: only the
         // slots in use are written and read.
-        arena_ = std::make_unique_for_overwrite<BvhNode[]>(2 * size_t(n) - 1);
-        adviseHugePages(arena_.get(), (2 * size_t(n) - 1) * sizeof(BvhNode));
+        arena_ = LargeArray<BvhNode>(2 * size_t(n) - 1);
         pairUsed_ = makeLargeVector<uint8_t>(n);
         arena_[0].lo = rootBox.lo;
         arena_[0].hi = rootBox.hi;
@@ -812,9 +810,9 @@ private:
     std::span<const Aabb> bounds_;
     const BvhBuildOptions& options_;
     BuildProgress* progress_;
-    std::unique_ptr<Ref[]> refs_;       // one per primitive; a node owns a range of this
-    std::unique_ptr<BvhNode[]> arena_;  // 2n - 1 slots: the root, then n - 1 pairs (see build)
-    std::vector<uint8_t> pairUsed_;     // 1 for each pair of arena_ that holds two children
+    LargeArray<Ref> refs_;           // one per primitive; a node owns a range of this
+    LargeArray<BvhNode> arena_;      // 2n - 1 slots: the root, then n - 1 pairs (see build)
+    std::vector<uint8_t> pairUsed_;  // 1 for each pair of arena_ that holds two children
 };
 
 }  // namespace

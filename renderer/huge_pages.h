@@ -2,6 +2,10 @@
 // Transparent huge pages for large buffers, used by the BVH builders (renderer/bvh_build.h) and the
 // scene loaders (scenes/): one definition for both.
 #include <cstddef>
+#include <memory>
+#include <new>
+#include <type_traits>
+#include <utility>
 
 namespace raypack {
 
@@ -16,5 +20,52 @@ namespace raypack {
 // and adds a mapping (towards vm.max_map_count) for nothing. A range without such a block is left
 // alone. A hint only: nothing changes where it is not honoured.
 void adviseHugePages(const void* data, size_t bytes);
+
+// Storage of `bytes` bytes, aligned to 64, for buffers that are written once per build and dropped:
+// from 2 MiB on (Linux), a private anonymous mapping of whole 2 MiB blocks on a 2 MiB boundary,
+// advised to huge pages; below that, and elsewhere, operator new. Throws std::bad_alloc. A
+// build's scratch and output then cost the same first touches whatever the process allocated
+// before: with the C library's heap, whether a build reused pages already faulted in or mapped
+// fresh 4 KiB pages depended on what the process had freed earlier (on this 2-core VM
+// the same Sibenik build took 17 ms after loading Sponza and 36-39 ms after a small generated
+// scene, nearly all of the difference page faults; docs/bvh.md). Embree maps its build memory the
+// same way.
+void* allocateLarge(size_t bytes);
+// Returns storage from allocateLarge(bytes), with the same `bytes`.
+void freeLarge(void* data, size_t bytes) noexcept;
+
+// An array of `count` trivially copyable elements in allocateLarge's storage, not initialised.
+template <typename T>
+class LargeArray {
+    static_assert(std::is_trivially_copyable_v<T> && alignof(T) <= 64);
+
+public:
+    LargeArray() = default;
+    explicit LargeArray(size_t count) : data_(static_cast<T*>(allocateLarge(count * sizeof(T)))), count_(count) {}
+    LargeArray(LargeArray&& other) noexcept
+        : data_(std::exchange(other.data_, nullptr)), count_(std::exchange(other.count_, 0)) {}
+    LargeArray& operator=(LargeArray&& other) noexcept {
+        if (this != &other) {
+            release();
+            data_ = std::exchange(other.data_, nullptr);
+            count_ = std::exchange(other.count_, 0);
+        }
+        return *this;
+    }
+    ~LargeArray() { release(); }
+
+    T* get() const { return data_; }
+    T& operator[](size_t i) const { return data_[i]; }
+    size_t size() const { return count_; }
+
+private:
+    void release() {
+        if (data_) freeLarge(data_, count_ * sizeof(T));
+        data_ = nullptr;
+        count_ = 0;
+    }
+    T* data_ = nullptr;
+    size_t count_ = 0;
+};
 
 }  // namespace raypack

@@ -4,6 +4,7 @@
 #include "renderer/bvh.h"
 #include "renderer/bvh_build.h"
 #include "renderer/error.h"
+#include "renderer/huge_pages.h"
 #include "renderer/scene.h"
 #include "scenes/load.h"
 
@@ -517,6 +518,52 @@ TEST(BvhCancel, CancelledMidBuildStopsQuickly) {
             EXPECT_LT(latencyMs, 500.0);
         }
     }
+}
+
+// allocateLarge's storage (the builders' scratch): aligned, all of it writable, on both sides of the
+// 2 MiB bound where it becomes a mapping of its own; storage given back and taken again (a kept
+// mapping, possibly larger than asked for) holds what is written into it; LargeArray moves.
+TEST(LargeStorage, AlignedWritableAndReusable) {
+    const size_t twoMiB = size_t(2) << 20;
+    for (const size_t bytes : {size_t(1), size_t(4096), twoMiB - 1, twoMiB, twoMiB + 1, 3 * twoMiB + 12345}) {
+        SCOPED_TRACE(bytes);
+        for (int round = 0; round < 3; ++round) {  // the later rounds may reuse the first's storage
+            unsigned char* const data = static_cast<unsigned char*>(allocateLarge(bytes));
+            ASSERT_NE(data, nullptr);
+            EXPECT_EQ(reinterpret_cast<uintptr_t>(data) % 64, 0u);
+            for (size_t at = 0; at < bytes; at += 997) data[at] = static_cast<unsigned char>(at * 7 + round);
+            data[bytes - 1] = 0xA5;
+            for (size_t at = 0; at < bytes - 1; at += 997)
+                ASSERT_EQ(data[at], static_cast<unsigned char>(at * 7 + round)) << at;
+            EXPECT_EQ(data[bytes - 1], 0xA5);
+            freeLarge(data, bytes);
+        }
+    }
+    // A larger request after a smaller one was given back, and the other way round.
+    for (const size_t bytes : {5 * twoMiB, 9 * twoMiB, 4 * twoMiB + 1}) {
+        std::vector<uint64_t*> held;
+        for (int k = 0; k < 3; ++k) {
+            uint64_t* const data = static_cast<uint64_t*>(allocateLarge(bytes));
+            const size_t words = bytes / sizeof(uint64_t);
+            for (size_t i = 0; i < words; i += 511) data[i] = i ^ uint64_t(k);
+            for (size_t i = 0; i < words; i += 511) ASSERT_EQ(data[i], i ^ uint64_t(k));
+            held.push_back(data);
+        }
+        for (uint64_t* data : held) freeLarge(data, bytes);
+    }
+    freeLarge(nullptr, twoMiB);  // a no-op, as for operator delete
+
+    LargeArray<uint32_t> array(twoMiB);  // 8 MiB
+    for (size_t i = 0; i < array.size(); i += 4096) array[i] = uint32_t(i);
+    LargeArray<uint32_t> moved(std::move(array));
+    EXPECT_EQ(array.get(), nullptr);
+    EXPECT_EQ(array.size(), 0u);
+    ASSERT_EQ(moved.size(), twoMiB);
+    for (size_t i = 0; i < moved.size(); i += 4096) ASSERT_EQ(moved[i], uint32_t(i));
+    LargeArray<uint32_t> assigned(16);
+    assigned = std::move(moved);
+    EXPECT_EQ(assigned.size(), twoMiB);
+    EXPECT_EQ(assigned[4096], 4096u);
 }
 
 // The binned builder trades tree quality for speed; on a soup its SAH cost stays close to exact.
