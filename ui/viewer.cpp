@@ -420,6 +420,9 @@ void takeWorkerResults(Session& s) {
     s.info.recentFiles = s.config.recent.entries();
     s.sceneSpec = canonicalSpec(build->scenePath);
     s.info.scene = s.sceneSpec;
+    // The path field names the scene shown, however it was opened (typed, Browse..., Recent files,
+    // a dropped file, a script's `open`).
+    s.panel.openPath = build->scenePath;
     s.info.triangles = s.scene->triangleCount();
     s.info.loadSeconds = build->loadSeconds;
     const Aabb bounds = s.scene->bounds();
