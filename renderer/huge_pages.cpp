@@ -1,5 +1,6 @@
 #include "renderer/huge_pages.h"
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <mutex>
@@ -33,7 +34,14 @@ constexpr std::align_val_t kLargeAlignment{64};
 size_t mappedBytes(size_t bytes) { return (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1); }
 
 // Under AddressSanitizer the storage stays operator new's, which the sanitizer checks.
-#if defined(__linux__) && defined(MADV_HUGEPAGE) && !defined(__SANITIZE_ADDRESS__)
+#if defined(__SANITIZE_ADDRESS__)
+#define RAYPACK_ADDRESS_SANITIZER 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define RAYPACK_ADDRESS_SANITIZER 1
+#endif
+#endif
+#if defined(__linux__) && defined(MADV_HUGEPAGE) && !defined(RAYPACK_ADDRESS_SANITIZER)
 #define RAYPACK_LARGE_MAPPINGS 1
 #endif
 
@@ -51,8 +59,10 @@ struct Mapping {
 
 struct KeptMappings {
     std::mutex mutex;
-    std::vector<Mapping> mappings;  // oldest first
+    std::vector<Mapping> mappings;  // oldest first; never reallocated (keep() must not throw)
     size_t bytes = 0;
+
+    KeptMappings() { mappings.reserve(kKeptMappings + 1); }
 
     // A kept mapping of at least `bytes` and at most twice that, the smallest such, or null.
     void* take(size_t bytes) {
@@ -70,20 +80,21 @@ struct KeptMappings {
         if (mapping.bytes > bytes) munmap(static_cast<char*>(mapping.data) + bytes, mapping.bytes - bytes);
         return mapping.data;
     }
-    void keep(void* data, size_t bytes) {
+    void keep(void* data, size_t bytes) noexcept {
         madvise(data, bytes, MADV_FREE);
-        std::vector<Mapping> dropped;
+        std::array<Mapping, kKeptMappings + 1> dropped;
+        size_t droppedCount = 0;
         {
             std::lock_guard lock(mutex);
             mappings.push_back({data, bytes});
             this->bytes += bytes;
             while (mappings.size() > kKeptMappings || this->bytes > kKeptBytes) {
-                dropped.push_back(mappings.front());
+                dropped[droppedCount++] = mappings.front();
                 this->bytes -= mappings.front().bytes;
                 mappings.erase(mappings.begin());
             }
         }
-        for (const Mapping& mapping : dropped) munmap(mapping.data, mapping.bytes);
+        for (size_t i = 0; i < droppedCount; ++i) munmap(dropped[i].data, dropped[i].bytes);
     }
 };
 
