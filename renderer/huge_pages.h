@@ -23,13 +23,16 @@ void adviseHugePages(const void* data, size_t bytes);
 
 // Storage of `bytes` bytes, aligned to 64, for buffers that are written once per build and dropped:
 // from 2 MiB on (Linux), a private anonymous mapping of whole 2 MiB blocks on a 2 MiB boundary,
-// advised to huge pages; below that, and elsewhere, operator new. Throws std::bad_alloc. A
-// build's scratch and output then cost the same first touches whatever the process allocated
-// before: with the C library's heap, whether a build reused pages already faulted in or mapped
-// fresh 4 KiB pages depended on what the process had freed earlier (on this 2-core VM
-// the same Sibenik build took 17 ms after loading Sponza and 36-39 ms after a small generated
-// scene, nearly all of the difference page faults; docs/bvh.md). Embree maps its build memory the
-// same way.
+// advised to huge pages; below that, elsewhere and under AddressSanitizer, operator new. Throws
+// std::bad_alloc. freeLarge keeps up to 8 such mappings (4 GiB) for later requests of at least
+// half their size, their pages handed to the kernel with MADV_FREE: the kernel takes them when it
+// needs memory, and until then they count in the process's resident size and a reuse costs no
+// fault. A build then costs the same whatever the process allocated before, and a repeated build
+// reuses its predecessor's pages. With the C library's heap, whether a build reused pages already
+// faulted in or mapped fresh ones depended on what the process had freed earlier: on this 2-core
+// VM the same Sibenik build took 17.9 ms after loading Sponza and 33.3 ms after a small generated
+// scene, nearly all of the difference page faults (docs/bvh.md). Embree maps its build memory in
+// huge pages too.
 void* allocateLarge(size_t bytes);
 // Returns storage from allocateLarge(bytes), with the same `bytes`.
 void freeLarge(void* data, size_t bytes) noexcept;
