@@ -2,7 +2,8 @@
 // The canonical BVH: what the builders return and what the CPU reference traces. The GPU traces a
 // layout converted from it explicitly (renderer/gpu_layout.h).
 #include "renderer/aabb.h"
-#include "renderer/error.h"     // RAYPACK_CHECK_MSG
+#include "renderer/error.h"       // RAYPACK_CHECK_MSG
+#include "renderer/huge_pages.h"  // allocateLarge
 #include "renderer/progress.h"  // BuildProgress, BuildCancelled
 
 #include <atomic>
@@ -179,6 +180,11 @@ struct BvhStats {
 // tens of megabytes first is a serial pass over fresh memory.
 template <typename T>
 struct UninitializedAllocator : std::allocator<T> {
+    T* allocate(size_t count) {
+        if (count > SIZE_MAX / sizeof(T)) throw std::bad_array_new_length();
+        return static_cast<T*>(allocateLarge(count * sizeof(T)));
+    }
+    void deallocate(T* data, size_t count) noexcept { freeLarge(data, count * sizeof(T)); }
     template <typename U>
     struct rebind {
         using other = UninitializedAllocator<U>;

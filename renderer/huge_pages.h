@@ -21,7 +21,7 @@ namespace raypack {
 // alone. A hint only: nothing changes where it is not honoured.
 void adviseHugePages(const void* data, size_t bytes);
 
-// Storage of `bytes` bytes, aligned to 64, for buffers that are written once per build and dropped:
+// Storage of `bytes` bytes, aligned to 64, for a build's large buffers (its scratch, the node array):
 // from 2 MiB on (Linux), a private anonymous mapping of whole 2 MiB blocks on a 2 MiB boundary,
 // advised to huge pages; below that, elsewhere and under AddressSanitizer, operator new. Throws
 // std::bad_alloc. freeLarge keeps up to 8 such mappings (4 GiB) for later requests of at least
