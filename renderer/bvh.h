@@ -4,7 +4,7 @@
 #include "renderer/aabb.h"
 #include "renderer/error.h"       // RAYPACK_CHECK_MSG
 #include "renderer/huge_pages.h"  // allocateLarge
-#include "renderer/progress.h"  // BuildProgress, BuildCancelled
+#include "renderer/progress.h"    // BuildProgress, BuildCancelled
 
 #include <atomic>
 #include <cstdint>
