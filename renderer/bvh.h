@@ -202,12 +202,14 @@ struct UninitializedAllocator : std::allocator<T> {
     }
 };
 using BvhNodes = std::vector<BvhNode, UninitializedAllocator<BvhNode>>;
+// Bvh::primIndices: every builder writes every entry, in allocateLarge's storage too.
+using PrimIndices = std::vector<uint32_t, UninitializedAllocator<uint32_t>>;
 
 struct Bvh {
     BvhNodes nodes;
     // Leaf ranges index this; entries are triangle indices (file order). A partitioning builder
     // lists each triangle once; SahSplit may list one in several leaves (never twice in one leaf).
-    std::vector<uint32_t> primIndices;
+    PrimIndices primIndices;
     BvhBuildOptions options;
     BvhStats stats;
 };

@@ -231,7 +231,7 @@ public:
 
         Bvh bvh;
         bvh.nodes = compact();
-        bvh.primIndices = makeLargeVector<uint32_t>(n);
+        bvh.primIndices = makeLargeVector<uint32_t, UninitializedAllocator<uint32_t>>(n);
         tbb::parallel_for(tbb::blocked_range<uint32_t>(0, n, 16384), [&](const tbb::blocked_range<uint32_t>& range) {
             for (uint32_t i = range.begin(); i < range.end(); ++i) bvh.primIndices[i] = refs_[i].prim();
         });

@@ -41,11 +41,13 @@ uint32_t orderedKey(float value) {
 
 // Sorts 0..n-1 by key with an LSD radix sort (11, 11, 10 bits). Stable, and the indices start in
 // ascending order, so equal keys stay ordered by primitive index.
-std::vector<uint32_t> sortIndicesByKey(std::vector<uint32_t> keys, BuildProgress* progress) {
+// The values are a PrimIndices (Bvh::primIndices' type), so that the first axis' list becomes the
+// tree's leaf order without a copy.
+PrimIndices sortIndicesByKey(std::vector<uint32_t> keys, BuildProgress* progress) {
     const size_t n = keys.size();
-    std::vector<uint32_t> values = makeLargeVector<uint32_t>(n);
+    PrimIndices values = makeLargeVector<uint32_t, UninitializedAllocator<uint32_t>>(n);
     std::vector<uint32_t> spareKeys = makeLargeVector<uint32_t>(n);
-    std::vector<uint32_t> spareValues = makeLargeVector<uint32_t>(n);
+    PrimIndices spareValues = makeLargeVector<uint32_t, UninitializedAllocator<uint32_t>>(n);
     std::iota(values.begin(), values.end(), 0u);
     constexpr int kDigitBits[3] = {11, 11, 10};
     int shift = 0;
@@ -291,7 +293,7 @@ private:
     const BvhBuildOptions& options_;
     BuildProgress* progress_;
     // Per axis, the primitive indices ordered by centroid; a node owns the same range of all three.
-    std::array<std::vector<uint32_t>, 3> lists_;
+    std::array<PrimIndices, 3> lists_;
     // Sweep scratch: subtrees own disjoint ranges, so concurrent tasks never share an element.
     std::array<std::vector<double>, 3> leftMeasures_;
     std::array<std::vector<uint32_t>, 2> spill_;

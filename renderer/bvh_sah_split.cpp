@@ -782,7 +782,7 @@ private:
 
         Bvh bvh;
         bvh.nodes = makeNodeArray(next);
-        bvh.primIndices = makeLargeVector<uint32_t>(size_t(prims));
+        bvh.primIndices = makeLargeVector<uint32_t, UninitializedAllocator<uint32_t>>(size_t(prims));
         tbb::parallel_for(size_t(0), placements.size(), [&](size_t p) {
             const Placement& placement = placements[p];
             const std::vector<BvhNode>& local = placement.fragment->nodes;

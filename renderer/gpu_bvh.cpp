@@ -813,7 +813,7 @@ Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, std::vector<uint32_t> o
         return u;
     };
     Bvh bvh;
-    bvh.primIndices = std::move(order);
+    bvh.primIndices.assign(order.begin(), order.end());
     bvh.nodes.resize(1);
     struct Pending {
         uint32_t slot;  // in `nodes`

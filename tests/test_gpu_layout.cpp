@@ -77,7 +77,7 @@ void expectLayoutOfTree(const std::string& spec, const BvhBuildOptions& options)
     EXPECT_EQ(next, layout.triangles.size());
     // Leaf order is a permutation of the tree's primitive indices (its references: sah-split lists
     // a triangle once per leaf it overlaps, the partitioning builders each triangle once).
-    std::vector<uint32_t> leafOrder = layout.leafToFile, canonical = bvh.primIndices;
+    std::vector<uint32_t> leafOrder = layout.leafToFile, canonical(bvh.primIndices.begin(), bvh.primIndices.end());
     std::sort(leafOrder.begin(), leafOrder.end());
     std::sort(canonical.begin(), canonical.end());
     EXPECT_EQ(leafOrder, canonical);

@@ -118,7 +118,7 @@ void expectValidWideTree(const Scene& scene, const BvhBuildOptions& o, const std
     const Bvh bvh = buildBvh(scene, o);
     const GpuWideTree tree = makeGpuWideTree(scene, bvh);
     // The order is a permutation of the tree's references.
-    std::vector<uint32_t> a = tree.order, b = bvh.primIndices;
+    std::vector<uint32_t> a = tree.order, b(bvh.primIndices.begin(), bvh.primIndices.end());
     std::sort(a.begin(), a.end());
     std::sort(b.begin(), b.end());
     EXPECT_EQ(a, b);
