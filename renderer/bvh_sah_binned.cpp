@@ -198,7 +198,7 @@ public:
     Bvh build(const Aabb& rootBox) {
         const uint32_t n = uint32_t(bounds_.size());
         // Not value-initialised: the pass below writes every reference (and first touches its page).
-        refs_ = LargeArray<Ref>(n);
+        refs_ = makeLargeVector<Ref, UninitializedAllocator<Ref>>(n);
         const Box4 rootCentroids = tbb::parallel_reduce(
             tbb::blocked_range<uint32_t>(0, n, kCancelCheckInterval), Box4::empty(),
             [&](const tbb::blocked_range<uint32_t>& range, Box4 box) {
@@ -221,7 +221,7 @@ public:
         // thread builds which part. Leaves of more than one reference leave some of their
         // subtree's slots unused; compact() closes those gaps. Not value-initialised: only the
         // slots in use are written and read.
-        arena_ = LargeArray<BvhNode>(2 * size_t(n) - 1);
+        arena_ = makeNodeArray(2 * size_t(n) - 1);
         pairUsed_ = makeLargeVector<uint8_t>(n);
         arena_[0].lo = rootBox.lo;
         arena_[0].hi = rootBox.hi;
@@ -381,7 +381,7 @@ private:
     // it beats the leaf; ties go to the partition whose mask is lower.
     void buildSmall(uint32_t slot, uint32_t pairBase, uint32_t begin, uint32_t end, uint64_t& placedSinceReport) {
         const uint32_t count = end - begin;
-        Ref* const refs = refs_.get() + begin;
+        Ref* const refs = refs_.data() + begin;
         const Aabb parent{arena_[slot].lo, arena_[slot].hi};
         uint32_t leftMask = 0;
         Box4 boxes[1u << kSmallNodeMaxPrimitives];  // of each subset of the references, by mask
@@ -436,7 +436,7 @@ private:
         const Vec4 extent = work.centroidBox.hi - work.centroidBox.lo;
         const int axis = extent[0] >= extent[1] && extent[0] >= extent[2] ? 0 : extent[1] >= extent[2] ? 1 : 2;
         const uint32_t mid = work.begin + (work.end - work.begin) / 2;
-        Ref* const refs = refs_.get();
+        Ref* const refs = refs_.data();
         // Positions are ordered, then the references gathered (sorting 32-byte-aligned values
         // would pass them by value through the standard library's heap functions).
         std::vector<uint32_t> order(work.end - work.begin);
@@ -713,7 +713,7 @@ private:
         const uint64_t misplaced = wrongRights.offsets.back();
         RAYPACK_CHECK(misplaced == wrongLefts.offsets.back());
         const uint64_t pieceCount = (misplaced + kPartitionChunk - 1) / kPartitionChunk;
-        Ref* const refs = refs_.get();
+        Ref* const refs = refs_.data();
         tbb::parallel_for(uint64_t(0), pieceCount, [&](uint64_t piece) {
             const uint64_t to = std::min(misplaced, (piece + 1) * kPartitionChunk);
             for (uint64_t k = piece * kPartitionChunk; k < to;) {
@@ -762,7 +762,7 @@ private:
             return partitionInPlaceBy(goesLeftOf, begin, end, leftCentroids, rightCentroids);
         thread_local const std::unique_ptr<Ref[]> buffer =
             std::make_unique_for_overwrite<Ref[]>(kBranchlessPartitionMax);
-        Ref* const refs = refs_.get() + begin;
+        Ref* const refs = refs_.data() + begin;
         uint32_t left = 0, right = count;  // buffer[0, left) go left, buffer[right, count) go right
         for (uint32_t i = 0; i < count; ++i) {
             const uint32_t goesLeft = goesLeftOf(refs[i], refs[i].centroid());
@@ -783,8 +783,8 @@ private:
     template <typename Side>
     uint32_t partitionInPlaceBy(const Side& goesLeftOf, uint32_t begin, uint32_t end, Box4& leftCentroids,
                                 Box4& rightCentroids) {
-        Ref* left = refs_.get() + begin;
-        Ref* right = refs_.get() + end;
+        Ref* left = refs_.data() + begin;
+        Ref* right = refs_.data() + end;
         for (;;) {
             for (; left < right; ++left) {
                 const Vec4 centroid = left->centroid();
@@ -804,15 +804,15 @@ private:
             ++left;
             --right;
         }
-        return uint32_t(left - refs_.get());
+        return uint32_t(left - refs_.data());
     }
 
     std::span<const Aabb> bounds_;
     const BvhBuildOptions& options_;
     BuildProgress* progress_;
-    LargeArray<Ref> refs_;           // one per primitive; a node owns a range of this
-    LargeArray<BvhNode> arena_;      // 2n - 1 slots: the root, then n - 1 pairs (see build)
-    std::vector<uint8_t> pairUsed_;  // 1 for each pair of arena_ that holds two children
+    std::vector<Ref, UninitializedAllocator<Ref>> refs_;  // one per primitive; a node owns a range of this
+    BvhNodes arena_;                                      // 2n - 1 slots: the root, then n - 1 pairs (see build)
+    std::vector<uint8_t> pairUsed_;                       // 1 for each pair of arena_ that holds two children
 };
 
 }  // namespace

@@ -805,7 +805,7 @@ vk::Buffer GpuBvhBuilder::takeOrder() {
     return std::exchange(s.order, vk::Buffer{});
 }
 
-Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, std::vector<uint32_t> order) {
+Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, PrimIndices order) {
     RAYPACK_CHECK_MSG(!nodes.empty(), "a device build has a root");
     const auto bits = [](float f) {
         uint32_t u;
@@ -813,7 +813,7 @@ Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, std::vector<uint32_t> o
         return u;
     };
     Bvh bvh;
-    bvh.primIndices.assign(order.begin(), order.end());
+    bvh.primIndices = std::move(order);
     bvh.nodes.resize(1);
     struct Pending {
         uint32_t slot;  // in `nodes`
@@ -927,7 +927,7 @@ Bvh downloadGpuTree(const GpuTree& tree) {
         }
     });
     const auto* bytes = static_cast<const unsigned char*>(back.buffer.mapped);
-    std::vector<uint32_t> order(n);
+    PrimIndices order(n);  // not zeroed first: the copy writes every entry
     if (n > 0) std::memcpy(order.data(), bytes + nodeBytes, orderBytes);
     Bvh bvh = bvhFromGpuNodes({reinterpret_cast<const gpu::GpuNode*>(bytes), sizes.nodes}, std::move(order));
     bvh.options = tree.options;

@@ -142,7 +142,7 @@ Bvh downloadGpuTree(const GpuTree& tree);
 // The canonical tree of a device build, from its node slots and its order: nodes renumbered depth
 // first from the root (children after their parents, the unused slots dropped), leaves indexing
 // `order` as Bvh::primIndices. Statistics are left for the caller.
-Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, std::vector<uint32_t> order);
+Bvh bvhFromGpuNodes(std::span<const gpu::GpuNode> nodes, PrimIndices order);
 
 // Builds on `context`'s device and downloads the canonical tree (for the CPU tracers and tools).
 // Its stats are computeBvhStats of the downloaded tree, buildSeconds the device build's wall time.

@@ -2,10 +2,6 @@
 // Transparent huge pages for large buffers, used by the BVH builders (renderer/bvh_build.h) and the
 // scene loaders (scenes/): one definition for both.
 #include <cstddef>
-#include <memory>
-#include <new>
-#include <type_traits>
-#include <utility>
 
 namespace raypack {
 
@@ -34,41 +30,8 @@ void adviseHugePages(const void* data, size_t bytes);
 // scene, nearly all of the difference page faults (docs/bvh.md). Embree maps its build memory in
 // huge pages too.
 void* allocateLarge(size_t bytes);
-// Returns storage from allocateLarge(bytes), with the same `bytes`.
+// Returns storage from allocateLarge(bytes), with the same `bytes`. Containers use both through
+// UninitializedAllocator (renderer/bvh.h).
 void freeLarge(void* data, size_t bytes) noexcept;
-
-// An array of `count` trivially copyable elements in allocateLarge's storage, not initialised.
-template <typename T>
-class LargeArray {
-    static_assert(std::is_trivially_copyable_v<T> && alignof(T) <= 64);
-
-public:
-    LargeArray() = default;
-    explicit LargeArray(size_t count) : data_(static_cast<T*>(allocateLarge(count * sizeof(T)))), count_(count) {}
-    LargeArray(LargeArray&& other) noexcept
-        : data_(std::exchange(other.data_, nullptr)), count_(std::exchange(other.count_, 0)) {}
-    LargeArray& operator=(LargeArray&& other) noexcept {
-        if (this != &other) {
-            release();
-            data_ = std::exchange(other.data_, nullptr);
-            count_ = std::exchange(other.count_, 0);
-        }
-        return *this;
-    }
-    ~LargeArray() { release(); }
-
-    T* get() const { return data_; }
-    T& operator[](size_t i) const { return data_[i]; }
-    size_t size() const { return count_; }
-
-private:
-    void release() {
-        if (data_) freeLarge(data_, count_ * sizeof(T));
-        data_ = nullptr;
-        count_ = 0;
-    }
-    T* data_ = nullptr;
-    size_t count_ = 0;
-};
 
 }  // namespace raypack

@@ -522,7 +522,7 @@ TEST(BvhCancel, CancelledMidBuildStopsQuickly) {
 
 // allocateLarge's storage (the builders' scratch): aligned, all of it writable, on both sides of the
 // 2 MiB bound where it becomes a mapping of its own; storage given back and taken again (a kept
-// mapping, possibly larger than asked for) holds what is written into it; LargeArray moves.
+// mapping, possibly larger than asked for) holds what is written into it; a container over it moves.
 TEST(LargeStorage, AlignedWritableAndReusable) {
     const size_t twoMiB = size_t(2) << 20;
     for (const size_t bytes : {size_t(1), size_t(4096), twoMiB - 1, twoMiB, twoMiB + 1, 3 * twoMiB + 12345}) {
@@ -553,14 +553,15 @@ TEST(LargeStorage, AlignedWritableAndReusable) {
     }
     freeLarge(nullptr, twoMiB);  // a no-op, as for operator delete
 
-    LargeArray<uint32_t> array(twoMiB);  // 8 MiB
+    // The containers over it (UninitializedAllocator: BvhNodes, PrimIndices, the builders' scratch).
+    PrimIndices array(twoMiB);  // 8 MiB
     for (size_t i = 0; i < array.size(); i += 4096) array[i] = uint32_t(i);
-    LargeArray<uint32_t> moved(std::move(array));
-    EXPECT_EQ(array.get(), nullptr);
+    PrimIndices moved(std::move(array));
+    EXPECT_EQ(array.data(), nullptr);
     EXPECT_EQ(array.size(), 0u);
     ASSERT_EQ(moved.size(), twoMiB);
     for (size_t i = 0; i < moved.size(); i += 4096) ASSERT_EQ(moved[i], uint32_t(i));
-    LargeArray<uint32_t> assigned(16);
+    PrimIndices assigned(16);
     assigned = std::move(moved);
     EXPECT_EQ(assigned.size(), twoMiB);
     EXPECT_EQ(assigned[4096], 4096u);
