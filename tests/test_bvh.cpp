@@ -583,7 +583,7 @@ TEST(BvhSharedScenes, BinnedSahWithinTwoPercentOfExactOnConference) {
     const std::filesystem::path path = std::filesystem::path(RAYPACK_SHARED_SCENES) / "conference/conference_geom.ply";
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
     const Scene scene = loadScene(path);
-    const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
+    const PrimitiveBounds bounds = trianglePrimitiveBounds(scene);
     const Bvh exact = buildBvh(bounds, optionsFor(BvhBuilder::SahExact));
     const Bvh binned = buildBvh(bounds, optionsFor(BvhBuilder::SahBinned));
     expectValidTree(binned, bounds);
@@ -601,7 +601,7 @@ TEST(BvhSharedScenes, InvariantsOnRealScenes) {
         if (!std::filesystem::exists(path)) continue;
         SCOPED_TRACE(file);
         const Scene scene = loadScene(path);
-        const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
+        const PrimitiveBounds bounds = trianglePrimitiveBounds(scene);
         double exactCost = 0.0;
         for (BvhBuilder builder : kPartitioningBvhBuilders) {
             SCOPED_TRACE(toString(builder));

@@ -460,7 +460,7 @@ TEST(BvhSplit, SameTreeOnOneAndTwoThreads) {
 // primitive box.
 TEST(BvhSplit, BoxesOnlyChopsBoxes) {
     const Scene scene = randomSoup(3000, 8);
-    const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
+    const PrimitiveBounds bounds = trianglePrimitiveBounds(scene);
     const Bvh bvh = buildBvh(bounds, splitOptions(1, 0.0f));
     expectValidSplitTree(bvh, scene, splitOptions(1, 0.0f));
     expectStatsRecomputed(bvh, scene.triangleCount());
@@ -540,7 +540,7 @@ TEST(BvhSplit, BadOptionsThrow) {
             EXPECT_NE(std::string(error.what()).find("splitBudget"), std::string::npos) << error.what();
         }
     }
-    const std::vector<Aabb> bounds = trianglePrimitiveBounds(scene);
+    const PrimitiveBounds bounds = trianglePrimitiveBounds(scene);
     const BvhTriangles wrong{scene.positions, std::span(scene.triangles).first(50)};
     EXPECT_THROW(buildBvh(bounds, splitOptions(), nullptr, &wrong), Error);
 }
