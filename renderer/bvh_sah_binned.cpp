@@ -145,35 +145,57 @@ struct Binning {
     }
 };
 
-// The bins of all three axes of one node: a box and a count per bin. No default member
+// One bin of one axis: the box of the references that fell into it and, as integer bits in lane
+// 3 of `hi`, their count. A reference's `hi` holds 0 there, so the max keeps the count and an
+// integer add increments it: one vector add instead of a load, add and store of a count in memory
+// for every reference and axis (on one thread of a Xeon, 2026-12-06, Conference built 1.21x
+// faster with this alone, the 1M terrain 1.18x; docs/bvh.md).
+struct Bin {
+    Vec4 lo, hi;
+
+    static Bin empty() { return {Vec4{} + FLT_MAX, Vec4{-FLT_MAX, -FLT_MAX, -FLT_MAX, 0.0f}}; }
+    void add(const Ref& ref) {
+        lo = min4(lo, ref.lo);
+        hi = (Vec4)((Int4)max4(hi, ref.hi) + Int4{0, 0, 0, 1});
+    }
+    // Exact (integer sums, min/max), so any order of merging gives the same bins.
+    void merge(const Bin& other) {
+        const Int4 counts = (Int4)hi + (Int4)other.hi;
+        lo = min4(lo, other.lo);
+        hi = max4(hi, other.hi);
+        hi[3] = std::bit_cast<float>(counts[3]);
+    }
+    uint32_t count() const { return std::bit_cast<uint32_t>(hi[3]); }
+    Box4 box() const { return {lo, hi}; }  // lane 3 of a Box4 is never read
+};
+
+// The bins of all three axes of one node, by bin and then axis, so that the bins in use lie
+// together at the front: up to 32 bins (the default) take 3 KiB. Laid out by axis, with room for
+// kMaxBins, the three axes' bins of one index were 8 KiB apart, and on Intel cores a load whose
+// address matches an earlier store's in its low 12 bits waits for that store (4K aliasing); by bin
+// the 1M terrain built another 1.09x faster there. The rows from binCount on hold the odd
+// references' bins while fillBins fills two sets (no constructor clears them). No default member
 // initialisers, so a node's bins live on the stack and only the ones in use are cleared.
 struct BinGrid {
     uint32_t binCount;
-    Box4 boxes[3][kMaxBins];
-    uint32_t counts[3][kMaxBins];
+    Bin bins[2 * kMaxBins][3];
 
-    explicit BinGrid(uint32_t count) : binCount(count) {
-        for (int axis = 0; axis < 3; ++axis)
-            for (uint32_t b = 0; b < count; ++b) {
-                boxes[axis][b] = Box4::empty();
-                counts[axis][b] = 0;
-            }
+    explicit BinGrid(uint32_t count) : binCount(count) { clearRows(0, count); }
+    void clearRows(uint32_t from, uint32_t to) {
+        for (uint32_t b = from; b < to; ++b)
+            for (int axis = 0; axis < 3; ++axis) bins[b][axis] = Bin::empty();
     }
-    void add(const Binning& binning, const Ref& ref) {
-        const Int4 bins = binning.binsOf(ref.centroid());
-        for (int axis = 0; axis < 3; ++axis) {
-            boxes[axis][bins[axis]].grow(ref);
-            ++counts[axis][bins[axis]];
-        }
+    // Into the bins from row `base` on (0, or binCount for the odd references' set).
+    void add(const Binning& binning, const Ref& ref, uint32_t base = 0) {
+        const Int4 index = binning.binsOf(ref.centroid());
+        for (int axis = 0; axis < 3; ++axis) bins[base + uint32_t(index[axis])][axis].add(ref);
     }
-    // Exact (integer sums, min/max), so any order of merging gives the same bins.
-    void merge(const BinGrid& other) {
-        for (int axis = 0; axis < 3; ++axis)
-            for (uint32_t b = 0; b < binCount; ++b) {
-                boxes[axis][b].grow(other.boxes[axis][b]);
-                counts[axis][b] += other.counts[axis][b];
-            }
+    void mergeRows(const Bin (*rows)[3]) {
+        for (uint32_t b = 0; b < binCount; ++b)
+            for (int axis = 0; axis < 3; ++axis) bins[b][axis].merge(rows[b][axis]);
     }
+    void merge(const BinGrid& other) { mergeRows(other.bins); }
+    const Bin& bin(int axis, uint32_t b) const { return bins[b][axis]; }
 };
 
 struct Split {
@@ -487,12 +509,14 @@ private:
         return binning;
     }
 
-    // Ranges of at least kTwoGridMinPrimitives fill two grids, the even and the odd references, and
-    // merge them: neighbouring references (neighbours in the mesh) often fall into the same bins,
-    // and with one grid each update would wait for the previous one's store.
+    // Ranges of at least kTwoGridMinPrimitives fill two sets of bins, the even and the odd
+    // references (the odd ones in the grid's rows after binCount), and merge them: neighbouring
+    // references (neighbours in the mesh) often fall into the same bins, and with one set each
+    // update would wait for the previous one's store.
     void fillBins(const Binning& binning, uint32_t begin, uint32_t end, BinGrid& grid) const {
         const bool twoGrids = end - begin >= kTwoGridMinPrimitives;
-        BinGrid odd(twoGrids ? binning.binCount : 0);
+        const uint32_t odd = grid.binCount;
+        if (twoGrids) grid.clearRows(odd, 2 * odd);
         for (uint32_t chunk = begin; chunk < end; chunk += kCancelCheckInterval) {
             throwIfCancelled(progress_);
             const uint32_t chunkEnd = std::min(end, chunk + kCancelCheckInterval);
@@ -500,11 +524,11 @@ private:
             if (twoGrids)
                 for (; i + 1 < chunkEnd; i += 2) {
                     grid.add(binning, refs_[i]);
-                    odd.add(binning, refs_[i + 1]);
+                    grid.add(binning, refs_[i + 1], odd);
                 }
             for (; i < chunkEnd; ++i) grid.add(binning, refs_[i]);
         }
-        if (twoGrids) grid.merge(odd);
+        if (twoGrids) grid.mergeRows(grid.bins + odd);
     }
 
     // Parallel filling of a large node's bins (tbb::parallel_reduce's splitting body).
@@ -562,7 +586,7 @@ private:
         const int axis = best.axis;
         const int32_t b0 = int32_t(best.lastLeftBin), b1 = b0 + 1;
         const uint32_t total = work.end - work.begin;
-        if (size_t(grid.counts[axis][b0] + grid.counts[axis][b1]) * kRefineMaxShare > total) return;
+        if (size_t(grid.bin(axis, b0).count() + grid.bin(axis, b1).count()) * kRefineMaxShare > total) return;
         struct Near {
             float c;
             uint32_t prim, index;
@@ -574,10 +598,10 @@ private:
         uint32_t leftBase = 0;
         for (int32_t b = 0; b < int32_t(binning.binCount); ++b) {
             if (b < b0) {
-                left.grow(grid.boxes[axis][b]);
-                leftBase += grid.counts[axis][b];
+                left.grow(grid.bin(axis, b).box());
+                leftBase += grid.bin(axis, b).count();
             }
-            if (b > b1) right.grow(grid.boxes[axis][b]);
+            if (b > b1) right.grow(grid.bin(axis, b).box());
         }
         for (uint32_t i = work.begin; i < work.end; ++i) {
             const Vec4 centroid = refs_[i].centroid();
@@ -621,13 +645,11 @@ private:
         Box4 rightBoxes[kMaxBins];
         for (int axis = 0; axis < 3; ++axis) {
             if (!binning.active[axis]) continue;
-            const Box4* boxes = grid.boxes[axis];
-            const uint32_t* counts = grid.counts[axis];
             Box4 right = Box4::empty();
             uint32_t rightTotal = 0;
             for (uint32_t b = binCount - 1; b >= 1; --b) {
-                right.grow(boxes[b]);
-                rightTotal += counts[b];
+                right.grow(grid.bin(axis, b).box());
+                rightTotal += grid.bin(axis, b).count();
                 rightBoxes[b] = right;
                 rightCount[b] = rightTotal;
                 rightMeasure[b] = rightTotal ? measureOf(right) : 0.0;
@@ -635,8 +657,8 @@ private:
             Box4 left = Box4::empty();
             uint32_t leftCount = 0;
             for (uint32_t b = 1; b < binCount; ++b) {  // split between bins b - 1 and b
-                left.grow(boxes[b - 1]);
-                leftCount += counts[b - 1];
+                left.grow(grid.bin(axis, b - 1).box());
+                leftCount += grid.bin(axis, b - 1).count();
                 if (leftCount == 0 || rightCount[b] == 0) continue;
                 const double weighted = measureOf(left) * double(leftCount) + rightMeasure[b] * double(rightCount[b]);
                 if (weighted < best.weightedMeasures) {
