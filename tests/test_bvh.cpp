@@ -22,6 +22,10 @@
 #include <random>
 #include <thread>
 
+#if defined(__x86_64__)
+#include <xmmintrin.h>
+#endif
+
 using namespace raypack;
 using bvh_detail::centroidOf;
 using bvh_detail::SahMeasure;
@@ -574,6 +578,31 @@ TEST(BvhBinned, SahCostCloseToExact) {
     const Bvh binned = buildBvh(bounds, optionsFor(BvhBuilder::SahBinned));
     EXPECT_GE(binned.stats.sahCost, exact.stats.sahCost * 0.95);
     EXPECT_LE(binned.stats.sahCost, exact.stats.sahCost * 1.15);
+}
+
+// sah-binned keeps its bins' counts in a float lane (bvh_sah_binned.cpp, Bin). A thread whose
+// MXCSR flushes denormals to zero, as an application or a library (Embree's documentation asks for
+// it) may set, builds the same tree.
+TEST(BvhBinned, SameTreeWhenDenormalsAreZero) {
+#if defined(__x86_64__)
+    const std::vector<Aabb> bounds = randomSoup(20000, 31);
+    const BvhBuildOptions options = optionsFor(BvhBuilder::SahBinned);
+    const Bvh reference = buildOnThreads(1, bounds, options);
+    const unsigned int saved = _mm_getcsr();
+    _mm_setcsr(saved | 0x8040u);  // flush to zero (bit 15), denormals are zero (bit 6)
+    Bvh flushed;
+    try {
+        flushed = buildOnThreads(1, bounds, options);  // one thread: the calling one, with these settings
+    } catch (...) {
+        _mm_setcsr(saved);
+        throw;
+    }
+    _mm_setcsr(saved);
+    EXPECT_TRUE(identical(reference, flushed));
+    expectValidTree(flushed, bounds);
+#else
+    GTEST_SKIP() << "MXCSR is x86-64's";
+#endif
 }
 
 // Conference's floor and ceiling (four triangles spanning the room) share their centroid bins with
