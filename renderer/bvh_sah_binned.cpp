@@ -146,24 +146,26 @@ struct Binning {
     }
 };
 
-// One bin of one axis: the box of the references that fell into it and their count. The count
-// lives in lane 3 of `hi` as integer bits above those of FLT_MIN, so that the lane always holds a
-// normal positive float: a reference's `hi` has 0 there, so the max keeps the count (MAXPS returns
-// an operand's bits; a denormal would read as 0 where a thread runs with denormals-are-zero, which
-// an application or a library may set), and an integer add increments it. That is one vector add
-// instead of a load, add and store of a count in memory for every reference and axis (on one
-// thread of a Xeon, 2026-12-06, Conference built 1.21x faster with this alone, the 1M terrain
-// 1.18x; docs/bvh.md). The counts stay at most FLT_MAX's bits (kMaxBinnedPrimitives).
+// One bin of one axis: the box of the references that fell into it and their count. The count lives
+// in lane 3 of `hi`, which no user of a Box4 reads, as integer bits above those of FLT_MIN, so that
+// the lane always holds a normal positive float: a reference's `hi` has 0 there, so the max keeps
+// the count (MAXPS returns an operand's bits; a denormal would read as 0 where a thread runs with
+// denormals-are-zero, which an application or a library may set), and an integer add increments it.
+// That is one vector add instead of a load, add and store of a count in memory for every reference
+// and axis (on one thread of a Xeon, 2026-12-06, Conference built 1.21x faster with this alone, the
+// 1M terrain 1.18x; docs/bvh.md). The counts stay at most FLT_MAX's bits (kMaxBinnedPrimitives).
 constexpr uint32_t kCountZero = std::bit_cast<uint32_t>(FLT_MIN);
 constexpr size_t kMaxBinnedPrimitives = std::bit_cast<uint32_t>(FLT_MAX) - kCountZero;  // below INT32_MAX
 static_assert(kMaxBinnedPrimitives < size_t(INT32_MAX));
 
-struct Bin {
-    Vec4 lo, hi;
-
+struct Bin : Box4 {
     static Bin empty() {
-        return {Vec4{} + FLT_MAX, Vec4{-FLT_MAX, -FLT_MAX, -FLT_MAX, std::bit_cast<float>(kCountZero)}};
+        Bin bin{Box4::empty()};
+        bin.hi[3] = std::bit_cast<float>(kCountZero);
+        return bin;
     }
+    // add and merge are written out rather than through grow(): with grow(), GCC 12 compiled a loop
+    // that made the tree phase 1.5-3.5% slower here (2026-12-06).
     void add(const Ref& ref) {
         lo = min4(lo, ref.lo);
         hi = (Vec4)((UInt4)max4(hi, ref.hi) + UInt4{0, 0, 0, 1});
@@ -176,7 +178,6 @@ struct Bin {
         hi[3] = std::bit_cast<float>(counted);
     }
     uint32_t count() const { return std::bit_cast<uint32_t>(hi[3]) - kCountZero; }
-    Box4 box() const { return {lo, hi}; }  // lane 3 of a Box4 is never read
 };
 
 // The bins of all three axes of one node, by bin and then axis, so that the bins in use lie
@@ -608,10 +609,10 @@ private:
         uint32_t leftBase = 0;
         for (int32_t b = 0; b < int32_t(binning.binCount); ++b) {
             if (b < b0) {
-                left.grow(grid.bin(axis, b).box());
+                left.grow(grid.bin(axis, b));
                 leftBase += grid.bin(axis, b).count();
             }
-            if (b > b1) right.grow(grid.bin(axis, b).box());
+            if (b > b1) right.grow(grid.bin(axis, b));
         }
         for (uint32_t i = work.begin; i < work.end; ++i) {
             const Vec4 centroid = refs_[i].centroid();
@@ -658,7 +659,7 @@ private:
             Box4 right = Box4::empty();
             uint32_t rightTotal = 0;
             for (uint32_t b = binCount - 1; b >= 1; --b) {
-                right.grow(grid.bin(axis, b).box());
+                right.grow(grid.bin(axis, b));
                 rightTotal += grid.bin(axis, b).count();
                 rightBoxes[b] = right;
                 rightCount[b] = rightTotal;
@@ -667,7 +668,7 @@ private:
             Box4 left = Box4::empty();
             uint32_t leftCount = 0;
             for (uint32_t b = 1; b < binCount; ++b) {  // split between bins b - 1 and b
-                left.grow(grid.bin(axis, b - 1).box());
+                left.grow(grid.bin(axis, b - 1));
                 leftCount += grid.bin(axis, b - 1).count();
                 if (leftCount == 0 || rightCount[b] == 0) continue;
                 const double weighted = measureOf(left) * double(leftCount) + rightMeasure[b] * double(rightCount[b]);
