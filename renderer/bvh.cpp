@@ -88,6 +88,27 @@ void validateOptions(const BvhBuildOptions& options) {
     }
 }
 
+size_t firstBadPrimitive(std::span<const Aabb> primitiveBounds, size_t begin, size_t end) {
+    for (size_t i = begin; i < end; ++i) {
+        const Aabb& box = primitiveBounds[i];
+        bool finite = true;
+        for (int axis = 0; axis < 3; ++axis)
+            finite = finite && std::isfinite(box.lo[axis]) && std::isfinite(box.hi[axis]);
+        if (!finite || box.empty()) return i;
+    }
+    return end;
+}
+
+void throwBadPrimitive(std::span<const Aabb> primitiveBounds, size_t index) {
+    const Aabb& box = primitiveBounds[index];
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  "BVH build: primitive %zu has an empty or non-finite box "
+                  "(lo %g %g %g, hi %g %g %g)",
+                  index, box.lo.x, box.lo.y, box.lo.z, box.hi.x, box.hi.y, box.hi.z);
+    throw Error(text);
+}
+
 Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* progress) {
     struct Result {
         Aabb box;
@@ -97,17 +118,9 @@ Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* prog
         tbb::blocked_range<size_t>(0, primitiveBounds.size(), kCancelCheckInterval), Result{},
         [&](const tbb::blocked_range<size_t>& range, Result acc) {
             throwIfCancelled(progress);
-            for (size_t i = range.begin(); i < range.end(); ++i) {
-                const Aabb& box = primitiveBounds[i];
-                bool finite = true;
-                for (int axis = 0; axis < 3; ++axis)
-                    finite = finite && std::isfinite(box.lo[axis]) && std::isfinite(box.hi[axis]);
-                if (!finite || box.empty()) {
-                    acc.firstBad = std::min(acc.firstBad, i);
-                    continue;
-                }
-                acc.box.grow(box);
-            }
+            const size_t bad = firstBadPrimitive(primitiveBounds, range.begin(), range.end());
+            if (bad != range.end()) acc.firstBad = std::min(acc.firstBad, bad);
+            for (size_t i = range.begin(); i < bad; ++i) acc.box.grow(primitiveBounds[i]);
             return acc;
         },
         [](Result a, const Result& b) {
@@ -115,15 +128,7 @@ Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* prog
             a.firstBad = std::min(a.firstBad, b.firstBad);
             return a;
         });
-    if (result.firstBad != SIZE_MAX) {
-        const Aabb& box = primitiveBounds[result.firstBad];
-        char text[256];
-        std::snprintf(text, sizeof text,
-                      "BVH build: primitive %zu has an empty or non-finite box "
-                      "(lo %g %g %g, hi %g %g %g)",
-                      result.firstBad, box.lo.x, box.lo.y, box.lo.z, box.hi.x, box.hi.y, box.hi.z);
-        throw Error(text);
-    }
+    if (result.firstBad != SIZE_MAX) throwBadPrimitive(primitiveBounds, result.firstBad);
     return result.box;
 }
 
@@ -161,10 +166,12 @@ Bvh buildBvh(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& optio
         bvh.nodes[0].index = 0;
         bvh.nodes[0].count = 0;
     } else {
-        const Aabb rootBox = validateAndBound(primitiveBounds, progress);
+        // sah-binned checks the boxes and bounds them in its own first pass over them.
+        const Aabb rootBox =
+            options.builder == BvhBuilder::SahBinned ? Aabb{} : validateAndBound(primitiveBounds, progress);
         switch (options.builder) {
         case BvhBuilder::SahExact: bvh = buildSahExact(primitiveBounds, rootBox, options, progress); break;
-        case BvhBuilder::SahBinned: bvh = buildSahBinned(primitiveBounds, rootBox, options, progress); break;
+        case BvhBuilder::SahBinned: bvh = buildSahBinned(primitiveBounds, options, progress); break;
         case BvhBuilder::SahSplit: bvh = buildSahSplit(primitiveBounds, rootBox, options, progress, triangles); break;
         case BvhBuilder::GpuLbvh:
         case BvhBuilder::GpuPloc:

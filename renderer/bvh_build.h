@@ -163,6 +163,10 @@ void validateOptions(const BvhBuildOptions& options);
 // Throws raypack::Error naming the first primitive whose box is empty or not finite. Returns the
 // union of all boxes.
 Aabb validateAndBound(std::span<const Aabb> primitiveBounds, BuildProgress* progress);
+// The first primitive of [begin, end) whose box is empty or not finite, or end.
+size_t firstBadPrimitive(std::span<const Aabb> primitiveBounds, size_t begin, size_t end);
+// Throws validateAndBound's raypack::Error for primitive `index`.
+[[noreturn]] void throwBadPrimitive(std::span<const Aabb> primitiveBounds, size_t index);
 
 // Centroids as the builders see them: 0.5·lo + 0.5·hi (no overflow near FLT_MAX), with -0 turned
 // into +0 so that sorting by bit pattern agrees with comparing floats.
@@ -171,8 +175,8 @@ inline glm::vec3 centroidOf(const Aabb& box) { return (0.5f * box.lo + 0.5f * bo
 // The builders. Both return nodes and primIndices; buildBvh fills options and stats.
 Bvh buildSahExact(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
                   BuildProgress* progress);
-Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
-                   BuildProgress* progress);
+// sah-binned validates and bounds the boxes itself (as validateAndBound would), in its first pass.
+Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress);
 // `triangles` may be null (boxes are chopped instead of triangles clipped).
 Bvh buildSahSplit(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
                   BuildProgress* progress, const BvhTriangles* triangles);

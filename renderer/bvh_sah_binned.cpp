@@ -32,6 +32,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <type_traits>
 #include <utility>
 
 namespace raypack::bvh_detail {
@@ -228,25 +229,46 @@ public:
     SahBinnedBuilder(std::span<const Aabb> bounds, const BvhBuildOptions& options, BuildProgress* progress)
         : bounds_(bounds), options_(options), progress_(progress) {}
 
-    Bvh build(const Aabb& rootBox) {
+    Bvh build() {
         const uint32_t n = uint32_t(bounds_.size());
         // Not value-initialised: the pass below writes every reference (and first touches its page).
+        // It also bounds the boxes and checks them (validateAndBound's work, without another pass
+        // over the boxes): finite and not empty, by lanes, so without a branch per reference.
         refs_ = makeLargeVector<Ref, UninitializedAllocator<Ref>>(n);
-        const Box4 rootCentroids = tbb::parallel_reduce(
-            tbb::blocked_range<uint32_t>(0, n, kCancelCheckInterval), Box4::empty(),
-            [&](const tbb::blocked_range<uint32_t>& range, Box4 box) {
+        struct FirstPass {
+            Box4 centroids = Box4::empty(), box = Box4::empty();
+            size_t firstBad = SIZE_MAX;
+        };
+        const FirstPass first = tbb::parallel_reduce(
+            tbb::blocked_range<uint32_t>(0, n, kCancelCheckInterval), FirstPass{},
+            [&](const tbb::blocked_range<uint32_t>& range, FirstPass pass) {
                 throwIfCancelled(progress_);
+                constexpr Int4 kXyz{-1, -1, -1, 0};
+                constexpr UInt4 kAbs{0x7fffffffu, 0x7fffffffu, 0x7fffffffu, 0x7fffffffu};
+                Int4 good = kXyz;
                 for (uint32_t i = range.begin(); i < range.end(); ++i) {
-                    refs_[i] = makeRef(bounds_[i], i);
-                    box.grow(refs_[i].centroid());
+                    const Ref ref = makeRef(bounds_[i], i);
+                    refs_[i] = ref;
+                    pass.centroids.grow(ref.centroid());
+                    pass.box.grow(ref);
+                    const Vec4 lo = (Vec4)((Int4)ref.lo & kXyz);  // lane 3: the index's bits
+                    good &= ((Vec4)((UInt4)lo & kAbs) <= FLT_MAX) & ((Vec4)((UInt4)ref.hi & kAbs) <= FLT_MAX) &
+                            (lo <= ref.hi);
                 }
-                return box;
+                if (good[0] == 0 || good[1] == 0 || good[2] == 0)
+                    pass.firstBad = std::min(pass.firstBad, firstBadPrimitive(bounds_, range.begin(), range.end()));
+                return pass;
             },
-            [](Box4 a, const Box4& b) {
-                a.grow(b);
+            [](FirstPass a, const FirstPass& b) {
+                a.centroids.grow(b.centroids);
+                a.box.grow(b.box);
+                a.firstBad = std::min(a.firstBad, b.firstBad);
                 return a;
             });
         throwIfInterrupted(progress_);
+        if (first.firstBad != SIZE_MAX) throwBadPrimitive(bounds_, first.firstBad);
+        const Box4& rootCentroids = first.centroids;
+        const Aabb rootBox = first.box.aabb();
 
         // A subtree of k references has at most k - 1 inner nodes, so it can own 2(k - 1) slots
         // for its children's pairs before any thread builds it: the tree is laid out depth first
@@ -647,13 +669,15 @@ private:
 
     // Prices every boundary between bins on the active axes and keeps the cheapest in `best`: ties
     // go to the lower axis, then the lower boundary. `measureOf` is only asked about boxes that hold
-    // primitives.
+    // primitives. The sweeps keep measures and counts only; the chosen split's two boxes are
+    // gathered once at the end, each in its sweep's order (min and max of +0 and -0 depend on the
+    // order, so another order would give the same boxes but for the signs of some zeros).
     template <typename Measure>
     static void sweepBins(const BinGrid& grid, const Binning& binning, Split& best, Measure measureOf) {
         const uint32_t binCount = binning.binCount;
         double rightMeasure[kMaxBins];  // of bins b..binCount-1, where they hold primitives
         uint32_t rightCount[kMaxBins];
-        Box4 rightBoxes[kMaxBins];
+        const double before = best.weightedMeasures;
         for (int axis = 0; axis < 3; ++axis) {
             if (!binning.active[axis]) continue;
             Box4 right = Box4::empty();
@@ -661,7 +685,6 @@ private:
             for (uint32_t b = binCount - 1; b >= 1; --b) {
                 right.grow(grid.bin(axis, b));
                 rightTotal += grid.bin(axis, b).count();
-                rightBoxes[b] = right;
                 rightCount[b] = rightTotal;
                 rightMeasure[b] = rightTotal ? measureOf(right) : 0.0;
             }
@@ -676,12 +699,16 @@ private:
                     best.weightedMeasures = weighted;
                     best.axis = axis;
                     best.lastLeftBin = b - 1;
-                    best.leftBox = left.aabb();
-                    best.rightBox = rightBoxes[b].aabb();
                     best.leftCount = leftCount;
                 }
             }
         }
+        if (!(best.weightedMeasures < before)) return;
+        Box4 left = Box4::empty(), right = Box4::empty();
+        for (uint32_t b = 0; b <= best.lastLeftBin; ++b) left.grow(grid.bin(best.axis, b));
+        for (uint32_t b = binCount - 1; b > best.lastLeftBin; --b) right.grow(grid.bin(best.axis, b));
+        best.leftBox = left.aabb();
+        best.rightBox = right.aabb();
     }
 
     // Partitions refs_[begin, end) in place by the split's bin: the references that go left first.
@@ -776,10 +803,35 @@ private:
                     return c < split.value || (c == split.value && ref.prim() <= split.prim);
                 },
                 begin, end, leftCentroids, rightCentroids);
+        // The axis as a constant, so that its lane is read from the register (with the axis in a
+        // variable, GCC stored the bins to the stack and loaded the lane back).
         const int32_t lastLeftBin = int32_t(split.lastLeftBin);
-        return partitionRangeBy(
-            [&](const Ref&, Vec4 centroid) { return binning.binsOf(centroid)[axis] <= lastLeftBin; }, begin, end,
-            leftCentroids, rightCentroids);
+        auto byBin = [&]<int kAxis>(std::integral_constant<int, kAxis>) {
+            return partitionRangeBy(
+                [&](const Ref&, Vec4 centroid) { return binning.binsOf(centroid)[kAxis] <= lastLeftBin; }, begin, end,
+                leftCentroids, rightCentroids);
+        };
+        switch (axis) {
+        case 0: return byBin(std::integral_constant<int, 0>{});
+        case 1: return byBin(std::integral_constant<int, 1>{});
+        default: return byBin(std::integral_constant<int, 2>{});
+        }
+    }
+
+    // Grows `box` by the centroids of refs[0, count) in four boxes, each taking every fourth
+    // reference, so that four chains of min and max run at once rather than one. The box is the
+    // same but for the sign of a zero bound (min and max of +0 and -0 depend on the order), which
+    // binningOf never tells apart: the tree is the same.
+    static void growByCentroids(Box4& box, const Ref* refs, uint32_t count) {
+        Box4 part[4] = {box, Box4::empty(), Box4::empty(), Box4::empty()};
+        uint32_t i = 0;
+        for (; i + 3 < count; i += 4)
+            for (uint32_t k = 0; k < 4; ++k) part[k].grow(refs[i + k].centroid());
+        for (; i < count; ++i) part[0].grow(refs[i].centroid());
+        part[0].grow(part[1]);
+        part[2].grow(part[3]);
+        part[0].grow(part[2]);
+        box = part[0];
     }
 
     // Serial partition of refs_[begin, end); returns the first right position. Up to
@@ -806,8 +858,8 @@ private:
             right -= 1 - goesLeft;
         }
         std::copy(buffer.get(), buffer.get() + count, refs);
-        for (uint32_t i = 0; i < left; ++i) leftCentroids.grow(refs[i].centroid());
-        for (uint32_t i = left; i < count; ++i) rightCentroids.grow(refs[i].centroid());
+        growByCentroids(leftCentroids, refs, left);
+        growByCentroids(rightCentroids, refs + left, count - left);
         return begin + left;
     }
 
@@ -850,8 +902,7 @@ private:
 
 }  // namespace
 
-Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, const BvhBuildOptions& options,
-                   BuildProgress* progress) {
+Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const BvhBuildOptions& options, BuildProgress* progress) {
     // The node array's slots (2n - 1) are indexed by 32 bits, as BvhNode::index is, and a bin's
     // count must stay a finite float's bits above kCountZero (Bin).
     if (primitiveBounds.size() > kMaxBinnedPrimitives)
@@ -859,7 +910,7 @@ Bvh buildSahBinned(std::span<const Aabb> primitiveBounds, const Aabb& rootBox, c
                     " primitives (2n - 1 nodes in 32-bit indices, counts in a float lane), got " +
                     std::to_string(primitiveBounds.size()));
     SahBinnedBuilder builder(primitiveBounds, options, progress);
-    return builder.build(rootBox);
+    return builder.build();
 }
 
 }  // namespace raypack::bvh_detail

@@ -17,6 +17,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <memory>
 #include <numeric>
 #include <random>
@@ -450,17 +451,34 @@ TEST(BvhEdgeCases, HugeAndTinyCoordinates) {
 }
 
 TEST(BvhBadInput, NonFiniteOrEmptyBoxAndBadOptionsThrow) {
-    std::vector<Aabb> bounds = randomSoup(100, 1);
-    bounds[42].hi.y = std::nanf("");
-    try {
-        buildBvh(bounds, BvhBuildOptions{});
-        FAIL() << "a NaN box must throw";
-    } catch (const Error& error) {
-        EXPECT_NE(std::string(error.what()).find("primitive 42"), std::string::npos) << error.what();
+    // Every builder names the first bad primitive (sah-binned checks in its own first pass, in
+    // ranges of kCancelCheckInterval: the bad boxes below lie in different ranges, the first one
+    // not in the first range).
+    std::vector<Aabb> bounds = randomSoup(100000, 1);
+    const float kInf = std::numeric_limits<float>::infinity();
+    for (BvhBuilder builder : kCpuBvhBuilders) {
+        for (int kind = 0; kind < 5; ++kind) {
+            std::vector<Aabb> bad = bounds;
+            for (size_t at : {size_t(40000), size_t(90000), size_t(99999)}) {
+                Aabb& box = bad[at];
+                switch (kind) {
+                case 0: box.hi.y = std::nanf(""); break;
+                case 1: box.lo.z = std::nanf(""); break;
+                case 2: box.hi.x = kInf; break;
+                case 3: box.lo.x = -kInf; break;
+                default: box = Aabb{}; break;  // empty
+                }
+            }
+            try {
+                buildBvh(bad, optionsFor(builder));
+                FAIL() << "a bad box must throw (builder " << int(builder) << ", kind " << kind << ")";
+            } catch (const Error& error) {
+                EXPECT_NE(std::string(error.what()).find("primitive 40000 "), std::string::npos)
+                    << "builder " << int(builder) << ", kind " << kind << ": " << error.what();
+            }
+        }
     }
-    bounds[42] = Aabb{};  // empty
-    EXPECT_THROW(buildBvh(bounds, BvhBuildOptions{}), Error);
-    bounds[42] = bounds[41];
+    bounds.resize(100);
 
     BvhBuildOptions options;
     options.leafSize = 0;
