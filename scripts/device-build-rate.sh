@@ -10,7 +10,10 @@
 # builder's ratio to Embree is also measured within one process). VARIANTS="A B": further
 # dev/bin/raypack-cli-A ... run in every round without Embree; lines "PHASES n=<triangles> k=<ms>
 # ..." that a variant writes to stderr (a builder timing its phases) are collected, and the table
-# gives each variant's rate and the medians of its phases by scene.
+# gives each variant's rate and the medians of its phases by scene (VARIANT_EMBREE=1: the variants
+# with Embree in their runs too). WARMUP=1 (the default) runs the new binary once first, untimed:
+# the first process after the machine starts built the small scenes up to twice as slowly as every
+# later one (docs/results/h100-build-rate-1/).
 #
 # Prepare the carried bundle here (scenes are not on the device):
 #   scripts/device-bundle.sh dev build/raypack-cli            # + cp OLD_BUILD/raypack-cli dev/bin/raypack-cli-old
@@ -38,6 +41,13 @@ if [ "${EXACT:-1}" != 0 ]; then
     2>>"$OUT/stderr.txt" || echo "FAILED sah-exact run" | tee -a "$OUT/build-rate.txt"
 fi
 common+=(--builder sah-binned)
+if [ "${WARMUP:-1}" != 0 ]; then
+  dev/bin/raypack-cli "${common[@]}" --build-repeat "$BUILD_REPEAT" --no-embree --out "$OUT/warmup.json" >/dev/null \
+    2>>"$OUT/stderr.txt" || echo "FAILED warm-up run" | tee -a "$OUT/build-rate.txt"
+  rm -f "$OUT/warmup.json"
+fi
+variant_embree=(--no-embree)
+[ "${VARIANT_EMBREE:-0}" = 1 ] && variant_embree=()
 for i in $(seq 1 "$REPEATS"); do
   # New binary with Embree (medium and high are built; only medium is compared).
   dev/bin/raypack-cli "${common[@]}" --build-repeat "$BUILD_REPEAT" --out "$OUT/build-rate-new-$i.json" >/dev/null \
@@ -50,7 +60,7 @@ for i in $(seq 1 "$REPEATS"); do
       2>>"$OUT/stderr.txt" || echo "FAILED old run $i" | tee -a "$OUT/build-rate.txt"
   fi
   for v in ${VARIANTS:-}; do
-    dev/bin/raypack-cli-"$v" "${common[@]}" --build-repeat "$BUILD_REPEAT" --no-embree --out "$OUT/build-rate-var-$v-$i.json" \
+    dev/bin/raypack-cli-"$v" "${common[@]}" --build-repeat "$BUILD_REPEAT" "${variant_embree[@]}" --out "$OUT/build-rate-var-$v-$i.json" \
       >/dev/null 2>"$OUT/phases-$v-$i.txt" || echo "FAILED variant $v run $i" | tee -a "$OUT/build-rate.txt"
   done
 done
@@ -90,6 +100,13 @@ if any("embree" in by for by in old.values()):
     print("\nold builder / Embree, within the old binary's runs:")
     for scene, by in old.items(): print(f"{scene[-60:]:60s} {embree_ratio(by):10.2f}")
 import os
+kinds = ["new", "old"] + [f"var-{v}" for v in os.environ.get("VARIANTS", "").split()]
+print("\nEmbree medium / sah-binned T_B inside each process, by round (>= 1.0: raypack faster):")
+for kind in kinds:
+    for scene, by in times(kind).items():
+        if "embree" in by and len(by["embree"]) == len(by["raypack"]):
+            rounds = " ".join(f"{e / r:.2f}" for (e, _), (r, _) in zip(by["embree"], by["raypack"]))
+            print(f"{kind:10s} {scene[-60:]:60s} {rounds}")
 for v in os.environ.get("VARIANTS", "").split():
     var = times(f"var-{v}")
     print(f"\nvariant {v}: Mtri/s, new / variant, and its phases (medians, ms):")
@@ -109,4 +126,5 @@ for v in os.environ.get("VARIANTS", "").split():
 EOF
 cat "$OUT/build-rate.txt"
 # A call returns a few files only: everything in one archive beside the table.
-tar czf "$OUT/build-rate-all.tgz" -C "$OUT" $(cd "$OUT" && ls | grep -v -e build-rate.txt -e build-rate-all.tgz)
+files=$(cd "$OUT" && ls | grep -v -e build-rate.txt -e build-rate-all.tgz)
+tar czf "$OUT/build-rate-all.tgz" -C "$OUT" $files && (cd "$OUT" && rm -f $files)
