@@ -404,108 +404,6 @@ RP_SIMD_INLINE TriangleHits intersectTriangleFastLanes(const RayGroup& group, co
     return hits;
 }
 
-// gpu::accurateHitDistance lane by lane, operation for operation (the same bits): the kept hits'
-// distances from their planes in double-float arithmetic, for the lanes whose t the triangle test
-// called inexact. A double-float value is a pair (hi, lo) of lanes.
-struct DD {
-    F hi, lo;
-};
-
-RP_SIMD_INLINE DD twoSumLanes(F a, F b) {
-    using S = Simd;
-    const F s = S::add(a, b);
-    const F bb = S::sub(s, a);
-    return {s, S::add(S::sub(a, S::sub(s, bb)), S::sub(b, bb))};
-}
-
-RP_SIMD_INLINE DD fastTwoSumLanes(F a, F b) {
-    using S = Simd;
-    const F s = S::add(a, b);
-    return {s, S::sub(b, S::sub(s, a))};
-}
-
-RP_SIMD_INLINE DD splitLanes(F a) {
-    using S = Simd;
-    const F c = S::mul(S::set1(4097.0f), a);
-    const F hi = S::sub(c, S::sub(c, a));
-    return {hi, S::sub(a, hi)};
-}
-
-RP_SIMD_INLINE DD twoProductLanes(F a, F b) {
-    using S = Simd;
-    const F p = S::mul(a, b);
-    const DD sa = splitLanes(a), sb = splitLanes(b);
-    const F e = S::add(S::add(S::add(S::sub(S::mul(sa.hi, sb.hi), p), S::mul(sa.hi, sb.lo)), S::mul(sa.lo, sb.hi)),
-                       S::mul(sa.lo, sb.lo));
-    return {p, e};
-}
-
-RP_SIMD_INLINE DD ddAddLanes(DD a, DD b) {
-    using S = Simd;
-    const DD s = twoSumLanes(a.hi, b.hi);
-    return fastTwoSumLanes(s.hi, S::add(s.lo, S::add(a.lo, b.lo)));
-}
-
-RP_SIMD_INLINE DD ddMulLanes(DD a, DD b) {
-    using S = Simd;
-    const DD p = twoProductLanes(a.hi, b.hi);
-    return fastTwoSumLanes(p.hi, S::add(p.lo, S::add(S::mul(a.hi, b.lo), S::mul(a.lo, b.hi))));
-}
-
-RP_SIMD_INLINE DD ddMulFloatLanes(DD a, F b) {
-    using S = Simd;
-    const DD p = twoProductLanes(a.hi, b);
-    return fastTwoSumLanes(p.hi, S::add(p.lo, S::mul(a.lo, b)));
-}
-
-RP_SIMD_INLINE DD ddNegLanes(DD a) {
-    const F sign = Simd::set1(-0.0f);
-    return {Simd::xorF(a.hi, sign), Simd::xorF(a.lo, sign)};
-}
-
-RP_SIMD_INLINE DD ddScaleLanes(DD a, F scale) { return {Simd::mul(a.hi, scale), Simd::mul(a.lo, scale)}; }
-
-RP_SIMD_INLINE F accurateHitDistanceLanes(const glm::vec3& org, const F dir[3], const F v0[3], const F v1[3],
-                                          const F v2[3], F acceptedT) {
-    using S = Simd;
-    const F absMask = S::set1Bits(0x7FFFFFFFu);
-    const F negative = S::set1(-0.0f);
-    DD a[3], e1[3], e2[3];
-    for (int i = 0; i < 3; ++i) {
-        a[i] = twoSumLanes(v0[i], S::set1(-org[i]));
-        e1[i] = twoSumLanes(v1[i], S::xorF(v0[i], negative));
-        e2[i] = twoSumLanes(v2[i], S::xorF(v0[i], negative));
-    }
-    const auto absF = [&](F x) { return S::andF(x, absMask); };
-    const F edgeScale = S::scaleFor(
-        S::glmMax(S::glmMax(S::glmMax(absF(e1[0].hi), absF(e1[1].hi)), S::glmMax(absF(e1[2].hi), absF(e2[0].hi))),
-                  S::glmMax(absF(e2[1].hi), absF(e2[2].hi))));
-    const F rayScale = S::scaleFor(
-        S::glmMax(S::glmMax(S::glmMax(absF(a[0].hi), absF(a[1].hi)), S::glmMax(absF(a[2].hi), absF(dir[0]))),
-                  S::glmMax(absF(dir[1]), absF(dir[2]))));
-    F d[3];
-    for (int i = 0; i < 3; ++i) {
-        e1[i] = ddScaleLanes(e1[i], edgeScale);
-        e2[i] = ddScaleLanes(e2[i], edgeScale);
-        a[i] = ddScaleLanes(a[i], rayScale);
-        d[i] = S::mul(dir[i], rayScale);
-    }
-    const auto crossTerm = [](DD p, DD q, DD r, DD s) {
-        return ddAddLanes(ddMulLanes(p, q), ddNegLanes(ddMulLanes(r, s)));
-    };
-    const DD nx = crossTerm(e1[1], e2[2], e1[2], e2[1]);
-    const DD ny = crossTerm(e1[2], e2[0], e1[0], e2[2]);
-    const DD nz = crossTerm(e1[0], e2[1], e1[1], e2[0]);
-    const DD numerator = ddAddLanes(ddAddLanes(ddMulLanes(a[0], nx), ddMulLanes(a[1], ny)), ddMulLanes(a[2], nz));
-    const DD denominator =
-        ddAddLanes(ddAddLanes(ddMulFloatLanes(nx, d[0]), ddMulFloatLanes(ny, d[1])), ddMulFloatLanes(nz, d[2]));
-    const F t0 = S::div(numerator.hi, denominator.hi);
-    const DD residual = ddAddLanes(numerator, ddNegLanes(ddMulFloatLanes(denominator, t0)));
-    const F t = S::add(t0, S::div(residual.hi, denominator.hi));
-    const F valid = S::andF(S::gt(t, S::set1(0.0f)), S::le(t, S::set1(gpu::kFloatHuge)));
-    return S::select(valid, t, acceptedT);
-}
-
 RP_SIMD_INLINE void countLanes(uint32_t* counts, uint32_t laneBits, uint32_t amount) {
     for (; laneBits; laneBits &= laneBits - 1) counts[__builtin_ctz(laneBits)] += amount;
 }
@@ -872,31 +770,19 @@ void finishGroup(RayGroup& group, PacketBuilder& builder) {
 }
 
 // The kept hits' t of the lanes whose triangle test called it inexact, recomputed from their
-// triangles' planes as the reference does (gpu::accurateHitDistance), all lanes at once.
+// triangles' planes as the reference does (gpu::accurateHitDistanceF64), lane by lane: in doubles
+// it is some 45 scalar operations, and only the flagged lanes (a few percent of primary rays,
+// docs/trade.md) pay them, where a lane-wise float-pair form made every lane of a group with one
+// flagged lane pay about 400.
 RP_SIMD_INLINE void refineInexactHits(const PacketFrame& frame, RayGroup& group) {
-    using S = Simd;
-    uint32_t lanes = 0;
-    for (int lane = 0; lane < L; ++lane)
-        if (group.pixel[lane] != kNoHit && group.prim[lane] != kNoHit && group.inexactT[lane]) lanes |= 1u << lane;
-    if (!lanes) return;
-    // Lanes that need no new t compute one for a lane that does, and keep their own.
-    const uint32_t anyLane = uint32_t(__builtin_ctz(lanes));
-    alignas(64) float vertex[3][3][L];  // [vertex][axis][lane]
     for (int lane = 0; lane < L; ++lane) {
-        const uint32_t prim = (lanes >> lane) & 1u ? group.prim[lane] : group.prim[anyLane];
-        const glm::uvec3 tri = frame.scene->triangles[prim];
-        for (int k = 0; k < 3; ++k) {
-            const glm::vec3& p = frame.scene->positions[tri[k]];
-            for (int axis = 0; axis < 3; ++axis) vertex[k][axis][lane] = p[axis];
-        }
+        if (group.pixel[lane] == kNoHit || group.prim[lane] == kNoHit || !group.inexactT[lane]) continue;
+        const glm::uvec3 tri = frame.scene->triangles[group.prim[lane]];
+        const glm::vec3 dir(group.dirX[lane], group.dirY[lane], group.dirZ[lane]);
+        group.tmax[lane] =
+            gpu::accurateHitDistanceF64(frame.eye, dir, frame.scene->positions[tri[0]], frame.scene->positions[tri[1]],
+                                        frame.scene->positions[tri[2]], group.tmax[lane]);
     }
-    F v[3][3];
-    for (int k = 0; k < 3; ++k)
-        for (int axis = 0; axis < 3; ++axis) v[k][axis] = S::load(vertex[k][axis]);
-    const F dir[3] = {S::load(group.dirX), S::load(group.dirY), S::load(group.dirZ)};
-    const F tmax = S::load(group.tmax);
-    const F t = accurateHitDistanceLanes(frame.eye, dir, v[0], v[1], v[2], tmax);
-    S::store(group.tmax, S::select(S::fromBits(lanes), t, tmax));
 }
 
 template <bool kCount, bool kFast>

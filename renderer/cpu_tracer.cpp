@@ -214,10 +214,10 @@ ClosestHit closestHit(const BvhNode* nodes, const Triangles& triangles, const gp
                 counts.nodes += visitedNodes;
                 counts.tests += triangleTests;
                 if (bestInexact) {
-                    // The kept hit's distance from its plane (gpu::accurateHitDistance), as the kernels do.
+                    // The kept hit's distance from its plane (gpu::accurateHitDistanceF64), as the kernels do.
                     glm::vec3 v0, v1, v2;
                     triangles.fetch(bestEntry, v0, v1, v2);
-                    best.t = gpu::accurateHitDistance(ray.org, ray.dir, v0, v1, v2, best.t);
+                    best.t = gpu::accurateHitDistanceF64(ray.org, ray.dir, v0, v1, v2, best.t);
                 }
                 return best;
             }

@@ -6,10 +6,12 @@
 #include "renderer/gpu_layout.h"
 #include "renderer/gpu_wide.h"
 #include "renderer/measure/spread.h"
+#include "renderer/vk/float64_rate.h"
 #include "shaders/bindings.h"
 #include "shaders/gpu_types.h"
 
 #include "trace.spv.h"
+#include "trace_f64.spv.h"
 
 #include <array>
 #include <chrono>
@@ -46,9 +48,10 @@ struct PipelineKey {
     uint32_t hybridVisitRatio = 0;  // in 1/100
     uint32_t packetsPerGroup = 1;   // the hybrid kernel's packets per workgroup (packetHeight: all of them)
     bool wideBvh = false;           // the single-ray kernel over the compressed 8-wide tree
+    bool float64 = false;           // trace_f64's module: the accurate hit distance in doubles
     auto tie() const {
         return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
-                        hybridMinRays, hybridVisitRatio, packetsPerGroup, wideBvh);
+                        hybridMinRays, hybridVisitRatio, packetsPerGroup, wideBvh, float64);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -92,8 +95,12 @@ uint32_t viewConstant(ViewMode view) {
 
 // The pipeline that traces `settings`' pass `pass` (kPass*): everything of the settings a
 // specialization constant takes, the hybrid kernel's split rules included (the other kernels keep
-// 0, one pipeline). One place for the frame's dispatches and for pipelineStatistics.
-PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries) {
+// 0, one pipeline), and the module. One place for the frame's dispatches and for
+// pipelineStatistics. `float64`: the settings' hit distance resolves to doubles on this device
+// (resolveHitDistance); only a robust primary pass computes the distance, so only it takes the
+// doubles' module.
+PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries,
+                           bool float64) {
     const PacketShape group = gpuWorkgroup(settings, pass == gpu::kPassShadowShade);
     PipelineKey key{
         settings.kernel, group.width,        group.height,        pass, statistics, viewConstant(settings.view),
@@ -104,6 +111,7 @@ PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool s
         key.packetsPerGroup = settings.hybrid.packetsPerGroup;
     }
     key.wideBvh = settings.kernel == KernelKind::Single && settings.bvhWidth == 8;
+    key.float64 = float64 && pass != gpu::kPassShadowShade && settings.intersect == IntersectMode::Robust;
     return key;
 }
 
@@ -115,6 +123,11 @@ struct GpuTracer::State {
     VkCommandPool pool = VK_NULL_HANDLE;
     vk::StorageSetLayout layout;  // trace.comp's storage buffers and push constants
     VkShaderModule module = VK_NULL_HANDLE;
+    VkShaderModule moduleF64 = VK_NULL_HANDLE;  // trace.comp with RP_FLOAT64, where the device has doubles
+    // HitDistanceMath::Auto's choice on this device, made on first use, and the measured rate of
+    // doubles against floats behind it (0 where none was measured).
+    std::optional<HitDistanceMath> autoHitDistance;
+    double float64Rate = 0.0;
     VkPipelineCache pipelineCache = VK_NULL_HANDLE;
     std::map<PipelineKey, VkPipeline> pipelines;
     VkQueryPool queries = VK_NULL_HANDLE;
@@ -160,6 +173,8 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
         s.layout = vk::createStorageSetLayout(context, gpu::kBindingCount, sizeof(gpu::GpuFrameParams));
 
         s.module = vk::createShaderModule(context, trace_spv, sizeof(trace_spv), "trace.comp");
+        if (context.float64)
+            s.moduleF64 = vk::createShaderModule(context, trace_f64_spv, sizeof(trace_f64_spv), "trace.comp (fp64)");
         VkPipelineCacheCreateInfo cacheInfo{VK_STRUCTURE_TYPE_PIPELINE_CACHE_CREATE_INFO};
         vk::check(vkCreatePipelineCache(device, &cacheInfo, nullptr, &s.pipelineCache), "vkCreatePipelineCache");
 
@@ -210,6 +225,7 @@ void destroyState(GpuTracer::State& s) {
     if (s.queries) vkDestroyQueryPool(device, s.queries, nullptr);
     if (s.pipelineCache) vkDestroyPipelineCache(device, s.pipelineCache, nullptr);
     if (s.module) vkDestroyShaderModule(device, s.module, nullptr);
+    if (s.moduleF64) vkDestroyShaderModule(device, s.moduleF64, nullptr);
     if (device) vk::destroyStorageSetLayout(s.ctx, s.layout);
     if (s.pool) vkDestroyCommandPool(device, s.pool, nullptr);
     s.pool = VK_NULL_HANDLE;
@@ -499,6 +515,34 @@ void ensureReadback(GpuTracer::State& s, VkDeviceSize bytes) {
     }
 }
 
+// The arithmetic `requested` comes to on this tracer's device. Auto: doubles on a CPU device (which
+// runs them at half the float rate, as its SIMD lanes are twice as wide), float pairs where the
+// device has no doubles, else as measured once (vk::measureFloat64Rate against
+// vk::kFloat64RateForDoubles).
+HitDistanceMath resolveHitDistance(GpuTracer::State& s, HitDistanceMath requested) {
+    if (requested == HitDistanceMath::Float64 && !s.moduleF64)
+        throw Error("hit distance fp64: " + s.ctx.info.name +
+                    " has no 64-bit floats (shaderFloat64); choose float-pair or auto");
+    if (requested != HitDistanceMath::Auto) return requested;
+    if (!s.autoHitDistance) {
+        if (!s.moduleF64) {
+            s.autoHitDistance = HitDistanceMath::FloatPair;
+        } else if (s.ctx.info.type == VK_PHYSICAL_DEVICE_TYPE_CPU) {
+            s.autoHitDistance = HitDistanceMath::Float64;
+        } else {
+            s.float64Rate = vk::measureFloat64Rate(s.ctx);
+            s.autoHitDistance =
+                s.float64Rate >= vk::kFloat64RateForDoubles ? HitDistanceMath::Float64 : HitDistanceMath::FloatPair;
+        }
+    }
+    return *s.autoHitDistance;
+}
+
+bool usesFloat64(GpuTracer::State& s, const RenderSettings& settings) {
+    return settings.intersect == IntersectMode::Robust &&
+           resolveHitDistance(s, settings.hitDistance) == HitDistanceMath::Float64;
+}
+
 VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     if (auto found = s.pipelines.find(key); found != s.pipelines.end()) return found->second;
     // The packet and hybrid kernels trace packets with the shared stack; the single-ray and hybrid
@@ -539,7 +583,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
     info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    info.stage.module = s.module;
+    info.stage.module = key.float64 ? s.moduleF64 : s.module;
     info.stage.pName = "main";
     info.stage.pSpecializationInfo = &specialization;
     info.layout = s.layout.pipelineLayout;
@@ -681,7 +725,7 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     // checkSettings has held each pass's workgroup count to the device's limit.
     const WorkgroupCount groups = workgroupCount(settings.width, settings.height, gpuWorkgroup(settings));
     PipelineKey key = pipelineKeyFor(settings, settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade,
-                                     statistics, s.stackEntries);
+                                     statistics, s.stackEntries, usesFloat64(s, settings));
     // What the dispatches use: bound here, and again after a host split, which re-opens the
     // command buffer.
     auto bindState = [&] {
@@ -706,7 +750,7 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
         vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         // The shadow pass's workgroup may differ from the primary pass's (the single-ray kernel).
-        key = pipelineKeyFor(settings, gpu::kPassShadowShade, statistics, s.stackEntries);
+        key = pipelineKeyFor(settings, gpu::kPassShadowShade, statistics, s.stackEntries, false);
         const WorkgroupCount shadowGroups =
             workgroupCount(settings.width, settings.height, gpuWorkgroup(settings, true));
         if (hostClock) bindState();
@@ -848,6 +892,10 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
     return frame;
 }
 
+HitDistanceMath GpuTracer::hitDistanceMath(HitDistanceMath requested) { return resolveHitDistance(*state_, requested); }
+
+double GpuTracer::float64Rate() const { return state_->float64Rate; }
+
 std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const RenderSettings& settings,
                                                                         bool shadowPass) {
     State& s = *state_;
@@ -862,7 +910,7 @@ std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const Re
     const uint32_t pass = shadowPass         ? gpu::kPassShadowShade
                           : settings.shadows ? gpu::kPassPrimary
                                              : gpu::kPassPrimaryShade;
-    const PipelineKey key = pipelineKeyFor(settings, pass, statistics, s.stackEntries);
+    const PipelineKey key = pipelineKeyFor(settings, pass, statistics, s.stackEntries, usesFloat64(s, settings));
     VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
     pipelineInfo.pipeline = pipelineFor(s, key);
     uint32_t executables = 0;

@@ -96,6 +96,15 @@ public:
         double value = 0.0;
     };
     std::vector<PipelineStatistic> pipelineStatistics(const RenderSettings& settings, bool shadowPass);
+    // The arithmetic of the robust path's accurate hit distance that `requested` comes to on this
+    // device (RenderSettings::hitDistance): Auto takes doubles on a CPU device, float pairs where
+    // the device has no shaderFloat64, and otherwise measures the device's doubles against its
+    // floats once, on first use (vk::measureFloat64Rate). Throws raypack::Error for Float64 on a
+    // device without shaderFloat64.
+    HitDistanceMath hitDistanceMath(HitDistanceMath requested);
+    // The rate of doubles against floats behind Auto's choice (0 before it, or where it chose
+    // without measuring).
+    double float64Rate() const;
 
     // Everything synchronously: records both passes, submits, waits and reads back what `request`
     // asks for. Frame::timings.primarySeconds / shadowSeconds are kernel times (T_K) from

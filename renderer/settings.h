@@ -32,6 +32,13 @@ enum class IntersectMode { Robust, Fast };
 // comparison), or the one of larger surface area (more likely to hold an occluder). The answer,
 // lit or occluded, is the same; only the work differs.
 enum class ShadowOrder { Nearest, Tree, Larger };
+// The arithmetic of the robust path's accurate hit distance in the Vulkan kernels (the kept hit's t
+// from its plane, shaders/intersect.h; docs/trade.md): 64-bit floats (accurateHitDistanceF64, some
+// 45 double operations; needs shaderFloat64), float pairs (accurateHitDistance, about 400 float
+// operations; every device), or Auto: doubles where the device has them at a useful rate
+// (GpuTracer measures it), else float pairs. The two agree to an ulp; only the speed differs. The
+// CPU tracers always take doubles.
+enum class HitDistanceMath { Auto, Float64, FloatPair };
 
 struct PacketShape {
     uint32_t width = 8;
@@ -65,6 +72,7 @@ struct RenderSettings {
     PhongParams phong;
     IntersectMode intersect = IntersectMode::Robust;
     ShadowOrder shadowOrder = ShadowOrder::Nearest;
+    HitDistanceMath hitDistance = HitDistanceMath::Auto;  // GPU path only
     glm::vec3 background{0.08f, 0.09f, 0.11f};
     // Offset of every primary ray from its pixel's centre, in pixels (each component in
     // [-0.5, 0.5)): one sample of an anti-aliasing pattern (renderer/accumulate.h). Zero: centres.
@@ -105,5 +113,6 @@ const char* toString(KernelKind kind);
 const char* toString(ViewMode mode);
 const char* toString(IntersectMode mode);
 const char* toString(ShadowOrder order);
+const char* toString(HitDistanceMath math);
 
 }  // namespace raypack

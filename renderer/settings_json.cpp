@@ -116,6 +116,7 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["background"] = toJson(s.background);
     j["intersect"] = toString(s.intersect);
     j["shadow_order"] = toString(s.shadowOrder);
+    j["hit_distance"] = toString(s.hitDistance);
     j["kernel"] = toString(s.kernel);
     j["packet"] = {{"width", s.packet.width}, {"height", s.packet.height}};
     j["single_group"] = {{"width", s.singleGroup.width}, {"height", s.singleGroup.height}};
@@ -187,6 +188,11 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         const auto parsed = parseShadowOrder(order);
         if (!parsed) badKey("shadow_order", "must be " + shadowOrderNames() + ", got \"" + order + "\"");
         s.shadowOrder = *parsed;
+    }
+    if (const std::string math = readString(j, "hit_distance", ""); !math.empty()) {
+        const auto parsed = parseHitDistanceMath(math);
+        if (!parsed) badKey("hit_distance", "must be " + hitDistanceMathNames() + ", got \"" + math + "\"");
+        s.hitDistance = *parsed;
     }
     if (const std::string kernel = readString(j, "kernel", ""); !kernel.empty()) {
         const auto parsed = parseKernelKind(kernel);

@@ -26,6 +26,8 @@ constexpr Named<ViewMode> kViewNames[] = {
 constexpr Named<IntersectMode> kIntersectNames[] = {{IntersectMode::Robust, "robust"}, {IntersectMode::Fast, "fast"}};
 constexpr Named<ShadowOrder> kShadowOrderNames[] = {
     {ShadowOrder::Nearest, "nearest"}, {ShadowOrder::Tree, "tree"}, {ShadowOrder::Larger, "larger"}};
+constexpr Named<HitDistanceMath> kHitDistanceNames[] = {
+    {HitDistanceMath::Auto, "auto"}, {HitDistanceMath::Float64, "fp64"}, {HitDistanceMath::FloatPair, "float-pair"}};
 
 template <class E>
 const char* nameOf(std::span<const Named<E>> table, E value) {
@@ -107,6 +109,11 @@ std::optional<ShadowOrder> parseShadowOrder(std::string_view name) {
     return valueOf<ShadowOrder>(kShadowOrderNames, name);
 }
 std::string shadowOrderNames() { return namesOf<ShadowOrder>(kShadowOrderNames); }
+const char* toString(HitDistanceMath math) { return nameOf<HitDistanceMath>(kHitDistanceNames, math); }
+std::optional<HitDistanceMath> parseHitDistanceMath(std::string_view name) {
+    return valueOf<HitDistanceMath>(kHitDistanceNames, name);
+}
+std::string hitDistanceMathNames() { return namesOf<HitDistanceMath>(kHitDistanceNames); }
 
 namespace {
 
@@ -129,6 +136,9 @@ IntersectMode requireIntersectMode(std::string_view what, std::string_view text)
 }
 ShadowOrder requireShadowOrder(std::string_view what, std::string_view text) {
     return requireName<ShadowOrder>(kShadowOrderNames, what, text);
+}
+HitDistanceMath requireHitDistanceMath(std::string_view what, std::string_view text) {
+    return requireName<HitDistanceMath>(kHitDistanceNames, what, text);
 }
 
 PacketShape parsePacketShape(std::string_view what, std::string_view text) {

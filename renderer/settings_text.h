@@ -26,19 +26,22 @@ inline constexpr uint32_t kMaxPacketSide = 1024;
 // the name the parsers accept, so what one program prints another can read back.
 std::optional<KernelKind> parseKernelKind(std::string_view name);
 std::optional<ViewMode> parseViewMode(std::string_view name);
-std::optional<IntersectMode> parseIntersectMode(std::string_view name);  // "robust" / "fast"
-std::optional<ShadowOrder> parseShadowOrder(std::string_view name);      // "nearest" / "tree" / "larger"
+std::optional<IntersectMode> parseIntersectMode(std::string_view name);      // "robust" / "fast"
+std::optional<ShadowOrder> parseShadowOrder(std::string_view name);          // "nearest" / "tree" / "larger"
+std::optional<HitDistanceMath> parseHitDistanceMath(std::string_view name);  // "auto" / "fp64" / "float-pair"
 // "packet or single", "shaded, nodes or tests": the valid names, for messages and help texts.
 std::string kernelKindNames();
 std::string viewModeNames();
 std::string intersectModeNames();
 std::string shadowOrderNames();
+std::string hitDistanceMathNames();
 // The same, throwing raypack::Error `WHAT: "TEXT" is not NAMES` for a name the table lacks: one
 // message for CLI flags, viewer flags and script steps.
 KernelKind requireKernelKind(std::string_view what, std::string_view text);
 ViewMode requireViewMode(std::string_view what, std::string_view text);
 IntersectMode requireIntersectMode(std::string_view what, std::string_view text);
 ShadowOrder requireShadowOrder(std::string_view what, std::string_view text);
+HitDistanceMath requireHitDistanceMath(std::string_view what, std::string_view text);
 
 // "WxH" (or "WXH") with 1 <= W, H <= kMaxPacketSide, digits only (no sign, no spaces).
 PacketShape parsePacketShape(std::string_view what, std::string_view text);

@@ -338,8 +338,10 @@ RP_HOT_FUNC bool intersectTriangleFast(TraceRay r, vec3 v0, vec3 v1, vec3 v2, fl
 // (Dekker's TwoProduct with Veltkamp's split, so no fused multiply-add is needed, which Vulkan
 // does not promise), and the result is the exact plane distance to about 2^-44 relative before
 // its final rounding to float, even for slivers and grazing rays. Only `precise` arithmetic, so
-// the GPU kernels and the CPU tracers compute the same bits where division is correctly rounded.
-// About 400 float operations, once per primary ray (not per triangle test).
+// every device computes the same bits where division is correctly rounded. About 400 float
+// operations, once per primary ray (not per triangle test): the GPU kernels' form on devices
+// without fast 64-bit floats; elsewhere they and the CPU tracers take accurateHitDistanceF64
+// (below), which agrees with this one to an ulp of the result.
 
 // s + e = a + b exactly (Knuth's TwoSum), for any order of magnitude.
 RP_HOT_FUNC vec2 twoSum(float a, float b) {
@@ -434,6 +436,39 @@ RP_HOT_FUNC float accurateHitDistance(vec3 org, vec3 dir, vec3 v0, vec3 v1, vec3
     RP_PRECISE const float t = t0 + residual.x / denominator.x;
     return t > 0.0f && t <= kFloatHuge ? t : acceptedT;
 }
+
+// The same plane distance in 64-bit floats (C++ double; GLSL double, where the device has
+// shaderFloat64 and the kernel is built with RP_FLOAT64). What float pairs need care for, doubles
+// do plainly: the differences of float inputs are exact in double (or within 2^-53 where their
+// exponents lie more than 29 apart), the products of two such differences round once at 2^-53, and
+// nothing overflows or underflows (a float's range cubed is within a double's), so no scaling
+// either. Its result is the exact plane distance to about 2^-50 relative before the final rounding
+// to float, as good as the float-pair form's 2^-44 or better, in some 45 double operations against
+// about 400 float ones: the CPU tracers' form, and the GPU kernels' where doubles are fast
+// (GpuTracer chooses, docs/trade.md "Accurate hit distances").
+#if defined(__cplusplus) || defined(RP_FLOAT64)
+RP_HOT_FUNC float accurateHitDistanceF64(vec3 org, vec3 dir, vec3 v0, vec3 v1, vec3 v2, float acceptedT) {
+    RP_PRECISE const double ax = double(v0.x) - double(org.x);
+    RP_PRECISE const double ay = double(v0.y) - double(org.y);
+    RP_PRECISE const double az = double(v0.z) - double(org.z);
+    RP_PRECISE const double e1x = double(v1.x) - double(v0.x);
+    RP_PRECISE const double e1y = double(v1.y) - double(v0.y);
+    RP_PRECISE const double e1z = double(v1.z) - double(v0.z);
+    RP_PRECISE const double e2x = double(v2.x) - double(v0.x);
+    RP_PRECISE const double e2y = double(v2.y) - double(v0.y);
+    RP_PRECISE const double e2z = double(v2.z) - double(v0.z);
+    RP_PRECISE const double nx = e1y * e2z - e1z * e2y;
+    RP_PRECISE const double ny = e1z * e2x - e1x * e2z;
+    RP_PRECISE const double nz = e1x * e2y - e1y * e2x;
+    RP_PRECISE const double numerator = (ax * nx + ay * ny) + az * nz;
+    RP_PRECISE const double denominator = (double(dir.x) * nx + double(dir.y) * ny) + double(dir.z) * nz;
+    RP_PRECISE const double t = numerator / denominator;
+    // A zero denominator gives an infinity or a NaN, which the range test turns away.
+    if (!(t > double(0.0f) && t <= double(kFloatHuge))) return acceptedT;
+    const float rounded = float(t);
+    return rounded > 0.0f ? rounded : acceptedT;
+}
+#endif
 
 // The order of closest hits: nearer t first, and among equal t (coplanar or shared-edge triangles)
 // the lower triangle index. With it the closest hit is independent of traversal order, so the

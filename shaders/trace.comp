@@ -12,7 +12,8 @@
 //   kPassPrimaryShade  primary rays, then shading without shadows
 //   kPassShadowShade   shadow rays from the light to each kept hit (report 2.3), then shading
 // Intersection, the shadow-ray rule and shading are shaders/intersect.h and shaders/shading.h, the
-// text the CPU reference compiles too.
+// text the CPU reference compiles too. Built twice: as is, and with RP_FLOAT64, where the kept
+// hit's accurate distance is computed in doubles (accurateHitDistanceF64; HitDistanceMath).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
@@ -813,7 +814,11 @@ void main() {
         if (leafTri != kNoHit && q.inexactT) {
             // The kept hit's distance from its plane (shaders/intersect.h), as the CPU tracers do.
             const GpuTriangle tri = triangles[leafTri];
+#ifdef RP_FLOAT64
+            t = accurateHitDistanceF64(eye, dir, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, t);
+#else
             t = accurateHitDistance(eye, dir, tri.v0.xyz, tri.v1.xyz, tri.v2.xyz, t);
+#endif
         }
         counts.primaryNodes = q.nodes;
         counts.primaryTests = q.tests;

@@ -218,7 +218,7 @@ BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
         glm::vec2 bary;
         bool inexactT = false;
         gpu::intersectTriangle(ray, v0, v1, v2, kRayTmaxInfinite, ownT, bary, inexactT);
-        if (inexactT) best.t = gpu::accurateHitDistance(org, dir, v0, v1, v2, best.t);
+        if (inexactT) best.t = gpu::accurateHitDistanceF64(org, dir, v0, v1, v2, best.t);
     }
     return best;
 }

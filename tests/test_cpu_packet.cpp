@@ -247,7 +247,7 @@ TEST(CpuPacket, FastIntersectionSameAsTheReferencesFastPath) {
 }
 
 // Slivers 1e-3 wide in random orientations: most kept hits have their t recomputed from the plane
-// (gpu::accurateHitDistance), which the packet kernel does lane by lane; the same bits.
+// (gpu::accurateHitDistanceF64), which the packet kernel does for each such lane; the same bits.
 TEST(CpuPacket, SameHitsOnSlivers) {
     const Scene scene = test::randomSliverSoup(40000, 1e-3f, 3.0f, 9);
     const Bvh bvh = build(scene);

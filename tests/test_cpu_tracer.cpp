@@ -44,14 +44,14 @@ struct BruteHit {
 };
 
 // The distance a tracer reports for the hit it keeps: the triangle test's t, or where that test
-// calls its t inexact the plane distance of that triangle (gpu::accurateHitDistance).
+// calls its t inexact the plane distance of that triangle (gpu::accurateHitDistanceF64).
 float keptT(const Scene& scene, uint32_t prim, glm::vec3 org, glm::vec3 dir, float t) {
     const glm::vec3 v0 = scene.vertex(prim, 0), v1 = scene.vertex(prim, 1), v2 = scene.vertex(prim, 2);
     float ownT;
     glm::vec2 bary;
     bool inexactT = false;
     gpu::intersectTriangle(gpu::makeTraceRay(org, dir), v0, v1, v2, kRayTmaxInfinite, ownT, bary, inexactT);
-    return inexactT ? gpu::accurateHitDistance(org, dir, v0, v1, v2, t) : t;
+    return inexactT ? gpu::accurateHitDistanceF64(org, dir, v0, v1, v2, t) : t;
 }
 
 BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {

@@ -371,6 +371,21 @@ TEST(Triangle, OriginOnTheTriangleIsNoHit) {
 
 using raypack::test::exactPlaneDistance;
 
+// The two forms of the kept hit's plane distance: float pairs (the GPU kernels' where 64-bit floats
+// are slow or missing) and doubles (the CPU tracers', and the kernels' elsewhere).
+using Refine = float (*)(vec3, vec3, vec3, vec3, vec3, float);
+float refineFloatPair(vec3 org, vec3 dir, vec3 v0, vec3 v1, vec3 v2, float t) {
+    return accurateHitDistance(org, dir, v0, v1, v2, t);
+}
+float refineF64(vec3 org, vec3 dir, vec3 v0, vec3 v1, vec3 v2, float t) {
+    return accurateHitDistanceF64(org, dir, v0, v1, v2, t);
+}
+struct RefineForm {
+    const char* name;
+    Refine refine;
+};
+const RefineForm kRefineForms[] = {{"float pairs", refineFloatPair}, {"doubles", refineF64}};
+
 struct SliverErrors {
     uint32_t hits = 0;
     double worst = 0.0;
@@ -379,9 +394,9 @@ struct SliverErrors {
 // Random slivers `width` wide and 0.2-3 long: needles (one short edge) and caps (a vertex
 // `width` off the long edge's middle), anywhere in [-offset - 10, -offset + 10]^3, in any
 // orientation, each hit by rays from random origins 1-20 away aimed at a random point inside it.
-// `always`: every hit's t from accurateHitDistance; otherwise as the tracers do, where
-// intersectTriangle calls its own t inexact.
-SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_t seed, bool always) {
+// `always`: every hit's t from `refine`; otherwise as the tracers do, where intersectTriangle calls
+// its own t inexact.
+SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_t seed, bool always, Refine refine) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> unit(-1.0f, 1.0f), lengthOf(0.2f, 3.0f), far(1.0f, 20.0f), in(0.0f, 1.0f);
     const auto direction = [&] { return raypack::test::randomDirection(rng); };
@@ -405,7 +420,7 @@ SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_
             vec2 bary;
             bool inexactT = false;
             if (!intersectTriangle(makeTraceRay(org, dir), v0, v1, v2, kFloatHuge, t, bary, inexactT)) continue;
-            if (inexactT || always) t = accurateHitDistance(org, dir, v0, v1, v2, t);
+            if (inexactT || always) t = refine(org, dir, v0, v1, v2, t);
             const double exact = exactPlaneDistance(org, dir, v0, v1, v2);
             ++errors.hits;
             errors.worst = std::max(errors.worst, std::abs(double(t) - exact) / std::abs(exact));
@@ -419,16 +434,18 @@ SliverErrors sliverErrors(float width, float offset, uint32_t triangles, uint32_
 // Now: within 5e-6 (measured: 2.0e-6) where the tracers keep the triangle test's t, within two
 // ulps where they recompute it (issue 15's bar is 1e-5).
 TEST(Triangle, HitDistanceOnSliversIsAccurate) {
-    for (const bool always : {false, true}) {
-        for (const float width : {1e-4f, 1e-6f}) {
-            for (const float offset : {0.0f, 1000.0f}) {
-                const SliverErrors errors = sliverErrors(width, offset, 20000, 7, always);
-                // Rays aimed at a point inside a sliver can miss it (the aim point rounds off it).
-                EXPECT_GT(errors.hits, 10000u);
-                EXPECT_LE(errors.worst, always ? 2.4e-7 : 5e-6)
-                    << "width " << width << ", offset " << offset << ": " << errors.hits << " hits";
-                std::printf("slivers %g wide at offset %g%s: %u hits, worst relative t error %.3g\n", width, offset,
-                            always ? ", every t recomputed" : "", errors.hits, errors.worst);
+    for (const RefineForm& form : kRefineForms) {
+        for (const bool always : {false, true}) {
+            for (const float width : {1e-4f, 1e-6f}) {
+                for (const float offset : {0.0f, 1000.0f}) {
+                    const SliverErrors errors = sliverErrors(width, offset, 20000, 7, always, form.refine);
+                    // Rays aimed at a point inside a sliver can miss it (the aim point rounds off it).
+                    EXPECT_GT(errors.hits, 10000u);
+                    EXPECT_LE(errors.worst, always ? 2.4e-7 : 5e-6)
+                        << form.name << ", width " << width << ", offset " << offset << ": " << errors.hits << " hits";
+                    std::printf("slivers %g wide at offset %g, %s%s: %u hits, worst relative t error %.3g\n", width,
+                                offset, form.name, always ? ", every t recomputed" : "", errors.hits, errors.worst);
+                }
             }
         }
     }
@@ -437,45 +454,84 @@ TEST(Triangle, HitDistanceOnSliversIsAccurate) {
 // Triangles of size about 1 whose plane meets the ray at a grazing angle (cos 1e-4 to 1e-1), at
 // distances 2-5 and 100-1000 from the ray origin.
 TEST(Triangle, HitDistanceAtGrazingAnglesIsAccurate) {
-    std::mt19937 rng(3);
-    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), in(0.0f, 1.0f);
-    const auto direction = [&] { return raypack::test::randomDirection(rng); };
-    for (const bool farAway : {false, true}) {
-        for (const bool always : {false, true}) {
-            double worst = 0.0;
-            uint32_t hits = 0;
-            for (int i = 0; i < 20000; ++i) {
-                const float distance = farAway ? std::pow(10.0f, 2.0f + in(rng)) : 2.0f + 3.0f * in(rng);
-                const glm::vec3 towards = direction();
-                const vec3 org(unit(rng), unit(rng), unit(rng));
-                const glm::vec3 target = glm::vec3(org) + distance * towards;
-                const float cosine = std::pow(10.0f, -4.0f + 3.0f * in(rng));
-                const glm::vec3 side = glm::normalize(glm::cross(towards, direction()));
-                const glm::vec3 normal = glm::normalize(cosine * towards + std::sqrt(1.0f - cosine * cosine) * side);
-                const glm::vec3 p1 = glm::normalize(glm::cross(normal, direction())), p2 = glm::cross(normal, p1);
-                const float phase = 6.2831853f * in(rng);
-                vec3 v[3];
-                for (int k = 0; k < 3; ++k)
-                    v[k] = target + 0.6f * (std::cos(phase + 2.1f * k) * p1 + std::sin(phase + 2.1f * k) * p2);
-                float b1 = in(rng), b2 = in(rng);
-                if (b1 + b2 > 1.0f) b1 = 1.0f - b1, b2 = 1.0f - b2;
-                const vec3 dir = v[0] + b1 * (v[1] - v[0]) + b2 * (v[2] - v[0]) - org;
-                float t = 0.0f;
-                vec2 bary;
-                bool inexactT = false;
-                if (!intersectTriangle(makeTraceRay(org, dir), v[0], v[1], v[2], kFloatHuge, t, bary, inexactT))
-                    continue;
-                if (inexactT || always) t = accurateHitDistance(org, dir, v[0], v[1], v[2], t);
-                const double exact = exactPlaneDistance(org, dir, v[0], v[1], v[2]);
-                worst = std::max(worst, std::abs(double(t) - exact) / std::abs(exact));
-                ++hits;
+    for (const RefineForm& form : kRefineForms) {
+        std::mt19937 rng(3);
+        std::uniform_real_distribution<float> unit(-1.0f, 1.0f), in(0.0f, 1.0f);
+        const auto direction = [&] { return raypack::test::randomDirection(rng); };
+        for (const bool farAway : {false, true}) {
+            for (const bool always : {false, true}) {
+                double worst = 0.0;
+                uint32_t hits = 0;
+                for (int i = 0; i < 20000; ++i) {
+                    const float distance = farAway ? std::pow(10.0f, 2.0f + in(rng)) : 2.0f + 3.0f * in(rng);
+                    const glm::vec3 towards = direction();
+                    const vec3 org(unit(rng), unit(rng), unit(rng));
+                    const glm::vec3 target = glm::vec3(org) + distance * towards;
+                    const float cosine = std::pow(10.0f, -4.0f + 3.0f * in(rng));
+                    const glm::vec3 side = glm::normalize(glm::cross(towards, direction()));
+                    const glm::vec3 normal =
+                        glm::normalize(cosine * towards + std::sqrt(1.0f - cosine * cosine) * side);
+                    const glm::vec3 p1 = glm::normalize(glm::cross(normal, direction())), p2 = glm::cross(normal, p1);
+                    const float phase = 6.2831853f * in(rng);
+                    vec3 v[3];
+                    for (int k = 0; k < 3; ++k)
+                        v[k] = target + 0.6f * (std::cos(phase + 2.1f * k) * p1 + std::sin(phase + 2.1f * k) * p2);
+                    float b1 = in(rng), b2 = in(rng);
+                    if (b1 + b2 > 1.0f) b1 = 1.0f - b1, b2 = 1.0f - b2;
+                    const vec3 dir = v[0] + b1 * (v[1] - v[0]) + b2 * (v[2] - v[0]) - org;
+                    float t = 0.0f;
+                    vec2 bary;
+                    bool inexactT = false;
+                    if (!intersectTriangle(makeTraceRay(org, dir), v[0], v[1], v[2], kFloatHuge, t, bary, inexactT))
+                        continue;
+                    if (inexactT || always) t = form.refine(org, dir, v[0], v[1], v[2], t);
+                    const double exact = exactPlaneDistance(org, dir, v[0], v[1], v[2]);
+                    worst = std::max(worst, std::abs(double(t) - exact) / std::abs(exact));
+                    ++hits;
+                }
+                EXPECT_GT(hits, 15000u);
+                EXPECT_LE(worst, always ? 2.4e-7 : 5e-6) << form.name << (farAway ? ", far" : ", near");
+                std::printf("grazing, %s, %s%s: %u hits, worst relative t error %.3g\n", farAway ? "far" : "near",
+                            form.name, always ? ", every t recomputed" : "", hits, worst);
             }
-            EXPECT_GT(hits, 15000u);
-            EXPECT_LE(worst, always ? 2.4e-7 : 5e-6) << (farAway ? "far" : "near");
-            std::printf("grazing, %s%s: %u hits, worst relative t error %.3g\n", farAway ? "far" : "near",
-                        always ? ", every t recomputed" : "", hits, worst);
         }
     }
+}
+
+// The two forms agree: on slivers and grazing rays, from scenes of 1e-30 to 1e30 units, the float
+// pairs' and the doubles' plane distances of every hit are equal or adjacent floats (each is the
+// exact distance rounded, to within its own error far below an ulp).
+TEST(Triangle, HitDistanceFormsAgree) {
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> unit(-1.0f, 1.0f), in(0.0f, 1.0f);
+    const auto direction = [&] { return raypack::test::randomDirection(rng); };
+    uint32_t hits = 0, equal = 0;
+    for (const float scale : {1e-30f, 1e-3f, 1.0f, 1e3f, 1e30f}) {
+        for (int i = 0; i < 20000; ++i) {
+            const glm::vec3 axis = direction();
+            const glm::vec3 across = glm::normalize(glm::cross(axis, direction()));
+            const float width = i % 3 == 0 ? 1e-6f : i % 3 == 1 ? 1e-3f : 0.5f;
+            const glm::vec3 centre = glm::vec3(unit(rng), unit(rng), unit(rng)) * 10.0f;
+            const vec3 v0 = scale * (centre - axis), v1 = scale * (centre + axis),
+                       v2 = scale * (centre + width * across);
+            float b1 = in(rng), b2 = in(rng);
+            if (b1 + b2 > 1.0f) b1 = 1.0f - b1, b2 = 1.0f - b2;
+            const glm::vec3 target = glm::vec3(v0) + b1 * glm::vec3(v1 - v0) + b2 * glm::vec3(v2 - v0);
+            const vec3 org = target - scale * (1.0f + 20.0f * in(rng)) * direction();
+            const vec3 dir = target - glm::vec3(org);
+            float t = 0.0f;
+            vec2 bary;
+            if (!intersectTriangle(makeTraceRay(org, dir), v0, v1, v2, kFloatHuge, t, bary)) continue;
+            const float pair = accurateHitDistance(org, dir, v0, v1, v2, t);
+            const float dbl = accurateHitDistanceF64(org, dir, v0, v1, v2, t);
+            ++hits;
+            equal += pair == dbl ? 1 : 0;
+            const int64_t apart = std::abs(int64_t(floatBitsToUint(pair)) - int64_t(floatBitsToUint(dbl)));
+            EXPECT_LE(apart, 1) << "scale " << scale << ", ray " << i << ": " << pair << " against " << dbl;
+        }
+    }
+    EXPECT_GT(hits, 60000u);
+    std::printf("%u hits: the two forms equal on %u, one ulp apart on the rest\n", hits, equal);
 }
 
 TEST(Triangle, DegenerateTrianglesAreNeverHit) {

@@ -47,6 +47,7 @@ struct BenchFlags {
     std::string hybridVisitRatios = "0";
     std::string hybridPacketsPerGroup = "1";
     std::string shadowOrder = "nearest";
+    std::string hitDistances = "auto";  // the GPU kernels' cells, one per entry
     uint32_t width = 0, height = 0, repeat = 0;
     uint32_t buildRepeat = 1;  // builds per scene (raypack's CPU builders and Embree); T_B is the median
     BvhFlags bvh;
@@ -61,11 +62,13 @@ struct Cell {
     Tracer* tracer;
     std::optional<PacketShape> packet;  // the single-ray kernel: its primary pass's workgroup
     std::optional<HybridParams> hybrid;
-    std::string hybridMinRaysText;           // the --hybrid-min-rays entry ("1/4" or "8")
-    std::optional<PacketShape> shadowGroup;  // the single-ray kernel's shadow-pass workgroup
+    std::string hybridMinRaysText;               // the --hybrid-min-rays entry ("1/4" or "8")
+    std::optional<PacketShape> shadowGroup;      // the single-ray kernel's shadow-pass workgroup
+    std::optional<HitDistanceMath> hitDistance;  // raypack's GPU kernels (one cell per --hit-distance entry)
     std::string label() const {
         std::string text = tracer->name() + (packet ? " " + toString(*packet) : std::string());
         if (shadowGroup) text += "/" + toString(*shadowGroup);
+        if (hitDistance) text += std::string(" hit distance ") + toString(*hitDistance);
         if (hybrid) {
             char rules[128];
             std::snprintf(rules, sizeof rules, " K=%u (%s) visit ratio %g, %u packet(s) a workgroup", hybrid->minRays,
@@ -108,6 +111,7 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["hybrid_min_rays_spec"] = cell.hybrid ? json(cell.hybridMinRaysText) : json(nullptr);
         r["hybrid_visit_ratio"] = cell.hybrid ? json(cell.hybrid->visitRatio) : json(nullptr);
         r["hybrid_packets_per_group"] = cell.hybrid ? json(cell.hybrid->packetsPerGroup) : json(nullptr);
+        r["hit_distance_requested"] = cell.hitDistance ? json(toString(*cell.hitDistance)) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;
         r["height_px"] = s.height;
@@ -127,6 +131,16 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
             if (s.preparedBytes > 0) r["device_scene_bytes"] = s.preparedBytes;
         }
         records.push_back(r);
+    }
+}
+
+// The arithmetic of the accurate hit distance that the last cell's two records traced with.
+void addHitDistance(json& records, Tracer& tracer, const RenderSettings& settings) {
+    const std::optional<std::string> math = tracer.hitDistance(settings);
+    const double rate = tracer.float64Rate();
+    for (size_t k = records.size() - 2; k < records.size(); ++k) {
+        records[k]["hit_distance"] = math ? json(*math) : json(nullptr);
+        records[k]["float64_rate"] = rate > 0.0 ? json(rate) : json(nullptr);
     }
 }
 
@@ -245,6 +259,7 @@ json runTrade(const BenchSuite& suite, const TradeMatrix& matrix, const std::vec
                     if (b == 0 && mode == IntersectMode::Robust)
                         references[tracer->name()] = {measured.frame.rgba, measured.frame.hits};
                     addFrameRecords(records, scene, *tracer, Cell{tracer, packet, std::nullopt, ""}, measured);
+                    addHitDistance(records, *tracer, cellSettings);
                     for (size_t k = records.size() - 2; k < records.size(); ++k)
                         records[k]["intersect"] = toString(mode);
                     const auto reference = references.find(tracer->name());
@@ -313,6 +328,10 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const bool cpu = f.device != "gpu";
     const bool gpu = f.device != "cpu";
     const ShadowOrder shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
+    std::vector<HitDistanceMath> hitDistances;
+    for (const std::string& name : splitList(f.hitDistances))
+        hitDistances.push_back(requireHitDistanceMath("--hit-distance", name));
+    if (hitDistances.empty()) throw Error("--hit-distance: no arithmetic given");
     const bool packetKernel = f.kernel == "all" || f.kernel == "packet";
     const bool singleKernel = f.kernel == "all" || f.kernel == "single";
     const bool hybridKernel = f.kernel == "all" || f.kernel == "hybrid";
@@ -357,6 +376,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
         }
         Tracer* tracer = tracers.emplace_back(makeTracer(info.name, environment)).get();
         if (info.name == "embree") machine["embree_version"] = embreeVersion();
+        const size_t firstCell = cells.size();
         if (info.kernel == "hybrid") {
             for (const PacketShape& p : packets)
                 for (const HybridMinRaysSpec& k : hybridMinRays)
@@ -372,6 +392,17 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 cells.push_back({tracer, p, std::nullopt, ""});
         } else {
             cells.push_back({tracer, std::nullopt, std::nullopt, ""});
+        }
+        // raypack's GPU kernels: each of those cells once per hit-distance arithmetic.
+        if (info.device == TracerDevice::Gpu && info.name != "driver-rt") {
+            std::vector<Cell> tracerCells(cells.begin() + long(firstCell), cells.end());
+            cells.resize(firstCell);
+            for (const Cell& base : tracerCells)
+                for (const HitDistanceMath math : hitDistances) {
+                    Cell cell = base;
+                    cell.hitDistance = math;
+                    cells.push_back(cell);
+                }
         }
     }
 
@@ -398,6 +429,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
               {"hybrid_visit_ratios", f.hybridVisitRatios},
               {"hybrid_packets_per_group", f.hybridPacketsPerGroup},
               {"shadow_order", f.shadowOrder},
+              {"hit_distances", f.hitDistances},
               {"packets",
                [&] {
                    json list = json::array();
@@ -516,6 +548,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 (cell.tracer->kernel() == "single" ? cellSettings.singleGroup : cellSettings.packet) = *cell.packet;
             if (cell.shadowGroup) cellSettings.singleShadowGroup = *cell.shadowGroup;
             if (cell.hybrid) cellSettings.hybrid = *cell.hybrid;
+            if (cell.hitDistance) cellSettings.hitDistance = *cell.hitDistance;
             if (std::optional<json> peer = tracer.peerRecords(cellSettings, repeats, referenceHits)) {
                 for (json record : *peer) {
                     for (const char* key : {"scene", "scene_spec", "camera", "triangles", "degenerate_triangles"})
@@ -525,6 +558,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
             } else {
                 MeasuredFrames measured = measureFrames(tracer, prepared[&tracer], cellSettings, repeats, false);
                 addFrameRecords(records, scene, tracer, cell, measured);
+                addHitDistance(records, tracer, cellSettings);
                 if (const auto built = builtInTracer.find(&tracer); built != builtInTracer.end())
                     for (size_t k = records.size() - 2; k < records.size(); ++k) {
                         // The tree this tracer built in its own buffers (the same tree as the
@@ -687,6 +721,12 @@ CommandRunner addBenchCommand(CLI::App& app) {
                      "The child a shadow ray of the GPU single-ray kernel enters first: nearest, tree "
                      "or larger (docs/gpu.md); the other tracers ignore it")
         ->check(CLI::IsMember({"nearest", "tree", "larger"}))
+        ->capture_default_str();
+    command
+        ->add_option("--hit-distance", f.hitDistances,
+                     "The arithmetic of the GPU kernels' accurate hit distance (robust path): a comma-separated "
+                     "list of auto, fp64 and float-pair, one cell of each GPU kernel per entry (records "
+                     "\"hit_distance\": what it resolved to on the device; docs/trade.md)")
         ->capture_default_str();
     addBvhFlags(*command, f.bvh);
     return [flags, command] { return runBench(*flags, *command); };

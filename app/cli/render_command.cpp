@@ -41,6 +41,7 @@ struct RenderFlags {
     std::string view = "shaded";
     std::string intersect = "robust";
     std::string shadowOrder = "nearest";
+    std::string hitDistance = "auto";
     uint32_t bvhWidth = 2;
     std::string out, hits, json, from;
     uint32_t repeat = 1;
@@ -53,7 +54,8 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio, *plocRadius, *treeletRounds, *treeletGamma, *topRebuild, *bvhWidth;
+        *hybridMinRays, *hybridVisitRatio, *plocRadius, *treeletRounds, *treeletGamma, *topRebuild, *bvhWidth,
+        *hitDistance;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -90,6 +92,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.view)) s.view = requireViewMode("--view", f.view);
     if (given(o.intersect)) s.intersect = requireIntersectMode("--intersect", f.intersect);
     if (given(o.shadowOrder)) s.shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
+    if (given(o.hitDistance)) s.hitDistance = requireHitDistanceMath("--hit-distance", f.hitDistance);
     if (given(o.bvhWidth)) s.bvhWidth = f.bvhWidth;
     if (given(o.leafSize)) setup.bvh.leafSize = f.bvh.leafSize;
     if (given(o.builder)) setup.bvh.builder = parseBvhBuilder(f.bvh.builder);
@@ -249,6 +252,15 @@ CommandRunner addRenderCommand(CLI::App& app) {
                                      "area); the shadows are the same, the work differs (docs/gpu.md)")
                         ->check(CLI::IsMember({"nearest", "tree", "larger"}))
                         ->capture_default_str();
+    o.hitDistance = command
+                        ->add_option("--hit-distance", f.hitDistance,
+                                     "GPU, --intersect robust: the arithmetic of the kept hit's accurate "
+                                     "distance: fp64 (64-bit floats; needs shaderFloat64), float-pair "
+                                     "(float pairs; any device) or auto (fp64 where the device runs it "
+                                     "at a useful rate, measured at start); they agree to an ulp, only "
+                                     "the speed differs (docs/trade.md)")
+                        ->check(CLI::IsMember({"auto", "fp64", "float-pair"}))
+                        ->capture_default_str();
     o.bvhWidth = command
                      ->add_option("--bvh-width", f.bvhWidth,
                                   "GPU --kernel single: trace the binary BVH (2) or the compressed 8-wide tree made "
@@ -325,6 +337,8 @@ CommandRunner addRenderCommand(CLI::App& app) {
                 "--bvh-width 8 orders the children by each ray's octant; --shadow-order applies to the binary tree");
         if (given(options->shadowOrder) && (cpu || settings.kernel != KernelKind::Single))
             throw Error("--shadow-order applies to --device gpu --kernel single only");
+        if (given(options->hitDistance) && cpu)
+            throw Error("--hit-distance applies to --device gpu only (the CPU tracers take 64-bit floats)");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
         // the render.
         if (!f.out.empty()) {
@@ -428,6 +442,17 @@ CommandRunner addRenderCommand(CLI::App& app) {
         if (settings.kernel == KernelKind::Hybrid)
             std::printf("hybrid     split below %u rays, visit ratio %g (0: off)\n", settings.hybrid.minRays,
                         double(settings.hybrid.visitRatio));
+        if (gpu && settings.intersect == IntersectMode::Robust)
+            if (const std::optional<std::string> math = tracer->hitDistance(settings)) {
+                std::string why = settings.hitDistance == HitDistanceMath::Auto ? "auto" : "as asked";
+                if (const double rate = tracer->float64Rate(); rate > 0.0) {
+                    char text[96];
+                    std::snprintf(text, sizeof text, ": doubles measured at %.3g of the float rate", rate);
+                    why += text;
+                }
+                std::printf("distance   accurate hit distance in %s (%s)\n",
+                            *math == "fp64" ? "64-bit floats" : "float pairs", why.c_str());
+            }
         printCamera(settings.camera, !cameraGiven);
         printTable1(stdout, loaded.info, bvhStats, setup.bvh);
         printTable2(stdout, measured.stats);

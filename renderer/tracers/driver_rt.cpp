@@ -23,6 +23,8 @@ public:
     TracerDevice device() const override { return TracerDevice::Gpu; }
     std::string describe(const RenderSettings&) const override { return vk::describe(context_.info); }
     std::string driver() const override { return vk::describe(context_.info); }
+    // Its own intersection, no accurate distance of raypack's.
+    std::optional<std::string> hitDistance(const RenderSettings&) override { return std::nullopt; }
     TracerCapabilities capabilities() const override {
         TracerCapabilities c;
         c.hits = c.gpuTimestamps = true;

@@ -405,6 +405,8 @@ public:
     // said "CPU reference, ..." here, which named the wrong tracer.
     std::string describe(const RenderSettings&) const override { return describeCpuDevice("Embree"); }
     std::string driver() const override { return "Embree " + embreeBuildVersion(); }
+    // Its own intersection, no accurate distance of raypack's.
+    std::optional<std::string> hitDistance(const RenderSettings&) override { return std::nullopt; }
     TracerCapabilities capabilities() const override {
         TracerCapabilities c;
         c.hits = true;

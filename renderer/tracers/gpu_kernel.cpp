@@ -74,6 +74,12 @@ public:
         return j;
     }
 
+    std::optional<std::string> hitDistance(const RenderSettings& settings) override {
+        if (settings.intersect != IntersectMode::Robust) return std::nullopt;
+        return std::string(toString(tracer_->hitDistanceMath(settings.hitDistance)));
+    }
+    double float64Rate() const override { return tracer_->float64Rate(); }
+
 private:
     RenderSettings withKernel(RenderSettings settings) const {
         settings.kernel = kernel_;

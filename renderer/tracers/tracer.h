@@ -109,6 +109,18 @@ public:
         return nullptr;
     }
 
+    // The arithmetic of the robust path's accurate hit distance when tracing `settings` ("fp64",
+    // "float-pair"; the bench's "hit_distance" field), resolved for this tracer's device; nullopt
+    // where none is computed (the fast path, the peers). Throws raypack::Error as render() does for
+    // an arithmetic the device lacks.
+    virtual std::optional<std::string> hitDistance(const RenderSettings& settings) {
+        if (settings.intersect != IntersectMode::Robust) return std::nullopt;
+        return std::string(toString(HitDistanceMath::Float64));  // raypack's CPU tracers
+    }
+    // The rate of doubles against floats that the device was measured at for that choice
+    // (GpuTracer::float64Rate); 0 where none was measured.
+    virtual double float64Rate() const { return 0.0; }
+
     // Tracers whose measurement is not a frame write their own bench records: Embree's five ray
     // modes at two build qualities, the driver's acceleration structure build and launch figures.
     // `reference` holds the reference tracer's hits of the same rays (or is empty). nullopt for

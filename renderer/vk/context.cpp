@@ -411,8 +411,15 @@ VulkanContext createVulkanContext(const VulkanContextOptions& options) {
             deviceFeatures = &executableInfo;
             ctx.pipelineStatistics = true;
         }
+        // The core features, at the chain's head: 64-bit floats where offered.
+        VkPhysicalDeviceFeatures offeredCore{};
+        vkGetPhysicalDeviceFeatures(ctx.physicalDevice, &offeredCore);
+        VkPhysicalDeviceFeatures2 core{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+        core.features.shaderFloat64 = offeredCore.shaderFloat64;
+        core.pNext = const_cast<void*>(deviceFeatures);
+        ctx.float64 = offeredCore.shaderFloat64 == VK_TRUE;
         VkDeviceCreateInfo deviceInfo{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
-        deviceInfo.pNext = deviceFeatures;
+        deviceInfo.pNext = &core;
         deviceInfo.queueCreateInfoCount = 1;
         deviceInfo.pQueueCreateInfos = &queueInfo;
         deviceInfo.enabledExtensionCount = uint32_t(extensions.size());

@@ -87,6 +87,9 @@ struct VulkanContext {
     bool rayTracing = false;
     // VK_KHR_pipeline_executable_properties is enabled (VulkanContextOptions::enablePipelineStatistics).
     bool pipelineStatistics = false;
+    // shaderFloat64 is enabled (wherever the device offers it): the kernels may compute the
+    // accurate hit distance in doubles (HitDistanceMath, renderer/settings.h).
+    bool float64 = false;
     // The queue's external synchronisation: the viewer's render thread and its build worker both
     // submit to `queue`, so every vkQueueSubmit, vkQueueWaitIdle, vkQueuePresentKHR and
     // vkDeviceWaitIdle goes through lockQueue (or the helpers below that take it).
