@@ -130,11 +130,15 @@ TEST(RobustGpu, HitDistancesOnSliversAreAccurateOnEveryTracer) {
         }
         return worst;
     };
-    // Both arithmetics of the distance where the device has doubles (lavapipe has), float pairs
-    // alone where it has not.
-    std::vector<HitDistanceMath> maths{HitDistanceMath::FloatPair};
-    if (validatedContext().float64) maths.push_back(HitDistanceMath::Float64);
+    // The single-ray kernel in both arithmetics of the distance where the device has doubles
+    // (lavapipe has), float pairs alone where it has not; the packet kernel (whose primary pass
+    // ends in the same code) in the device's own choice.
+    std::vector<HitDistanceMath> bothMaths{HitDistanceMath::FloatPair};
+    if (validatedContext().float64) bothMaths.push_back(HitDistanceMath::Float64);
     for (const KernelKind kernel : {KernelKind::Packet, KernelKind::Single}) {
+        const std::vector<HitDistanceMath> maths =
+            kernel == KernelKind::Single ? bothMaths
+                                         : std::vector<HitDistanceMath>{tracer.hitDistanceMath(HitDistanceMath::Auto)};
         RenderSettings settings = soupSettings(scene, 160, kernel);
         const FrameRequest request{true, true, false};
         uint32_t cpuHits = 0;
