@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Issue 14 on the lent H200 machine: the accurate hit distance in doubles against float pairs
-# (HitDistanceMath, docs/trade.md). First the hits of each report scene at 1920x1080 (the
-# single-ray kernel, its start view) with --hit-distance fp64 and float-pair, compared record by
-# record (OUT/hits.txt: differing records and largest t difference in ulps); then ROUNDS rounds of
+# (HitDistanceMath, docs/trade.md). ROUNDS rounds of
 # `bench --suite report --device gpu --kernel single --hit-distance auto,float-pair` (gpu-single and
 # gpu-cwbvh, each arithmetic a cell of the same process), the report's tree and then sah-split
 # leaves of 2; and, where carried, .device/bin/raypack-cli-old (the build before, float pairs
-# only) once per round. OUT/hit-distance.md: per round, scene and tracer, primary Mrays/s of each
+# only) once per round; then the hits of each report scene at 1920x1080 (the single-ray kernel,
+# its start view) with --hit-distance fp64 and float-pair, compared record by record
+# (OUT/hits.txt: differing records and largest t difference in ulps). Past BUDGET_S seconds what
+# is left is skipped (OUT/errors.txt). OUT/hit-distance.md: per round, scene and tracer, primary Mrays/s of each
 # arithmetic, their ratio and what auto resolved to.
 #   scripts/device-hit-distance.sh [OUT_DIR]   (default: $OUT)
 # Environment: ROUNDS (default 2), REPEAT (default 10), BUDGET_S (default 480).
@@ -23,9 +24,24 @@ start=$(date +%s)
 cli=.device/bin/raypack-cli
 S=.device/scenes
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv > "$out/gpu.txt" 2>&1
+for round in $(seq 1 "$rounds"); do
+  for tree in exact split; do
+    if [ $(( $(date +%s) - start )) -gt "$budget" ]; then echo "round $round $tree: skipped (budget)" >> "$out/errors.txt"; continue; fi
+    extra=""; [ "$tree" = split ] && extra="--builder sah-split --leaf-size 2"
+    "$cli" bench --suite report --scene-dir "$S" --device gpu --kernel single --hit-distance auto,float-pair \
+      --width 1920 --height 1080 --repeat "$repeat" --no-embree --no-driver-rt --pipeline-statistics $extra \
+      --out "$out/new-$tree-$round.json" > "$out/new-$tree-$round.log" 2>&1 || echo "new $tree round $round: bench failed" >> "$out/errors.txt"
+  done
+  if [ -x .device/bin/raypack-cli-old ] && [ $(( $(date +%s) - start )) -le "$budget" ]; then
+    .device/bin/raypack-cli-old bench --suite report --scene-dir "$S" --device gpu --kernel single \
+      --width 1920 --height 1080 --repeat "$repeat" --no-embree --no-driver-rt \
+      --out "$out/old-exact-$round.json" > "$out/old-exact-$round.log" 2>&1 || echo "old round $round: bench failed" >> "$out/errors.txt"
+  fi
+done
 for scene in sibenik/sibenik_geom_75284.ply dabrovic_sponza/sponza.obj conference/conference_geom.ply \
              stanford/armadillo_decimated_99976.obj stanford/dragon_vrip_res2.ply; do
   name=$(basename "$scene" | sed 's/\..*//')
+  if [ $(( $(date +%s) - start )) -gt "$budget" ]; then echo "$name hits: skipped (budget)" >> "$out/errors.txt"; continue; fi
   for math in fp64 float-pair; do
     "$cli" render "$S/$scene" --device gpu --kernel single --width 1920 --height 1080 --hit-distance "$math" \
       --hits "$out/hits-$name-$math.bin" > "$out/render-$name-$math.txt" 2>&1 || echo "$name $math: render failed" >> "$out/hits.txt"
@@ -48,20 +64,6 @@ for i in range(n):
 print(f"{sys.argv[3]}: {n} rays, {hits} hits; records differing {differ}, triangles differing {prim}, largest t difference {ulps} ulp")
 PY
   rm -f "$out"/hits-"$name"-*.bin
-done
-for round in $(seq 1 "$rounds"); do
-  for tree in exact split; do
-    if [ $(( $(date +%s) - start )) -gt "$budget" ]; then echo "round $round $tree: skipped (budget)" >> "$out/errors.txt"; continue; fi
-    extra=""; [ "$tree" = split ] && extra="--builder sah-split --leaf-size 2"
-    "$cli" bench --suite report --scene-dir "$S" --device gpu --kernel single --hit-distance auto,float-pair \
-      --width 1920 --height 1080 --repeat "$repeat" --no-embree --no-driver-rt --pipeline-statistics $extra \
-      --out "$out/new-$tree-$round.json" > "$out/new-$tree-$round.log" 2>&1 || echo "new $tree round $round: bench failed" >> "$out/errors.txt"
-  done
-  if [ -x .device/bin/raypack-cli-old ] && [ $(( $(date +%s) - start )) -le "$budget" ]; then
-    .device/bin/raypack-cli-old bench --suite report --scene-dir "$S" --device gpu --kernel single \
-      --width 1920 --height 1080 --repeat "$repeat" --no-embree --no-driver-rt \
-      --out "$out/old-exact-$round.json" > "$out/old-exact-$round.log" 2>&1 || echo "old round $round: bench failed" >> "$out/errors.txt"
-  fi
 done
 python3 - "$out" "$rounds" > "$out/hit-distance.md" <<'PY'
 import json, os, sys
