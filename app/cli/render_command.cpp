@@ -256,9 +256,10 @@ CommandRunner addRenderCommand(CLI::App& app) {
                         ->add_option("--hit-distance", f.hitDistance,
                                      "GPU, --intersect robust: the arithmetic of the kept hit's accurate "
                                      "distance: fp64 (64-bit floats; needs shaderFloat64), float-pair "
-                                     "(float pairs; any device) or auto (fp64 where the device runs it "
-                                     "at a useful rate, measured at start); they agree to an ulp, only "
-                                     "the speed differs (docs/trade.md)")
+                                     "(float pairs; any device) or auto (fp64 on a CPU device, and on a GPU "
+                                     "that runs doubles at a quarter of the float rate or more, measured on "
+                                     "the first frame; else float-pair); they agree to an ulp, only the "
+                                     "speed differs (docs/trade.md)")
                         ->check(CLI::IsMember({"auto", "fp64", "float-pair"}))
                         ->capture_default_str();
     o.bvhWidth = command
