@@ -188,20 +188,9 @@ VkPipeline createPhasePipeline(GpuBvhBuilder::State& s, uint32_t phase, uint32_t
     }};
     // The sort's shared memory is sized by the second constant; the other kernels do not declare it
     // (a map entry for a constant the module lacks is ignored).
-    VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
-    VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-    info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    info.stage.module = s.modules[moduleOf(phase)];
-    info.stage.pName = "main";
-    info.stage.pSpecializationInfo = &specialization;
-    info.layout = s.layout.pipelineLayout;
-    VkPipeline pipeline = VK_NULL_HANDLE;
-    const VkResult result = vkCreateComputePipelines(s.ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
-    if (result < 0)
-        throw Error("gpu-lbvh: could not build kernel phase " + std::to_string(phase) + " on " + s.ctx.info.name +
-                    ": " + vk::resultName(result));
-    return pipeline;
+    const VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
+    return vk::createComputePipeline(s.ctx, s.modules[moduleOf(phase)], specialization, s.layout.pipelineLayout,
+                                     "gpu-lbvh: could not build kernel phase " + std::to_string(phase));
 }
 
 }  // namespace

@@ -96,9 +96,9 @@ uint32_t viewConstant(ViewMode view) {
 // The pipeline that traces `settings`' pass `pass` (kPass*): everything of the settings a
 // specialization constant takes, the hybrid kernel's split rules included (the other kernels keep
 // 0, one pipeline), and the module. One place for the frame's dispatches and for
-// pipelineStatistics. `float64`: the settings' hit distance resolves to doubles on this device
-// (resolveHitDistance); only a robust primary pass computes the distance, so only it takes the
-// doubles' module.
+// pipelineStatistics. `float64`: the settings' robust hit distance resolves to doubles on this
+// device (usesFloat64); only the primary pass computes the distance, so only it takes the doubles'
+// module.
 PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries,
                            bool float64) {
     const PacketShape group = gpuWorkgroup(settings, pass == gpu::kPassShadowShade);
@@ -111,7 +111,7 @@ PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool s
         key.packetsPerGroup = settings.hybrid.packetsPerGroup;
     }
     key.wideBvh = settings.kernel == KernelKind::Single && settings.bvhWidth == 8;
-    key.float64 = float64 && pass != gpu::kPassShadowShade && settings.intersect == IntersectMode::Robust;
+    key.float64 = float64 && pass != gpu::kPassShadowShade;
     return key;
 }
 
@@ -579,21 +579,12 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
         const gpu::SpecializationEntry& e = gpu::kTraceSpecializationEntries[i];
         entries[i] = {e.constantId, e.offset, e.size};
     }
-    VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
-    VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-    info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    info.stage.module = key.float64 ? s.moduleF64 : s.module;
-    info.stage.pName = "main";
-    info.stage.pSpecializationInfo = &specialization;
-    info.layout = s.layout.pipelineLayout;
-    if (s.ctx.pipelineStatistics) info.flags |= VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR;
-    VkPipeline pipeline = VK_NULL_HANDLE;
-    const VkResult result = vkCreateComputePipelines(s.ctx.device, s.pipelineCache, 1, &info, nullptr, &pipeline);
-    if (result < 0)
-        throw Error(std::string("GPU: could not build the ") + toString(key.kernel) + " kernel for packet " +
-                    std::to_string(key.packetWidth) + "x" + std::to_string(key.packetHeight) + " on " +
-                    s.ctx.info.name + ": " + vk::resultName(result));
+    const VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
+    const VkPipeline pipeline = vk::createComputePipeline(
+        s.ctx, key.float64 ? s.moduleF64 : s.module, specialization, s.layout.pipelineLayout,
+        std::string("GPU: could not build the ") + toString(key.kernel) + " kernel for packet " +
+            std::to_string(key.packetWidth) + "x" + std::to_string(key.packetHeight),
+        s.pipelineCache, s.ctx.pipelineStatistics ? VK_PIPELINE_CREATE_CAPTURE_STATISTICS_BIT_KHR : 0);
     s.pipelines.emplace(key, pipeline);
     return pipeline;
 }

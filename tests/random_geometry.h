@@ -7,6 +7,7 @@
 #include <glm/glm.hpp>
 
 #include <cstdint>
+#include <cstdlib>
 #include <random>
 
 namespace raypack::test {
@@ -44,5 +45,11 @@ inline Scene randomSliverSoup(uint32_t count, float width, float halfExtent, uin
 // The double-precision oracle of issue 15's t accuracy: the library's one definition
 // (renderer/measure/accuracy.h), which the trade suite measures with too.
 using raypack::exactPlaneDistance;
+
+// How many floats lie between two non-negative finite floats (0: equal, 1: adjacent): their bit
+// patterns order as they do.
+inline int64_t ulpsApart(float a, float b) {
+    return std::abs(int64_t(glm::floatBitsToUint(a)) - int64_t(glm::floatBitsToUint(b)));
+}
 
 }  // namespace raypack::test

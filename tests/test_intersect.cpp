@@ -374,17 +374,11 @@ using raypack::test::exactPlaneDistance;
 // The two forms of the kept hit's plane distance: float pairs (the GPU kernels' where 64-bit floats
 // are slow or missing) and doubles (the CPU tracers', and the kernels' elsewhere).
 using Refine = float (*)(vec3, vec3, vec3, vec3, vec3, float);
-float refineFloatPair(vec3 org, vec3 dir, vec3 v0, vec3 v1, vec3 v2, float t) {
-    return accurateHitDistance(org, dir, v0, v1, v2, t);
-}
-float refineF64(vec3 org, vec3 dir, vec3 v0, vec3 v1, vec3 v2, float t) {
-    return accurateHitDistanceF64(org, dir, v0, v1, v2, t);
-}
 struct RefineForm {
     const char* name;
     Refine refine;
 };
-const RefineForm kRefineForms[] = {{"float pairs", refineFloatPair}, {"doubles", refineF64}};
+const RefineForm kRefineForms[] = {{"float pairs", accurateHitDistance}, {"doubles", accurateHitDistanceF64}};
 
 struct SliverErrors {
     uint32_t hits = 0;
@@ -526,8 +520,8 @@ TEST(Triangle, HitDistanceFormsAgree) {
             const float dbl = accurateHitDistanceF64(org, dir, v0, v1, v2, t);
             ++hits;
             equal += pair == dbl ? 1 : 0;
-            const int64_t apart = std::abs(int64_t(floatBitsToUint(pair)) - int64_t(floatBitsToUint(dbl)));
-            EXPECT_LE(apart, 1) << "scale " << scale << ", ray " << i << ": " << pair << " against " << dbl;
+            EXPECT_LE(raypack::test::ulpsApart(pair, dbl), 1)
+                << "scale " << scale << ", ray " << i << ": " << pair << " against " << dbl;
         }
     }
     EXPECT_GT(hits, 60000u);

@@ -172,8 +172,7 @@ TEST(RobustGpu, HitDistancesOnSliversAreAccurateOnEveryTracer) {
                 if (a.prim == gpu::kNoHit) continue;
                 ++hits;
                 equal += a.t == b.t ? 1 : 0;
-                const int64_t apart = std::abs(int64_t(glm::floatBitsToUint(a.t)) - int64_t(glm::floatBitsToUint(b.t)));
-                EXPECT_LE(apart, 1) << "ray " << i << ": " << a.t << " against " << b.t;
+                EXPECT_LE(ulpsApart(a.t, b.t), 1) << "ray " << i << ": " << a.t << " against " << b.t;
             }
             std::printf("%s kernel: float pairs and doubles equal on %u of %u hits\n", toString(kernel), equal, hits);
         }

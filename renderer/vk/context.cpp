@@ -732,6 +732,23 @@ VkShaderModule createShaderModule(const VulkanContext& ctx, const uint32_t* code
     return module;
 }
 
+VkPipeline createComputePipeline(const VulkanContext& ctx, VkShaderModule module,
+                                 const VkSpecializationInfo& specialization, VkPipelineLayout layout,
+                                 const std::string& what, VkPipelineCache cache, VkPipelineCreateFlags flags) {
+    VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    info.flags = flags;
+    info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    info.stage.module = module;
+    info.stage.pName = "main";
+    info.stage.pSpecializationInfo = &specialization;
+    info.layout = layout;
+    VkPipeline pipeline = VK_NULL_HANDLE;
+    const VkResult result = vkCreateComputePipelines(ctx.device, cache, 1, &info, nullptr, &pipeline);
+    if (result < 0) throw Error(what + " on " + ctx.info.name + ": " + resultName(result));
+    return pipeline;
+}
+
 void memoryBarrier(VkCommandBuffer cmd, VkPipelineStageFlags srcStage, VkAccessFlags srcAccess,
                    VkPipelineStageFlags dstStage, VkAccessFlags dstAccess) {
     VkMemoryBarrier barrier{VK_STRUCTURE_TYPE_MEMORY_BARRIER};

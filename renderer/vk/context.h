@@ -202,6 +202,12 @@ void checkBindable(const VulkanContext& context, size_t bytes, const char* what)
 
 VkShaderModule createShaderModule(const VulkanContext& context, const uint32_t* code, size_t codeBytes,
                                   const char* name);
+// The compute pipeline of `module`'s "main" with `specialization` over `layout`, through `cache`
+// (none: VK_NULL_HANDLE) with `flags`. Throws raypack::Error "WHAT on DEVICE: RESULT" where it fails.
+VkPipeline createComputePipeline(const VulkanContext& context, VkShaderModule module,
+                                 const VkSpecializationInfo& specialization, VkPipelineLayout layout,
+                                 const std::string& what, VkPipelineCache cache = VK_NULL_HANDLE,
+                                 VkPipelineCreateFlags flags = 0);
 
 // Records a global memory barrier: the writes `srcAccess` of stages `srcStage` are made available
 // and visible to the accesses `dstAccess` of stages `dstStage`. Every buffer the tracers share

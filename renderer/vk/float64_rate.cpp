@@ -62,20 +62,9 @@ VkPipeline createProbePipeline(const Probe& probe, bool doubles, uint32_t iterat
         {0, offsetof(Constants, doubles), sizeof(VkBool32)},
         {1, offsetof(Constants, iterations), sizeof(uint32_t)},
     }};
-    VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
-    VkComputePipelineCreateInfo info{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-    info.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-    info.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-    info.stage.module = probe.module;
-    info.stage.pName = "main";
-    info.stage.pSpecializationInfo = &specialization;
-    info.layout = probe.layout.pipelineLayout;
-    VkPipeline pipeline = VK_NULL_HANDLE;
-    const VkResult result = vkCreateComputePipelines(probe.ctx.device, VK_NULL_HANDLE, 1, &info, nullptr, &pipeline);
-    if (result < 0)
-        throw Error("GPU: could not build the 64-bit float rate probe on " + probe.ctx.info.name + ": " +
-                    resultName(result));
-    return pipeline;
+    const VkSpecializationInfo specialization{uint32_t(entries.size()), entries.data(), sizeof data, &data};
+    return createComputePipeline(probe.ctx, probe.module, specialization, probe.layout.pipelineLayout,
+                                 "GPU: could not build the 64-bit float rate probe");
 }
 
 // Seconds one dispatch of `pipeline` takes: from timestamps where the queue writes them, else the
