@@ -139,8 +139,8 @@ struct GpuBvhBuilder::State {
     VkCommandPool pool = VK_NULL_HANDLE;
     vk::StorageSetLayout layout;  // every build kernel's storage buffers and push constants
     std::array<VkShaderModule, 9> modules{};
-    std::array<VkPipeline, kPhaseCount> pipelines{};
-    uint32_t plocRadius = kPlocRadius;  // the nearest-neighbour pipelines' r
+    std::array<VkPipeline, kPhaseCount> pipelines{};  // created before the first build that runs them
+    uint32_t plocRadius = kPlocRadius;                // the nearest-neighbour pipelines' r
     // Timestamps: the build's start, the end of the key sort, the start of the layout, the end.
     VkQueryPool queries = VK_NULL_HANDLE;
     uint32_t subgroupsPerGroup = 0;
@@ -193,6 +193,31 @@ VkPipeline createPhasePipeline(GpuBvhBuilder::State& s, uint32_t phase, uint32_t
                                      "gpu-lbvh: could not build kernel phase " + std::to_string(phase));
 }
 
+// The phases a build of `builder` over n triangles records (topRebuilt: top.comp's two; treelets:
+// any treelet rounds). A builder creates their pipelines before it starts timing that build.
+std::vector<uint32_t> phasesOfBuild(BvhBuilder builder, uint32_t n, bool topRebuilt, bool treelets) {
+    using namespace gpu;
+    std::vector<uint32_t> phases{kLbvhPhaseBounds,       kLbvhPhaseMorton,  kLbvhPhaseHistogram, kLbvhPhaseScanBlocks,
+                                 kLbvhPhaseAddBlockSums, kLbvhPhaseScatter, kLbvhPhaseGather};
+    const bool clustered = builder == BvhBuilder::GpuPloc || builder == BvhBuilder::GpuHploc;
+    // gpu-lbvh's levels, and every builder's root below 2 triangles.
+    if (!clustered || n < 2) {
+        phases.insert(phases.end(), {kLbvhPhaseHierarchy, kLbvhPhaseLevelRoot, kLbvhPhaseEnumerate, kLbvhPhaseNextLevel,
+                                     kLbvhPhaseBottomUp, kLbvhPhaseRoot, kLbvhPhaseEmit});
+        return phases;
+    }
+    if (builder == BvhBuilder::GpuPloc)
+        phases.insert(phases.end(), {kLbvhPhasePlocInit, kLbvhPhasePlocSetup, kLbvhPhasePlocNearest,
+                                     kLbvhPhasePlocFlags, kLbvhPhasePlocApply});
+    else
+        phases.insert(phases.end(), {kLbvhPhaseHplocInit, kLbvhPhaseHplocBuild});
+    phases.insert(phases.end(), {kLbvhPhaseClusterParents, kLbvhPhaseClusterCosts, kLbvhPhaseClusterPathStart,
+                                 kLbvhPhaseClusterPathJump, kLbvhPhaseClusterEmit, kLbvhPhasePlocReorder});
+    if (topRebuilt) phases.insert(phases.end(), {kLbvhPhaseTopStart, kLbvhPhaseTopFinish});
+    if (treelets) phases.push_back(kLbvhPhaseTreelet);
+    return phases;
+}
+
 }  // namespace
 
 GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::make_unique<State>(context)) {
@@ -221,8 +246,6 @@ GpuBvhBuilder::GpuBvhBuilder(const vk::VulkanContext& context) : state_(std::mak
         s.modules[7] =
             vk::createShaderModule(context, cluster_layout_spv, sizeof(cluster_layout_spv), "cluster_layout.comp");
         s.modules[8] = vk::createShaderModule(context, top_spv, sizeof(top_spv), "top.comp");
-        for (uint32_t phase = 0; phase < kPhaseCount; ++phase)
-            s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
 
         if (info.timestamps) {
             VkQueryPoolCreateInfo queryInfo{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
@@ -339,11 +362,32 @@ GpuBvhBuilder::SceneUpload GpuBvhBuilder::setScene(const Scene& scene) {
 GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const GpuBvhOutputs& outputs,
                                            BuildProgress* progress) {
     State& s = *state_;
-    const auto start = SteadyClock::now();
     if (!isGpuBvhBuilder(options.builder))
         throw Error(std::string("gpu-lbvh: asked to build with ") + toString(options.builder) + ", a CPU builder");
     bvh_detail::validateOptions(options);
     if (!s.hasScene) throw Error("gpu-lbvh: no scene uploaded");
+    // What this build runs and the builder has not run before: compiled here, outside its time.
+    {
+        const uint32_t triangles = uint32_t(s.triangleCount);
+        const bool clusters = options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc;
+        const uint32_t radius = plocRadiusOf(options, triangles);
+        if (clusters && radius != s.plocRadius) {
+            // The search radius is a specialization constant (it sizes gpu-ploc's shared memory): the
+            // pipelines that read it are made again.
+            vk::queueWaitIdle(s.ctx);
+            for (uint32_t phase : {gpu::kLbvhPhasePlocNearest, gpu::kLbvhPhaseHplocBuild}) {
+                VkPipeline& pipeline = s.pipelines[phase];
+                if (pipeline) vkDestroyPipeline(s.ctx.device, pipeline, nullptr);
+                pipeline = VK_NULL_HANDLE;
+            }
+            s.plocRadius = radius;
+        }
+        const uint32_t top = clusters ? topRebuildOf(options, triangles) : 0;
+        for (uint32_t phase : phasesOfBuild(options.builder, triangles, top != 0 && triangles >= top,
+                                            clusters && options.treeletRounds > 0))
+            if (!s.pipelines[phase]) s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
+    }
+    const auto start = SteadyClock::now();
     RAYPACK_CHECK_MSG(outputs.nodes && outputs.triangles, "a device build writes nodes and triangles");
     const uint32_t n = uint32_t(s.triangleCount);
     const GpuBvhSizes sizes = gpuBvhSizes(n);
@@ -352,19 +396,6 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     const bool ploc = options.builder == BvhBuilder::GpuPloc, hploc = options.builder == BvhBuilder::GpuHploc;
     // Both cluster the Morton-sorted triangles into a tree of their own, laid out by cluster_layout.comp.
     const bool clustered = ploc || hploc;
-    const uint32_t radius = plocRadiusOf(options, n);
-    if (clustered && radius != s.plocRadius) {
-        // The search radius is a specialization constant (it sizes gpu-ploc's shared memory): new
-        // pipelines.
-        vk::queueWaitIdle(s.ctx);
-        for (uint32_t phase : {gpu::kLbvhPhasePlocNearest, gpu::kLbvhPhaseHplocBuild}) {
-            VkPipeline& pipeline = s.pipelines[phase];
-            vkDestroyPipeline(s.ctx.device, pipeline, nullptr);
-            pipeline = VK_NULL_HANDLE;
-            pipeline = createPhasePipeline(s, phase, radius);
-        }
-        s.plocRadius = radius;
-    }
     // gpu-hploc's clustering and the treelet rounds climb from groupSize sorted triangles per
     // workgroup, with fewer workgroups where the device's row of them is shorter (each then takes
     // several chunks in turn).
@@ -484,6 +515,8 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
                                   VK_ACCESS_INDIRECT_COMMAND_READ_BIT | VK_ACCESS_TRANSFER_READ_BIT);
         }
         void bind(uint32_t phase, const gpu::LbvhParams& params) const {
+            RAYPACK_CHECK_MSG(s.pipelines[phase],
+                              "a build's phases are created before it records them (phasesOfBuild)");
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, s.pipelines[phase]);
             vkCmdPushConstants(cmd, s.layout.pipelineLayout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof params, &params);
         }

@@ -29,6 +29,8 @@
 #include <fstream>
 #include <string>
 
+#include <unistd.h>
+
 namespace raypack {
 namespace {
 
@@ -61,10 +63,13 @@ float viewPitch(const Camera& camera) {
     return std::asin(glm::dot(forward, glm::normalize(camera.up)));
 }
 
-// A folder of its own under the temporary folder, removed at the end of the test.
+// A folder of its own under the temporary folder, removed at the end of the test. The process id is
+// part of its name: ctest runs every test as a process of its own, two at a time, and two tests of
+// one fixture would otherwise share (and remove) one folder.
 struct TempFolder {
     fs::path path;
-    explicit TempFolder(const std::string& name) : path(fs::temp_directory_path() / ("raypack_test_" + name)) {
+    explicit TempFolder(const std::string& name)
+        : path(fs::temp_directory_path() / ("raypack_test_" + name + "_" + std::to_string(getpid()))) {
         fs::remove_all(path);
         fs::create_directories(path);
     }
