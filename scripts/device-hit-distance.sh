@@ -10,7 +10,9 @@
 # is left is skipped (OUT/errors.txt). OUT/hit-distance.md: per round, scene and tracer, primary Mrays/s of each
 # arithmetic, their ratio and what auto resolved to.
 #   scripts/device-hit-distance.sh [OUT_DIR]   (default: $OUT)
-# Environment: ROUNDS (default 2), REPEAT (default 10), BUDGET_S (default 480).
+# Environment: ROUNDS (default 2), REPEAT (default 10), BUDGET_S (default 480), ONLY (report scenes,
+# comma-separated, e.g. Sibenik,Sponza; default all five), TREES (default "exact split"), OLD (0: skip
+# raypack-cli-old even where carried).
 set -u
 out=${1:-${OUT:-}}
 [ -n "$out" ] || { echo "usage: scripts/device-hit-distance.sh OUT_DIR" >&2; exit 2; }
@@ -20,20 +22,22 @@ source scripts/device-env.sh > "$out/env.log" 2>&1
 rounds=${ROUNDS:-2}
 repeat=${REPEAT:-10}
 budget=${BUDGET_S:-480}
+only=${ONLY:-Sibenik,Sponza,Conference,Armadillo,Dragon}
+trees=${TREES:-exact split}
 start=$(date +%s)
 cli=.device/bin/raypack-cli
 S=.device/scenes
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv > "$out/gpu.txt" 2>&1
 for round in $(seq 1 "$rounds"); do
-  for tree in exact split; do
+  for tree in $trees; do
     if [ $(( $(date +%s) - start )) -gt "$budget" ]; then echo "round $round $tree: skipped (budget)" >> "$out/errors.txt"; continue; fi
     extra=""; [ "$tree" = split ] && extra="--builder sah-split --leaf-size 2"
-    "$cli" bench --suite report --scene-dir "$S" --device gpu --kernel single --hit-distance auto,float-pair \
+    "$cli" bench --suite report --only "$only" --scene-dir "$S" --device gpu --kernel single --hit-distance auto,float-pair \
       --width 1920 --height 1080 --repeat "$repeat" --no-embree --no-driver-rt --pipeline-statistics $extra \
       --out "$out/new-$tree-$round.json" > "$out/new-$tree-$round.log" 2>&1 || echo "new $tree round $round: bench failed" >> "$out/errors.txt"
   done
-  if [ -x .device/bin/raypack-cli-old ] && [ $(( $(date +%s) - start )) -le "$budget" ]; then
-    .device/bin/raypack-cli-old bench --suite report --scene-dir "$S" --device gpu --kernel single \
+  if [ "${OLD:-1}" != 0 ] && [ -x .device/bin/raypack-cli-old ] && [ $(( $(date +%s) - start )) -le "$budget" ]; then
+    .device/bin/raypack-cli-old bench --suite report --only "$only" --scene-dir "$S" --device gpu --kernel single \
       --width 1920 --height 1080 --repeat "$repeat" --no-embree --no-driver-rt \
       --out "$out/old-exact-$round.json" > "$out/old-exact-$round.log" 2>&1 || echo "old round $round: bench failed" >> "$out/errors.txt"
   fi
@@ -41,6 +45,9 @@ done
 for scene in sibenik/sibenik_geom_75284.ply dabrovic_sponza/sponza.obj conference/conference_geom.ply \
              stanford/armadillo_decimated_99976.obj stanford/dragon_vrip_res2.ply; do
   name=$(basename "$scene" | sed 's/\..*//')
+  case "$name" in sibenik*) label=Sibenik ;; sponza) label=Sponza ;; conference*) label=Conference ;;
+    armadillo*) label=Armadillo ;; *) label=Dragon ;; esac
+  [[ ",$only," == *",$label,"* ]] || continue
   if [ $(( $(date +%s) - start )) -gt "$budget" ]; then echo "$name hits: skipped (budget)" >> "$out/errors.txt"; continue; fi
   for math in fp64 float-pair; do
     "$cli" render "$S/$scene" --device gpu --kernel single --width 1920 --height 1080 --hit-distance "$math" \
