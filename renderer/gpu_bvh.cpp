@@ -366,36 +366,33 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
         throw Error(std::string("gpu-lbvh: asked to build with ") + toString(options.builder) + ", a CPU builder");
     bvh_detail::validateOptions(options);
     if (!s.hasScene) throw Error("gpu-lbvh: no scene uploaded");
-    // What this build runs and the builder has not run before: compiled here, outside its time.
-    {
-        const uint32_t triangles = uint32_t(s.triangleCount);
-        const bool clusters = options.builder == BvhBuilder::GpuPloc || options.builder == BvhBuilder::GpuHploc;
-        const uint32_t radius = plocRadiusOf(options, triangles);
-        if (clusters && radius != s.plocRadius) {
-            // The search radius is a specialization constant (it sizes gpu-ploc's shared memory): the
-            // pipelines that read it are made again.
-            vk::queueWaitIdle(s.ctx);
-            for (uint32_t phase : {gpu::kLbvhPhasePlocNearest, gpu::kLbvhPhaseHplocBuild}) {
-                VkPipeline& pipeline = s.pipelines[phase];
-                if (pipeline) vkDestroyPipeline(s.ctx.device, pipeline, nullptr);
-                pipeline = VK_NULL_HANDLE;
-            }
-            s.plocRadius = radius;
-        }
-        const uint32_t top = clusters ? topRebuildOf(options, triangles) : 0;
-        for (uint32_t phase : phasesOfBuild(options.builder, triangles, top != 0 && triangles >= top,
-                                            clusters && options.treeletRounds > 0))
-            if (!s.pipelines[phase]) s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
-    }
-    const auto start = SteadyClock::now();
     RAYPACK_CHECK_MSG(outputs.nodes && outputs.triangles, "a device build writes nodes and triangles");
     const uint32_t n = uint32_t(s.triangleCount);
-    const GpuBvhSizes sizes = gpuBvhSizes(n);
-    const uint32_t inner = n < 2 ? 0u : n - 1u;
-    const uint32_t sortBlocks = std::max(1u, (n + gpu::kLbvhSortBlock - 1) / gpu::kLbvhSortBlock);
     const bool ploc = options.builder == BvhBuilder::GpuPloc, hploc = options.builder == BvhBuilder::GpuHploc;
     // Both cluster the Morton-sorted triangles into a tree of their own, laid out by cluster_layout.comp.
     const bool clustered = ploc || hploc;
+    // gpu-ploc, gpu-hploc: the top rebuilt by the binned SAH from this many triangles (0: not at all).
+    const uint32_t topThreshold = clustered ? topRebuildOf(options, n) : 0;
+    const bool topRebuilt = topThreshold != 0 && n >= topThreshold;
+    // What this build runs and the builder has not run before: compiled here, outside its time.
+    const uint32_t radius = plocRadiusOf(options, n);
+    if (clustered && radius != s.plocRadius) {
+        // The search radius is a specialization constant (it sizes gpu-ploc's shared memory): the
+        // pipelines that read it are made again.
+        vk::queueWaitIdle(s.ctx);
+        for (uint32_t phase : {gpu::kLbvhPhasePlocNearest, gpu::kLbvhPhaseHplocBuild}) {
+            VkPipeline& pipeline = s.pipelines[phase];
+            if (pipeline) vkDestroyPipeline(s.ctx.device, pipeline, nullptr);
+            pipeline = VK_NULL_HANDLE;
+        }
+        s.plocRadius = radius;
+    }
+    for (uint32_t phase : phasesOfBuild(options.builder, n, topRebuilt, clustered && options.treeletRounds > 0))
+        if (!s.pipelines[phase]) s.pipelines[phase] = createPhasePipeline(s, phase, s.plocRadius);
+    const auto start = SteadyClock::now();
+    const GpuBvhSizes sizes = gpuBvhSizes(n);
+    const uint32_t inner = n < 2 ? 0u : n - 1u;
+    const uint32_t sortBlocks = std::max(1u, (n + gpu::kLbvhSortBlock - 1) / gpu::kLbvhSortBlock);
     // gpu-hploc's clustering and the treelet rounds climb from groupSize sorted triangles per
     // workgroup, with fewer workgroups where the device's row of them is shorter (each then takes
     // several chunks in turn).
@@ -629,8 +626,6 @@ GpuBvhBuilder::Result GpuBvhBuilder::build(const BvhBuildOptions& options, const
     // node it leaves finishes), then the treelet rounds over the clustered tree, each after listing
     // its parents.
     const uint32_t treeletGroups = climbGroups(gpu::kTreeletGroupSize);
-    const uint32_t topThreshold = clustered ? topRebuildOf(options, n) : 0;
-    const bool topRebuilt = topThreshold != 0 && n >= topThreshold;
     const auto restructure = [&](const Recorder& r) {
         if (topRebuilt) {
             gpu::LbvhParams p = base;
