@@ -8,7 +8,9 @@
 
 #include <cstdint>
 #include <cstdlib>
+#include <map>
 #include <random>
+#include <tuple>
 
 namespace raypack::test {
 
@@ -38,6 +40,43 @@ inline Scene randomSliverSoup(uint32_t count, float width, float halfExtent, uin
         const uint32_t base = uint32_t(scene.positions.size());
         scene.positions.insert(scene.positions.end(), {v0, v1, v2});
         scene.triangles.emplace_back(base, base + 1, base + 2);
+    }
+    return scene;
+}
+
+// Closed cube [-1, 1]^3 of n x n quads per face, vertices shared (exactly equal floats).
+inline Scene tessellatedCube(int n) {
+    Scene scene;
+    scene.source = "tessellated cube";
+    std::map<std::tuple<float, float, float>, uint32_t> index;
+    auto vertex = [&](glm::vec3 p) {
+        const auto key = std::make_tuple(p.x, p.y, p.z);
+        auto it = index.find(key);
+        if (it != index.end()) return it->second;
+        const uint32_t i = uint32_t(scene.positions.size());
+        scene.positions.push_back(p);
+        index.emplace(key, i);
+        return i;
+    };
+    auto grid = [&](int i) { return -1.0f + 2.0f * float(i) / float(n); };
+    for (int axis = 0; axis < 3; ++axis) {
+        for (int side = 0; side < 2; ++side) {
+            const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+            for (int i = 0; i < n; ++i) {
+                for (int j = 0; j < n; ++j) {
+                    uint32_t c[4];
+                    for (int k = 0; k < 4; ++k) {
+                        glm::vec3 p(0.0f);
+                        p[axis] = side ? 1.0f : -1.0f;
+                        p[u] = grid(i + (k & 1));
+                        p[v] = grid(j + (k >> 1));
+                        c[k] = vertex(p);
+                    }
+                    scene.triangles.push_back(glm::uvec3(c[0], c[1], c[3]));
+                    scene.triangles.push_back(glm::uvec3(c[0], c[3], c[2]));
+                }
+            }
+        }
     }
     return scene;
 }

@@ -24,14 +24,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <map>
 #include <random>
 #include <sstream>
-#include <tuple>
 
 namespace {
 
 using namespace raypack;
+using raypack::test::tessellatedCube;
 
 Bvh build(const Scene& scene, uint32_t leafSize = 2) {
     std::vector<Aabb> bounds(scene.triangleCount());
@@ -59,43 +58,6 @@ Scene randomSoup(uint32_t triangles, uint32_t seed) {
         const glm::vec3 c(centre(rng), centre(rng), centre(rng));
         for (int k = 0; k < 3; ++k) scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
         scene.triangles.push_back(glm::uvec3(3 * i, 3 * i + 1, 3 * i + 2));
-    }
-    return scene;
-}
-
-// Closed cube [-1, 1]^3 of n x n quads per face, vertices shared (exactly equal floats).
-Scene tessellatedCube(int n) {
-    Scene scene;
-    scene.source = "tessellated cube";
-    std::map<std::tuple<float, float, float>, uint32_t> index;
-    auto vertex = [&](glm::vec3 p) {
-        const auto key = std::make_tuple(p.x, p.y, p.z);
-        auto it = index.find(key);
-        if (it != index.end()) return it->second;
-        const uint32_t i = uint32_t(scene.positions.size());
-        scene.positions.push_back(p);
-        index.emplace(key, i);
-        return i;
-    };
-    auto grid = [&](int i) { return -1.0f + 2.0f * float(i) / float(n); };
-    for (int axis = 0; axis < 3; ++axis) {
-        for (int side = 0; side < 2; ++side) {
-            const int u = (axis + 1) % 3, v = (axis + 2) % 3;
-            for (int i = 0; i < n; ++i) {
-                for (int j = 0; j < n; ++j) {
-                    uint32_t c[4];
-                    for (int k = 0; k < 4; ++k) {
-                        glm::vec3 p(0.0f);
-                        p[axis] = side ? 1.0f : -1.0f;
-                        p[u] = grid(i + (k & 1));
-                        p[v] = grid(j + (k >> 1));
-                        c[k] = vertex(p);
-                    }
-                    scene.triangles.push_back(glm::uvec3(c[0], c[1], c[3]));
-                    scene.triangles.push_back(glm::uvec3(c[0], c[3], c[2]));
-                }
-            }
-        }
     }
     return scene;
 }
