@@ -51,12 +51,16 @@ struct PacketShape {
 // first inner node that fewer than `minRays` of its active rays want (0: never by this rule), or
 // once its inner-node visits summed over its active rays pass `visitRatio` times the visits those
 // rays wanted (0: the rule is off; at most kMaxHybridVisitRatio). Both are specialization constants.
-// Defaults until the H200 sweep (scripts/device-hybrid.sh) chooses them: a quarter of the default
-// 8x4 packet, visit rule off.
+// Defaults: K = 32, the default 8x4 packet's every ray (split at the first node that not all of them
+// want), visit rule off. This is the K sweep on an H100 (docs/gpu.md, "The hybrid kernel by triangle
+// density"). There, splitting that early was the fastest hybrid in 13 of the 16 scene and ray-kind
+// cells of the report and scaling suites, and within 0.02 of it in two more. Conference's primary
+// rays prefer K = 2 (0.96 of the single-ray kernel against 0.89). It beat or tied the earlier
+// default, a quarter of the packet, in 15 of the 16 cells.
 // `packetsPerGroup` packets share one workgroup, stacked in y (1: one packet a workgroup, as the
 // packet kernel); more than one needs packets of exactly one subgroup.
 struct HybridParams {
-    uint32_t minRays = 8;
+    uint32_t minRays = 32;
     float visitRatio = 0.0f;
     uint32_t packetsPerGroup = 1;
     bool operator==(const HybridParams&) const = default;

@@ -13,7 +13,7 @@
 //     "phong": {"ambient": 0.15, "diffuse": 0.75, "specular": 0.25, "shininess": 32},
 //     "background": [r,g,b],
 //     "kernel": "packet" | "single" | "hybrid", "packet": {"width": 8, "height": 4},
-//     "hybrid": {"min_rays": 8, "visit_ratio": 0},
+//     "hybrid": {"min_rays": 32, "visit_ratio": 0},
 //     "collect_counters": false, "view": "shaded" | "nodes" | "tests",
 //     "bvh": {"builder": "sah-exact" | "sah-binned", "leaf_size": 2, "traversal_cost": 1,
 //             "intersection_cost": 1, "bin_count": 32},
