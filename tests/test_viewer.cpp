@@ -571,6 +571,25 @@ TEST_F(ViewerUnderXvfb, DeviceBuildsAreAdoptedByTheTracerOrBuiltOnADeviceOfTheWo
     }
 }
 
+// --kernel without --tracer starts that kernel's Vulkan tracer, on this CPU device too (where the
+// default would be the CPU packet tracer); --tracer still wins over it.
+TEST_F(ViewerUnderXvfb, KernelFlagPicksItsVulkanTracer) {
+    const auto tracerOf = [&](const std::string& flags, const std::string& name) {
+        const std::string shot = (dir_ / name).string();
+        const CommandRun viewer =
+            runCommand(viewerCommand("--width 120 --height 90 --frames 4 --samples 1 --validation " + flags +
+                                     " --script 1:wait --screenshot " + shot));
+        EXPECT_EQ(viewer.exitCode, 0) << viewer.output;
+        const nlohmann::json sidecar = readJsonFile(ui::sidecarPath(shot));
+        return std::make_pair(sidecar["stats"]["tracer"].get<std::string>(), sidecar["kernel"].get<std::string>());
+    };
+    EXPECT_EQ(tracerOf("--kernel hybrid", "hybrid.png"),
+              std::make_pair(std::string("vulkan-hybrid"), std::string("hybrid")));
+    EXPECT_EQ(tracerOf("--kernel single", "single.png"),
+              std::make_pair(std::string("vulkan-single"), std::string("single")));
+    EXPECT_EQ(tracerOf("--kernel hybrid --tracer cpu-packet", "cpu.png").first, "cpu-packet");
+}
+
 TEST_F(ViewerUnderXvfb, SideBySideHalvesAreTheTwoTracersImages) {
     const std::string shot = (dir_ / "split.png").string();
     const CommandRun viewer =

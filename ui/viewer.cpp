@@ -1311,6 +1311,10 @@ void chooseStartTracer(Session& s) {
     s.info.tracers.assign(std::begin(kAllTracerChoices), std::end(kAllTracerChoices));
     if (s.options.tracer) {
         setTracer(s, *s.options.tracer, "chosen by --tracer");
+    } else if (s.options.kernelGiven) {
+        // A kernel named on the command line is a Vulkan kernel (packet, single or hybrid), so its
+        // tracer draws, on a CPU device too.
+        setTracer(s, vulkanTracerFor(s.options.settings.kernel), "chosen by --kernel");
     } else if (s.cpuDevice) {
         // Measured on a 2-core EPYC with lavapipe (docs/viewer.md): the CPU packet tracer traces
         // the same view about 3x faster than the CPU reference and far faster than the Vulkan

@@ -36,6 +36,7 @@ struct ViewerOptions {
     std::optional<TracerChoice> tracer;      // default: by device (see runViewer)
     std::optional<TracerChoice> sideBySide;  // the right half's tracer
     bool packetGiven = false;                // settings.packet is --packet, for the tracer that draws first
+    bool kernelGiven = false;                // settings.kernel is --kernel: without --tracer, its Vulkan tracer draws
     FrameLoopSettings frameLoop;
     std::string recordPath;          // write the camera of every frame here on exit
     std::string playPath;            // fly this recorded path

@@ -43,7 +43,8 @@ int main(int argc, char** argv) {
     app.add_option("--builder", builder,
                    "BVH builder: " + builders + " (the gpu-* builders build on the Vulkan device)");
     app.add_flag("--no-shadows", noShadows, "no shadow rays");
-    app.add_option("--kernel", kernel, "packet, single or hybrid");
+    app.add_option("--kernel", kernel,
+                   "Vulkan kernel: packet, single or hybrid (without --tracer, its tracer draws first)");
     app.add_option("--view", view, "shaded, nodes (N_TR heat map) or tests (N_IT heat map)");
     app.add_option("--intersect", intersect,
                    "robust (watertight triangles, conservative slabs, accurate hit distances) or fast "
@@ -115,6 +116,7 @@ int main(int argc, char** argv) {
         if (options.playFrames && options.playPath.empty()) throw Error("--play-frames needs --play-path");
         if (!sideBySide.empty()) options.sideBySide = ui::requireTracerChoice("--side-by-side", sideBySide);
         if (!kernel.empty()) options.settings.kernel = requireKernelKind("--kernel", kernel);
+        options.kernelGiven = !kernel.empty();
         if (!intersect.empty()) options.settings.intersect = requireIntersectMode("--intersect", intersect);
         if (!view.empty()) options.settings.view = requireViewMode("--view", view);
         if (!eye.empty() || !at.empty()) {
