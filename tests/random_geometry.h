@@ -1,8 +1,9 @@
 #pragma once
-// Geometry the tests share: random directions, the sliver soups of issue 15, and the exact hit
-// distance they are checked against.
+// Geometry the tests share: random directions, random triangle soups, the sliver soups of issue 15,
+// the exact hit distance they are checked against, and brute-force occlusion.
 #include "renderer/measure/accuracy.h"
 #include "renderer/scene.h"
+#include "shaders/intersect.h"
 
 #include <glm/glm.hpp>
 
@@ -87,6 +88,34 @@ using raypack::exactPlaneDistance;
 
 // How many floats lie between two non-negative finite floats (0: equal, 1: adjacent): their bit
 // patterns order as they do.
+// `triangles` unconnected triangles with vertices up to 1 from random centres in [-10, 10]^3.
+inline Scene randomTriangleSoup(uint32_t triangles, uint32_t seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> centre(-10.0f, 10.0f), offset(-1.0f, 1.0f);
+    Scene scene;
+    scene.source = "random soup";
+    for (uint32_t i = 0; i < triangles; ++i) {
+        const glm::vec3 c(centre(rng), centre(rng), centre(rng));
+        for (int k = 0; k < 3; ++k) scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
+        scene.triangles.push_back(glm::uvec3(3 * i, 3 * i + 1, 3 * i + 2));
+    }
+    return scene;
+}
+
+// Whether any triangle but `skip` lies on the ray within (0, tmax], every triangle tested (the
+// brute-force answer for the tracers' shadow rays).
+inline bool bruteOccluded(const Scene& scene, glm::vec3 org, glm::vec3 dir, float tmax, uint32_t skip) {
+    const gpu::TraceRay ray = gpu::makeTraceRay(org, dir);
+    for (uint32_t i = 0; i < scene.triangleCount(); ++i) {
+        if (i == skip) continue;
+        float t;
+        glm::vec2 bary;
+        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2), tmax, t, bary))
+            return true;
+    }
+    return false;
+}
+
 inline int64_t ulpsApart(float a, float b) {
     return std::abs(int64_t(glm::floatBitsToUint(a)) - int64_t(glm::floatBitsToUint(b)));
 }

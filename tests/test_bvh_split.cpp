@@ -30,6 +30,7 @@
 #include <thread>
 
 using namespace raypack;
+using raypack::test::bruteOccluded;
 using raypack::test::randomDirection;
 
 namespace {
@@ -221,18 +222,6 @@ BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
         if (inexactT) best.t = gpu::accurateHitDistanceF64(org, dir, v0, v1, v2, best.t);
     }
     return best;
-}
-
-bool bruteOccluded(const Scene& scene, glm::vec3 org, glm::vec3 dir, float tmax, uint32_t skip) {
-    const gpu::TraceRay ray = gpu::makeTraceRay(org, dir);
-    for (uint32_t i = 0; i < scene.triangleCount(); ++i) {
-        if (i == skip) continue;
-        float t;
-        glm::vec2 bary;
-        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2), tmax, t, bary))
-            return true;
-    }
-    return false;
 }
 
 // Rays from random points and towards vertices, edge midpoints and random triangle points.

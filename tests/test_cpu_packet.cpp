@@ -30,6 +30,7 @@
 namespace {
 
 using namespace raypack;
+using raypack::test::randomTriangleSoup;
 using raypack::test::tessellatedCube;
 
 Bvh build(const Scene& scene, uint32_t leafSize = 2) {
@@ -47,19 +48,6 @@ std::vector<CpuSimd> widths() {
     if (widest != CpuSimd::Scalar) list.push_back(CpuSimd::Sse41);
     if (widest == CpuSimd::Avx2) list.push_back(CpuSimd::Avx2);
     return list;
-}
-
-Scene randomSoup(uint32_t triangles, uint32_t seed) {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> centre(-10.0f, 10.0f), offset(-1.0f, 1.0f);
-    Scene scene;
-    scene.source = "random soup";
-    for (uint32_t i = 0; i < triangles; ++i) {
-        const glm::vec3 c(centre(rng), centre(rng), centre(rng));
-        for (int k = 0; k < 3; ++k) scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
-        scene.triangles.push_back(glm::uvec3(3 * i, 3 * i + 1, 3 * i + 2));
-    }
-    return scene;
 }
 
 Scene translated(Scene scene, glm::vec3 offset) {
@@ -135,7 +123,7 @@ TEST(CpuPacket, SimdSelection) {
 }
 
 TEST(CpuPacket, SameHitsOnRandomScenesShapesAndOddSizes) {
-    const Scene soup = randomSoup(4000, 7);
+    const Scene soup = randomTriangleSoup(4000, 7);
     const Bvh bvh = build(soup);
     const CpuSceneView view = makeCpuSceneView(soup, bvh);
     std::mt19937 rng(5);
@@ -170,7 +158,7 @@ TEST(CpuPacket, SameHitsOnRandomScenesShapesAndOddSizes) {
 // IntersectMode::Fast: the packet kernel's Moller-Trumbore and plain slab test, lane by lane, are
 // the reference's fast path bit for bit, inside and outside a random soup and on Sibenik.
 TEST(CpuPacket, FastIntersectionSameAsTheReferencesFastPath) {
-    const Scene soup = randomSoup(3000, 17);
+    const Scene soup = randomTriangleSoup(3000, 17);
     const Bvh bvh = build(soup);
     const CpuSceneView view = makeCpuSceneView(soup, bvh);
     const Scene sibenik = loadScene(std::filesystem::path(RAYPACK_SHARED_SCENES) / "sibenik/sibenik_geom_75284.ply");

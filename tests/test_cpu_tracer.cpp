@@ -26,7 +26,9 @@
 namespace {
 
 using namespace raypack;
+using raypack::test::bruteOccluded;
 using raypack::test::randomDirection;
+using raypack::test::randomTriangleSoup;
 using raypack::test::tessellatedCube;
 
 Bvh build(const Scene& scene, uint32_t leafSize = 2) {
@@ -68,31 +70,6 @@ BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
     }
     if (best.prim != gpu::kNoHit) best.t = keptT(scene, best.prim, org, dir, best.t);
     return best;
-}
-
-bool bruteOccluded(const Scene& scene, glm::vec3 org, glm::vec3 dir, float tmax, uint32_t skip) {
-    const gpu::TraceRay ray = gpu::makeTraceRay(org, dir);
-    for (uint32_t i = 0; i < scene.triangleCount(); ++i) {
-        if (i == skip) continue;
-        float t;
-        glm::vec2 bary;
-        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2), tmax, t, bary))
-            return true;
-    }
-    return false;
-}
-
-Scene randomSoup(uint32_t triangles, uint32_t seed) {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<float> centre(-10.0f, 10.0f), offset(-1.0f, 1.0f);
-    Scene scene;
-    scene.source = "random soup";
-    for (uint32_t i = 0; i < triangles; ++i) {
-        const glm::vec3 c(centre(rng), centre(rng), centre(rng));
-        for (int k = 0; k < 3; ++k) scene.positions.push_back(c + glm::vec3(offset(rng), offset(rng), offset(rng)));
-        scene.triangles.push_back(glm::uvec3(3 * i, 3 * i + 1, 3 * i + 2));
-    }
-    return scene;
 }
 
 // Coplanar, overlapping and duplicated triangles in z = 0 and z = 1: closest-hit ties everywhere.
@@ -193,7 +170,7 @@ void expectMatchesBruteForce(const Scene& scene, const Bvh& bvh, int rays, uint3
 }
 
 TEST(ClosestHit, MatchesBruteForceOnGeneratedScenes) {
-    const Scene soup = randomSoup(3000, 1);
+    const Scene soup = randomTriangleSoup(3000, 1);
     expectMatchesBruteForce(soup, build(soup), 2000, 11);
     expectMatchesBruteForce(soup, build(soup, 8), 500, 12);
     const Scene ties = coplanarTies();
@@ -769,7 +746,7 @@ void expectSameTraversal(const Scene& scene, const Bvh& bvh, int rays, uint32_t 
 }
 
 TEST(ClosestHit, SameVisitsAsThePlainTraversal) {
-    const Scene soup = randomSoup(3000, 5);
+    const Scene soup = randomTriangleSoup(3000, 5);
     expectSameTraversal(soup, build(soup, 1), 3000, 31);
     expectSameTraversal(soup, build(soup, 8), 1000, 32);
     const Scene ties = coplanarTies();
