@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# The large scans' slow mode on the lent GPU machine (docs/gpu.md, "The slow mode of the large
+# scans"): some cells of the 10M terrain and the 13M dragon run 2-3x slower than the same cell in
+# another process. This call alternates processes that upload straight into mapped device memory
+# (the default where the device maps all of it) with processes that stage (RAYPACK_UPLOAD=staged),
+# each `bench --suite scaling --only "terrain 10M,Dragon subdiv 3" --device gpu --kernel single`
+# (gpu-single, gpu-cwbvh and the driver's ray tracing), while nvidia-smi samples the clocks, power,
+# utilisation and throttle reasons every 100 ms, so that a slow cell can be put beside what the
+# card was doing at the time. Each bench's progress lines carry the host's time.
+#   scripts/device-slow-mode.sh [OUT_DIR]   (default: $OUT)
+# Environment: ROUNDS (default 6: 6 direct and 6 staged processes), BUDGET_S (default 330), BUILDER
+# (default sah-binned).
+set -u
+out=${1:-${OUT:-}}
+[ -n "$out" ] || { echo "usage: scripts/device-slow-mode.sh OUT_DIR" >&2; exit 2; }
+mkdir -p "$out"
+[ -d .device/bin ] || tar xJf .device/round.tar.xz
+source scripts/device-env.sh > "$out/env.log" 2>&1
+nvidia-smi -q > "$out/nvidia-smi-before.txt" 2>&1
+nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,power.draw,temperature.gpu,utilization.gpu,utilization.memory,clocks_throttle_reasons.active \
+  --format=csv,noheader -lms 100 > "$out/smi.csv" 2>&1 &
+smi=$!
+stamp() { while IFS= read -r line; do printf '%s %s\n' "$(date +%s.%N)" "$line"; done; }
+start=$(date +%s)
+for round in $(seq 1 "${ROUNDS:-6}"); do
+  for mode in direct staged; do
+    if [ $(( $(date +%s) - start )) -gt "${BUDGET_S:-330}" ]; then echo "$mode $round: skipped (budget)" >> "$out/errors.txt"; continue; fi
+    echo "$(date +%s.%N) start $mode $round" >> "$out/progress.txt"
+    RAYPACK_UPLOAD=$mode .device/bin/raypack-cli bench --suite scaling --only "terrain 10M,Dragon subdiv 3" \
+      --scene-dir .device/scenes --device gpu --kernel single --width 1920 --height 1080 --repeat 10 --no-embree \
+      --builder "${BUILDER:-sah-binned}" --out "$out/$mode-$round.json" 2>&1 | stamp > "$out/$mode-$round.log"
+    echo "$(date +%s.%N) end $mode $round" >> "$out/progress.txt"
+  done
+done
+kill "$smi" 2> /dev/null
+nvidia-smi --query-compute-apps=pid,name,used_memory --format=csv > "$out/apps.txt" 2>&1
+nvidia-smi -q > "$out/nvidia-smi-after.txt" 2>&1
+tar cJf "$out/results.tar.xz" -C "$out" --exclude results.tar.xz .
