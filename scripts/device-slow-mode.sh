@@ -6,9 +6,11 @@
 # each `bench --suite scaling --only "terrain 10M,Dragon subdiv 3" --device gpu --kernel single`
 # (gpu-single, gpu-cwbvh and the driver's ray tracing), while nvidia-smi samples the clocks, power,
 # utilisation and throttle reasons every 100 ms, so that a slow cell can be put beside what the
-# card was doing at the time. Each bench's progress lines carry the host's time.
+# card was doing at the time. Each bench's progress lines carry the host's time. Each round runs
+# every binary of BINARIES: "new" is .device/bin/raypack-cli, any other name .device/bin/raypack-cli-NAME
+# (scripts/device-pack.sh BUILD OLD_BINARY, e.g. the build before the settling warm-up as "old").
 #   scripts/device-slow-mode.sh [OUT_DIR]   (default: $OUT)
-# Environment: ROUNDS (default 6: 6 direct and 6 staged processes), BUDGET_S (default 330), BUILDER
+# Environment: ROUNDS (default 4), BINARIES (default "new"), BUDGET_S (default 330), BUILDER
 # (default sah-binned).
 set -u
 out=${1:-${OUT:-}}
@@ -22,14 +24,18 @@ nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,power.draw,temperature.gpu
 smi=$!
 stamp() { while IFS= read -r line; do printf '%s %s\n' "$(date +%s.%N)" "$line"; done; }
 start=$(date +%s)
-for round in $(seq 1 "${ROUNDS:-6}"); do
-  for mode in direct staged; do
-    if [ $(( $(date +%s) - start )) -gt "${BUDGET_S:-330}" ]; then echo "$mode $round: skipped (budget)" >> "$out/errors.txt"; continue; fi
-    echo "$(date +%s.%N) start $mode $round" >> "$out/progress.txt"
-    RAYPACK_UPLOAD=$mode .device/bin/raypack-cli bench --suite scaling --only "terrain 10M,Dragon subdiv 3" \
-      --scene-dir .device/scenes --device gpu --kernel single --width 1920 --height 1080 --repeat 10 --no-embree \
-      --builder "${BUILDER:-sah-binned}" --out "$out/$mode-$round.json" 2>&1 | stamp > "$out/$mode-$round.log"
-    echo "$(date +%s.%N) end $mode $round" >> "$out/progress.txt"
+for round in $(seq 1 "${ROUNDS:-4}"); do
+  for bin in ${BINARIES:-new}; do
+    cli=.device/bin/raypack-cli; [ "$bin" = new ] || cli=.device/bin/raypack-cli-$bin
+    for mode in direct staged; do
+      name=$bin-$mode-$round
+      if [ $(( $(date +%s) - start )) -gt "${BUDGET_S:-330}" ]; then echo "$name: skipped (budget)" >> "$out/errors.txt"; continue; fi
+      echo "$(date +%s.%N) start $name" >> "$out/progress.txt"
+      RAYPACK_UPLOAD=$mode "$cli" bench --suite scaling --only "terrain 10M,Dragon subdiv 3" \
+        --scene-dir .device/scenes --device gpu --kernel single --width 1920 --height 1080 --repeat 10 --no-embree \
+        --builder "${BUILDER:-sah-binned}" --out "$out/$name.json" 2>&1 | stamp > "$out/$name.log"
+      echo "$(date +%s.%N) end $name" >> "$out/progress.txt"
+    done
   done
 done
 kill "$smi" 2> /dev/null

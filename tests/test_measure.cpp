@@ -5,12 +5,14 @@
 #include "renderer/measure/agreement.h"
 #include "renderer/measure/protocol.h"
 #include "renderer/measure/spread.h"
+#include "renderer/measure/warm_up.h"
 #include "renderer/tracers/registry.h"
 #include "scenes/generators.h"
 #include "scenes/load.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace raypack {
@@ -27,6 +29,65 @@ TEST(Measure, MediansAndSpreads) {
     EXPECT_EQ(upperMedian({}), 0.0);
     // The second half in measured order: {5, 1, 2} -> upper median 2.
     EXPECT_EQ(steadyMedian({100.0, 90.0, 80.0, 5.0, 1.0, 2.0}), 2.0);
+}
+
+// A device whose frames take `slow` seconds at first and speed up linearly to `fast` over the first
+// `rampFor` seconds of back-to-back work (a GPU raising its clocks), as a warm-up batch sees it: the
+// seconds of `frames` frames from the work done so far.
+struct RampingDevice {
+    double slow, fast, rampFor;
+    double busy = 0.0;  // seconds of frames run so far
+    double frameSeconds() const { return slow + (fast - slow) * std::min(busy / rampFor, 1.0); }
+    double run(uint32_t frames) {
+        double seconds = 0.0;
+        for (uint32_t i = 0; i < frames; ++i) {
+            const double t = frameSeconds();
+            seconds += t;
+            busy += t;
+        }
+        return seconds;
+    }
+};
+
+TEST(Measure, GpuWarmUpRunsUntilTheFramesStopSpeedingUp) {
+    // Steady from the start (frames of 1/1024 s, so that the sums are exact): three batches of a
+    // third of the minimum, then the first comparison stops it.
+    RampingDevice steady{1.0 / 1024, 1.0 / 1024, 1.0};
+    GpuWarmUp w = warmUpUntilSteady([&](uint32_t n) { return steady.run(n); }, 1.0 / 1024, 0.375);
+    EXPECT_TRUE(w.steady);
+    EXPECT_EQ(w.batches, 3u);
+    EXPECT_EQ(w.frames, 384u);
+    EXPECT_EQ(w.seconds, 0.375);
+
+    // 3 ms frames speeding up to 1 ms over 1.3 s: the warm-up outlasts the ramp, which a fixed 0.3 s
+    // would not, and stops within three batches of its end (the one that ends the ramp, one at the
+    // new speed that is still faster than it, one to compare), where the timed frames run at 1 ms.
+    RampingDevice ramping{3e-3, 1e-3, 1.3};
+    w = warmUpUntilSteady([&](uint32_t n) { return ramping.run(n); }, 3e-3, 0.3);
+    EXPECT_TRUE(w.steady);
+    EXPECT_GE(ramping.busy, 1.3) << "stopped before the clocks had settled";
+    EXPECT_LE(ramping.busy, 1.3 + 3 * 0.1 + 1e-9);
+    EXPECT_NEAR(ramping.frameSeconds(), 1e-3, 1e-12);
+    EXPECT_NEAR(w.seconds, ramping.busy, 1e-9);
+
+    // Still speeding up at the limit: it stops there and says so.
+    RampingDevice endless{3e-3, 1e-4, 1.2};
+    w = warmUpUntilSteady([&](uint32_t n) { return endless.run(n); }, 3e-3, 0.3, 1.0);
+    EXPECT_FALSE(w.steady);
+    EXPECT_GE(w.seconds, 1.0);
+    EXPECT_LT(w.seconds, 1.0 + 0.1);
+
+    // A frame longer than a batch (a CPU device, a huge frame) keeps the device busy by itself.
+    RampingDevice longFrames{0.5, 0.5, 1.0};
+    w = warmUpUntilSteady([&](uint32_t n) { return longFrames.run(n); }, 0.5, 0.3);
+    EXPECT_TRUE(w.steady);
+    EXPECT_EQ(w.frames, 1u);
+
+    // No warm-up asked for (the trade suite on lavapipe): one frame.
+    RampingDevice none{1e-3, 1e-3, 1.0};
+    w = warmUpUntilSteady([&](uint32_t n) { return none.run(n); }, 1e-3, 0.0);
+    EXPECT_EQ(w.frames, 1u);
+    EXPECT_EQ(w.batches, 1u);
 }
 
 HitRecord hit(float t, uint32_t prim, uint32_t shadow) {

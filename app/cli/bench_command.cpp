@@ -1,8 +1,8 @@
 // `raypack-cli bench`: issue 5's matrix runner. For every scene of a suite: load, build the BVH
 // (Table 1), then one cell per tracer of the registry (renderer/tracers/registry.h) that the flags
 // ask for, and per packet shape for the packet tracers, each with untimed warm-up runs (one counting N_TR / N_IT, then
-// 0.3 s of frames back to back on a GPU) and N timed runs, written as one JSON record per cell and ray kind (primary,
-// shadow) with the machine and the date.
+// on a GPU frames back to back for at least 0.3 s and until their speed settles) and N timed runs, written as one JSON
+// record per cell and ray kind (primary, shadow) with the machine and the date.
 #include "app/cli/bench_suites.h"
 #include "app/cli/commands.h"
 #include "app/cli/scene_setup.h"
@@ -129,6 +129,10 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
             // attributes, materials, textures): the 8-wide tree's cells differ from the binary ones.
             // (The driver's ray tracing reports no size of its structures: none is written there.)
             if (s.preparedBytes > 0) r["device_scene_bytes"] = s.preparedBytes;
+            // The frames traced back to back before the timed ones, until their speed settled.
+            r["gpu_warm_up_s"] = s.warmUp.seconds;
+            r["gpu_warm_up_frames"] = s.warmUp.frames;
+            r["gpu_warm_up_steady"] = s.warmUp.steady;
         }
         records.push_back(r);
     }
@@ -617,9 +621,10 @@ CommandRunner addBenchCommand(CLI::App& app) {
         "(t_r_us_per_ray, n_it_tests_per_ray, n_tr_nodes_per_ray, n_q_rays, t_f_s, t_cu_s, "
         "t_k_s with t_k_min_s / t_k_max_s, perf_mrays_s, perf_with_upload_mrays_s), plus the "
         "machine (CPU model, threads, GPU, driver) and the date. Every cell runs once as a "
-        "warm-up that counts N_TR / N_IT, then untimed (once on the CPU, plus 0.3 s of frames back to back on a GPU, "
-        "so that its clocks are "
-        "up), then --repeat times; medians are reported. "
+        "warm-up that counts N_TR / N_IT, then untimed (once on the CPU, plus frames back to back on a GPU for at "
+        "least 0.3 s "
+        "and until their speed settles, at most 3 s, so that its clocks are up: gpu_warm_up_s, gpu_warm_up_frames, "
+        "gpu_warm_up_steady), then --repeat times; medians are reported. "
         "Embree (when built in) traces the same rays (rtcIntersect1/8/16, rtcOccluded1/8) at build "
         "qualities medium and high and its "
         "hit distances are compared with the CPU reference's; the driver's own ray tracing "

@@ -1,17 +1,13 @@
 #include "renderer/measure/protocol.h"
 
 #include "renderer/error.h"
+#include "renderer/measure/spread.h"
+#include "renderer/measure/warm_up.h"
 
 #include <algorithm>
 #include <cmath>
 
 namespace raypack {
-namespace {
-
-// The GPU warm-up's frames at most.
-constexpr uint32_t kGpuWarmUpMaxFrames = 2000;
-
-}  // namespace
 
 MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, const RenderSettings& settings,
                              uint32_t repeats, bool wantImage, double gpuWarmUpSeconds) {
@@ -36,16 +32,26 @@ MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, con
     // A second warm-up in the timed configuration: the counting run used another kernel variant
     // on the GPU, and a driver may compile a pipeline at its first dispatch (lavapipe's JIT).
     const Frame first = tracer.render(timed, timedRequest);
-    // On a GPU, then gpuWarmUpSeconds (by default kGpuWarmUpSeconds) of frames back to back: a GPU lowers its clocks
-    // when it idles, and frames of a millisecond, each followed by a wait and a read-back, leave it mostly idle. On the
-    // H100 the SM clock fell from 1980 to its idle 345 MHz a few seconds into a bench run (nvidia-smi, 2026-11-22), and
-    // later cells measured up to 5.7x slower than the same cell in a process of its own. The timed frames follow at
-    // once, before the clocks can fall again.
+    // On a GPU, then frames back to back until their speed has settled (warmUpUntilSteady), for at
+    // least gpuWarmUpSeconds (by default kGpuWarmUpSeconds): a GPU lowers its clocks when it idles,
+    // and frames of a millisecond, each followed by a wait and a read-back, leave it mostly idle. On
+    // the H100 the SM clock fell from 1980 to its idle 345 MHz a few seconds into a bench run
+    // (nvidia-smi, 2026-11-22), and later cells measured up to 5.7x slower than the same cell in a
+    // process of its own. A fixed 0.3 s of frames (until 2026-12-07) left some cells of the largest
+    // scenes, which follow seconds of loading and building on the host, 2.8-3.5x slower from their
+    // first timed frame to their last (docs/gpu.md, "The slow mode of the large scans"). The timed
+    // frames follow at once, before the clocks can fall again.
     const bool gpu = tracer.device() == TracerDevice::Gpu;
+    GpuWarmUp warmUp;
     if (gpu) {
-        const double frameSeconds = std::max(first.timings.primarySeconds + first.timings.shadowSeconds, 1e-6);
-        const double frames = std::ceil(gpuWarmUpSeconds / frameSeconds);
-        tracer.warmUp(timed, uint32_t(std::clamp(frames, 1.0, double(kGpuWarmUpMaxFrames))));
+        const double frameSeconds = first.timings.primarySeconds + first.timings.shadowSeconds;
+        warmUp = warmUpUntilSteady(
+            [&](uint32_t frames) {
+                const SteadyClock::time_point start = SteadyClock::now();
+                tracer.warmUp(timed, frames);
+                return secondsSince(start);
+            },
+            frameSeconds, gpuWarmUpSeconds);
     }
     std::vector<FrameTimings> timings;
     for (uint32_t i = 0; i < repeats; ++i) timings.push_back(tracer.render(timed, timedRequest).timings);
@@ -57,6 +63,7 @@ MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, con
     measured.stats.uploadTransferSeconds = preparation.transferSeconds;
     measured.stats.preparedBytes = preparation.bytes;
     measured.stats.gpu = gpu;
+    measured.stats.warmUp = warmUp;
     measured.stats.device = tracer.describe(settings);
     measured.stats.width = settings.width;
     measured.stats.height = settings.height;

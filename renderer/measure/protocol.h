@@ -4,6 +4,7 @@
 // of the timed configuration, on a GPU frames back to back so that its clocks are up, then N timed
 // runs that do not count (so that the GPU's statistics variant of the kernel never inflates T_K).
 #include "renderer/measure/statistics.h"
+#include "renderer/measure/warm_up.h"
 #include "renderer/tracers/tracer.h"
 
 #include <cstdint>
@@ -15,14 +16,12 @@ struct MeasuredFrames {
     FrameStats stats;
 };
 
-// GPU time traced back to back right before the timed frames, by default (protocol.cpp says why).
-constexpr double kGpuWarmUpSeconds = 0.3;
-
 // Renders once with counters and hits (plus the image when `wantImage`), once more untimed without
 // counters (the warm-up of the timed configuration), then `repeats` (>= 1) timed times without
-// counters; summarizes Table 2 with `preparation`'s T_CU. On a GPU, `gpuWarmUpSeconds` of frames
-// (at least one) run back to back before the timed ones: less where the GPU has just been busy
-// (the trade suite's cells that follow another GPU cell). Throws raypack::Error from the tracer.
+// counters; summarizes Table 2 with `preparation`'s T_CU. On a GPU, frames run back to back before
+// the timed ones for at least `gpuWarmUpSeconds` and until their speed has settled
+// (warmUpUntilSteady): less where the GPU has just been busy (the trade suite's cells that follow
+// another GPU cell). Throws raypack::Error from the tracer.
 MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, const RenderSettings& settings,
                              uint32_t repeats, bool wantImage, double gpuWarmUpSeconds = kGpuWarmUpSeconds);
 

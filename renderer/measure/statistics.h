@@ -16,6 +16,7 @@
 #include "renderer/bvh.h"
 #include "renderer/frame.h"
 #include "renderer/measure/spread.h"
+#include "renderer/measure/warm_up.h"
 
 #include <nlohmann/json.hpp>
 
@@ -83,6 +84,7 @@ struct FrameStats {
     double uploadConversionSeconds = 0.0;
     double uploadTransferSeconds = 0.0;
     uint64_t preparedBytes = 0;  // what the tracer holds for the scene (Preparation::bytes)
+    GpuWarmUp warmUp;            // on a GPU: the frames traced back to back before the timed ones
 };
 
 // Fills N_Q / N_TR / N_IT from a counting run's summary and the timings from the timed runs.

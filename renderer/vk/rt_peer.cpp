@@ -630,6 +630,21 @@ RtPeerResult runRtPeer(const vk::VulkanContext& context, const Scene& scene, con
             return h.shadow == gpu::kShadowLit || h.shadow == gpu::kShadowOccluded;
         }));
 
+    // Then launches back to back until their speed has settled, so that the timed launches run at
+    // the clocks raypack's kernels are timed at (measureFrames, renderer/measure/protocol.cpp).
+    const std::vector<uint64_t> firstTicks = readQueries(o, kQueryTraceStart, 4);
+    const double launchSeconds = tickSeconds(context, firstTicks[0], firstTicks[1]) +
+                                 (settings.shadows ? tickSeconds(context, firstTicks[2], firstTicks[3]) : 0.0);
+    result.warmUp = warmUpUntilSteady(
+        [&](uint32_t launches) {
+            const SteadyClock::time_point start = SteadyClock::now();
+            vk::submitAndWait(context, o.pool, [&](VkCommandBuffer cmd) {
+                for (uint32_t i = 0; i < launches; ++i) recordTrace(o, cmd, table, params, settings.shadows, false);
+            });
+            return secondsSince(start);
+        },
+        launchSeconds, kGpuWarmUpSeconds);
+
     std::vector<double> primary, shadow;
     for (uint32_t r = 0; r < repeats; ++r) {
         vk::submitAndWait(context, o.pool,
@@ -680,6 +695,9 @@ nlohmann::json rtPeerRecords(const RtPeerResult& result, const HitAgreement* agr
         r["t_k_max_s"] = seconds.max;
         r["t_r_us_per_ray"] = rays ? seconds.median / double(rays) * 1e6 : 0.0;
         r["perf_mrays_s"] = isPrimary ? result.primaryMraysPerSecond() : result.shadowMraysPerSecond();
+        r["gpu_warm_up_s"] = result.warmUp.seconds;
+        r["gpu_warm_up_frames"] = result.warmUp.frames;
+        r["gpu_warm_up_steady"] = result.warmUp.steady;
         if (agreement) {
             r["hits_compared"] = agreement->comparedRays;
             r["hits_agree_share"] = agreement->rayShare();

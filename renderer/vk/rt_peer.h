@@ -8,12 +8,14 @@
 // rule, each pass timed with timestamp queries. docs/rt-peer.md says what is measured and how.
 //
 // Data flow: Scene --upload--> vertex/index buffers --build--> BLAS, TLAS (timestamps);
-// RenderSettings --one warm-up launch + `repeats` timed launches--> hits (Frame) + kernel times.
+// RenderSettings --one warm-up launch, launches back to back until their speed settles, `repeats` timed
+// launches--> hits (Frame) + kernel times.
 // Everything is created and destroyed inside one call: the peer is a function, not an object.
 #include "renderer/error.h"
 #include "renderer/frame.h"
 #include "renderer/measure/agreement.h"
 #include "renderer/measure/spread.h"
+#include "renderer/measure/warm_up.h"
 #include "renderer/scene.h"
 #include "renderer/settings.h"
 #include "renderer/vk/context.h"
@@ -43,7 +45,10 @@ struct RtPeerResult {
     uint64_t triangles = 0;
     uint32_t width = 0;
     uint32_t height = 0;
-    uint32_t repeats = 0;  // timed launches of each pass (after one warm-up launch)
+    uint32_t repeats = 0;  // timed launches of each pass (after the warm-up)
+    // Launches back to back before the timed ones, until their speed settled (as raypack's GPU
+    // cells do, renderer/measure/protocol.h).
+    GpuWarmUp warmUp;
 
     // Building (the driver's T_B and T_CU):
     double uploadSeconds = 0.0;     // host wall time: vertex and index buffers created and filled
