@@ -10,8 +10,8 @@
 # every binary of BINARIES: "new" is .device/bin/raypack-cli, any other name .device/bin/raypack-cli-NAME
 # (scripts/device-pack.sh BUILD OLD_BINARY, e.g. the build before the settling warm-up as "old").
 #   scripts/device-slow-mode.sh [OUT_DIR]   (default: $OUT)
-# Environment: ROUNDS (default 4), BINARIES (default "new"), BUDGET_S (default 330), BUILDER
-# (default sah-binned).
+# Environment: ROUNDS (default 4), BINARIES (default "new"), MODES (default "direct staged"), BUDGET_S
+# (default 330), BUILDER (default sah-binned).
 set -u
 out=${1:-${OUT:-}}
 [ -n "$out" ] || { echo "usage: scripts/device-slow-mode.sh OUT_DIR" >&2; exit 2; }
@@ -27,7 +27,7 @@ start=$(date +%s)
 for round in $(seq 1 "${ROUNDS:-4}"); do
   for bin in ${BINARIES:-new}; do
     cli=.device/bin/raypack-cli; [ "$bin" = new ] || cli=.device/bin/raypack-cli-$bin
-    for mode in direct staged; do
+    for mode in ${MODES:-direct staged}; do
       name=$bin-$mode-$round
       if [ $(( $(date +%s) - start )) -gt "${BUDGET_S:-330}" ]; then echo "$name: skipped (budget)" >> "$out/errors.txt"; continue; fi
       echo "$(date +%s.%N) start $name" >> "$out/progress.txt"

@@ -1,7 +1,7 @@
 // `raypack-cli bench`: issue 5's matrix runner. For every scene of a suite: load, build the BVH
 // (Table 1), then one cell per tracer of the registry (renderer/tracers/registry.h) that the flags
 // ask for, and per packet shape for the packet tracers, each with untimed warm-up runs (one counting N_TR / N_IT, then
-// on a GPU frames back to back for at least 0.3 s and until their speed settles) and N timed runs, written as one JSON
+// on a GPU frames back to back for at least 0.5 s and until their speed settles) and N timed runs, written as one JSON
 // record per cell and ray kind (primary, shadow) with the machine and the date.
 #include "app/cli/bench_suites.h"
 #include "app/cli/commands.h"
@@ -622,7 +622,7 @@ CommandRunner addBenchCommand(CLI::App& app) {
         "t_k_s with t_k_min_s / t_k_max_s, perf_mrays_s, perf_with_upload_mrays_s), plus the "
         "machine (CPU model, threads, GPU, driver) and the date. Every cell runs once as a "
         "warm-up that counts N_TR / N_IT, then untimed (once on the CPU, plus frames back to back on a GPU for at "
-        "least 0.3 s "
+        "least 0.5 s "
         "and until their speed settles, at most 3 s, so that its clocks are up: gpu_warm_up_s, gpu_warm_up_frames, "
         "gpu_warm_up_steady), then --repeat times; medians are reported. "
         "Embree (when built in) traces the same rays (rtcIntersect1/8/16, rtcOccluded1/8) at build "

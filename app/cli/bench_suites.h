@@ -2,6 +2,7 @@
 // The benchmark suites of issue 5: which scenes, from which files, seen from which cameras.
 #include "renderer/bvh.h"
 #include "renderer/camera.h"
+#include "renderer/measure/warm_up.h"
 #include "renderer/settings.h"
 
 #include <functional>
@@ -33,7 +34,7 @@ struct TradeMatrix {
     // GPU time traced back to back before the timed frames (renderer/measure/protocol.h): the
     // first GPU cell after a build (the build left the GPU idle) gets `firstWarmUpSeconds`, the
     // cells that follow it `warmUpSeconds`.
-    double firstWarmUpSeconds = 0.3;
+    double firstWarmUpSeconds = kGpuWarmUpSeconds;
     double warmUpSeconds = 0.05;
 };
 

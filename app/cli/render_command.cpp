@@ -161,7 +161,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
         "wall clock), PERF (Mrays/s = N_Q / T_K, and with T_CU included).\n"
         "Warm-up runs are not timed: one counts N_TR / N_IT, then untimed frames in the timed configuration (one on "
         "the CPU; "
-        "on a GPU frames back to back for at least 0.3 s and until their speed settles, so that its clocks are up); "
+        "on a GPU frames back to back for at least 0.5 s and until their speed settles, so that its clocks are up); "
         "the --repeat N timed runs give the "
         "median (and min/max).\n"
         "Without --eye/--at (and no --from camera) the camera is the scene's start view: the "

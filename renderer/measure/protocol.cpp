@@ -33,14 +33,14 @@ MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, con
     // on the GPU, and a driver may compile a pipeline at its first dispatch (lavapipe's JIT).
     const Frame first = tracer.render(timed, timedRequest);
     // On a GPU, then frames back to back until their speed has settled (warmUpUntilSteady), for at
-    // least gpuWarmUpSeconds (by default kGpuWarmUpSeconds): a GPU lowers its clocks when it idles,
+    // least gpuWarmUpSeconds (by default kGpuWarmUpSeconds, 0.5 s): a GPU lowers its clocks when it idles,
     // and frames of a millisecond, each followed by a wait and a read-back, leave it mostly idle. On
     // the H100 the SM clock fell from 1980 to its idle 345 MHz a few seconds into a bench run
     // (nvidia-smi, 2026-11-22), and later cells measured up to 5.7x slower than the same cell in a
     // process of its own. A fixed 0.3 s of frames (until 2026-12-07) left some cells of the largest
-    // scenes, which follow seconds of loading and building on the host, 2.8-3.5x slower from their
-    // first timed frame to their last (docs/gpu.md, "The slow mode of the large scans"). The timed
-    // frames follow at once, before the clocks can fall again.
+    // scenes, which follow seconds of loading and building on the host, 3x slower from their first
+    // timed frame to their last, the SM clock at 480-615 MHz (docs/gpu.md, "The slow mode of the
+    // large scans"). The timed frames follow at once, before the clocks can fall again.
     const bool gpu = tracer.device() == TracerDevice::Gpu;
     GpuWarmUp warmUp;
     if (gpu) {
