@@ -1,6 +1,7 @@
 #pragma once
 // Geometry the tests share: random directions, random triangle soups, the sliver soups of issue 15,
-// the exact hit distance they are checked against, and brute-force occlusion.
+// the exact hit distance they are checked against, and brute-force closest hits and occlusion.
+#include "renderer/cpu_tracer.h"
 #include "renderer/measure/accuracy.h"
 #include "renderer/scene.h"
 #include "shaders/intersect.h"
@@ -9,6 +10,7 @@
 
 #include <cstdint>
 #include <cstdlib>
+#include <limits>
 #include <map>
 #include <random>
 #include <tuple>
@@ -100,6 +102,41 @@ inline Scene randomTriangleSoup(uint32_t triangles, uint32_t seed) {
         scene.triangles.push_back(glm::uvec3(3 * i, 3 * i + 1, 3 * i + 2));
     }
     return scene;
+}
+
+struct BruteHit {
+    float t = std::numeric_limits<float>::infinity();
+    uint32_t prim = gpu::kNoHit;
+};
+
+// The distance a tracer reports for the hit it keeps: the triangle test's t, or where that test
+// calls its t inexact the plane distance of that triangle (gpu::accurateHitDistanceF64; issue 15).
+inline float keptT(const Scene& scene, uint32_t prim, glm::vec3 org, glm::vec3 dir, float t) {
+    const glm::vec3 v0 = scene.vertex(prim, 0), v1 = scene.vertex(prim, 1), v2 = scene.vertex(prim, 2);
+    float ownT;
+    glm::vec2 bary;
+    bool inexactT = false;
+    gpu::intersectTriangle(gpu::makeTraceRay(org, dir), v0, v1, v2, kRayTmaxInfinite, ownT, bary, inexactT);
+    return inexactT ? gpu::accurateHitDistanceF64(org, dir, v0, v1, v2, t) : t;
+}
+
+// The closest hit over every triangle, ties to the lower file index (gpu::isCloserHit), at the
+// distance the tracers report (keptT).
+inline BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
+    const gpu::TraceRay ray = gpu::makeTraceRay(org, dir);
+    BruteHit best;
+    float bestT = kRayTmaxInfinite;
+    for (uint32_t i = 0; i < scene.triangleCount(); ++i) {
+        float t;
+        glm::vec2 bary;
+        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2), bestT, t, bary) &&
+            gpu::isCloserHit(t, i, bestT, best.prim)) {
+            best = {t, i};
+            bestT = t;
+        }
+    }
+    if (best.prim != gpu::kNoHit) best.t = keptT(scene, best.prim, org, dir, best.t);
+    return best;
 }
 
 // Whether any triangle but `skip` lies on the ray within (0, tmax], every triangle tested (the

@@ -30,6 +30,8 @@
 #include <thread>
 
 using namespace raypack;
+using raypack::test::bruteClosest;
+using raypack::test::BruteHit;
 using raypack::test::bruteOccluded;
 using raypack::test::randomDirection;
 
@@ -190,38 +192,6 @@ void expectStatsRecomputed(const Bvh& bvh, size_t triangles) {
     EXPECT_DOUBLE_EQ(bvh.stats.avgPrimsPerLeaf, double(walk.refs) / double(walk.leaves));
     EXPECT_EQ(bvh.stats.bytes, bvh.nodes.size() * 32 + bvh.primIndices.size() * 4);
     EXPECT_EQ(computeBvhStats(bvh, bvh.options).sahCost, bvh.stats.sahCost);
-}
-
-struct BruteHit {
-    float t = std::numeric_limits<float>::infinity();
-    uint32_t prim = gpu::kNoHit;
-};
-
-BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
-    const gpu::TraceRay ray = gpu::makeTraceRay(org, dir);
-    BruteHit best;
-    float bestT = kRayTmaxInfinite;
-    for (uint32_t i = 0; i < scene.triangleCount(); ++i) {
-        float t;
-        glm::vec2 bary;
-        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2), bestT, t, bary) &&
-            gpu::isCloserHit(t, i, bestT, best.prim)) {
-            best = {t, i};
-            bestT = t;
-        }
-    }
-    // The distance the tracers report for the kept hit: the test's t, or where the test calls it
-    // inexact the plane distance (accurate t, issue 15).
-    if (best.prim != gpu::kNoHit) {
-        const glm::vec3 v0 = scene.vertex(best.prim, 0), v1 = scene.vertex(best.prim, 1),
-                        v2 = scene.vertex(best.prim, 2);
-        float ownT;
-        glm::vec2 bary;
-        bool inexactT = false;
-        gpu::intersectTriangle(ray, v0, v1, v2, kRayTmaxInfinite, ownT, bary, inexactT);
-        if (inexactT) best.t = gpu::accurateHitDistanceF64(org, dir, v0, v1, v2, best.t);
-    }
-    return best;
 }
 
 // Rays from random points and towards vertices, edge midpoints and random triangle points.

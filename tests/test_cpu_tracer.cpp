@@ -26,7 +26,10 @@
 namespace {
 
 using namespace raypack;
+using raypack::test::bruteClosest;
+using raypack::test::BruteHit;
 using raypack::test::bruteOccluded;
+using raypack::test::keptT;
 using raypack::test::randomDirection;
 using raypack::test::randomTriangleSoup;
 using raypack::test::tessellatedCube;
@@ -37,39 +40,6 @@ Bvh build(const Scene& scene, uint32_t leafSize = 2) {
     BvhBuildOptions options;
     options.leafSize = leafSize;
     return buildBvh(bounds, options);
-}
-
-struct BruteHit {
-    float t = std::numeric_limits<float>::infinity();
-    uint32_t prim = gpu::kNoHit;
-};
-
-// The distance a tracer reports for the hit it keeps: the triangle test's t, or where that test
-// calls its t inexact the plane distance of that triangle (gpu::accurateHitDistanceF64).
-float keptT(const Scene& scene, uint32_t prim, glm::vec3 org, glm::vec3 dir, float t) {
-    const glm::vec3 v0 = scene.vertex(prim, 0), v1 = scene.vertex(prim, 1), v2 = scene.vertex(prim, 2);
-    float ownT;
-    glm::vec2 bary;
-    bool inexactT = false;
-    gpu::intersectTriangle(gpu::makeTraceRay(org, dir), v0, v1, v2, kRayTmaxInfinite, ownT, bary, inexactT);
-    return inexactT ? gpu::accurateHitDistanceF64(org, dir, v0, v1, v2, t) : t;
-}
-
-BruteHit bruteClosest(const Scene& scene, glm::vec3 org, glm::vec3 dir) {
-    const gpu::TraceRay ray = gpu::makeTraceRay(org, dir);
-    BruteHit best;
-    float bestT = kRayTmaxInfinite;
-    for (uint32_t i = 0; i < scene.triangleCount(); ++i) {
-        float t;
-        glm::vec2 bary;
-        if (gpu::intersectTriangle(ray, scene.vertex(i, 0), scene.vertex(i, 1), scene.vertex(i, 2), bestT, t, bary) &&
-            gpu::isCloserHit(t, i, bestT, best.prim)) {
-            best = {t, i};
-            bestT = t;
-        }
-    }
-    if (best.prim != gpu::kNoHit) best.t = keptT(scene, best.prim, org, dir, best.t);
-    return best;
 }
 
 // Coplanar, overlapping and duplicated triangles in z = 0 and z = 1: closest-hit ties everywhere.
