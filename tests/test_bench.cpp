@@ -136,6 +136,11 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         }
         if (tracer.rfind("gpu-", 0) == 0) {
             EXPECT_GT(r.at("device_scene_bytes").get<uint64_t>(), 0u) << r.dump();
+            // The frames traced back to back before the timed ones (renderer/measure/warm_up.h):
+            // at least one, their time, and whether they had stopped speeding up.
+            EXPECT_GE(r.at("gpu_warm_up_frames").get<uint32_t>(), 1u) << r.dump();
+            EXPECT_GT(r.at("gpu_warm_up_s").get<double>(), 0.0) << r.dump();
+            EXPECT_TRUE(r.at("gpu_warm_up_steady").is_boolean()) << r.dump();
         }
         if (tracer == "cpu-packet") {
             EXPECT_EQ(r.at("hits_identical_to_reference_share").get<double>(), 1.0) << r.dump();
