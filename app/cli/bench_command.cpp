@@ -130,9 +130,7 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
             // (The driver's ray tracing reports no size of its structures: none is written there.)
             if (s.preparedBytes > 0) r["device_scene_bytes"] = s.preparedBytes;
             // The frames traced back to back before the timed ones, until their speed settled.
-            r["gpu_warm_up_s"] = s.warmUp.seconds;
-            r["gpu_warm_up_frames"] = s.warmUp.frames;
-            r["gpu_warm_up_steady"] = s.warmUp.steady;
+            r.update(toJson(s.warmUp));
         }
         records.push_back(r);
     }

@@ -4,9 +4,6 @@
 #include "renderer/measure/spread.h"
 #include "renderer/measure/warm_up.h"
 
-#include <algorithm>
-#include <cmath>
-
 namespace raypack {
 
 MeasuredFrames measureFrames(Tracer& tracer, const Preparation& preparation, const RenderSettings& settings,

@@ -96,6 +96,10 @@ FrameStats summarizeRuns(const CounterSummary& counters, const std::vector<Frame
     return stats;
 }
 
+nlohmann::json toJson(const GpuWarmUp& w) {
+    return {{"gpu_warm_up_s", w.seconds}, {"gpu_warm_up_frames", w.frames}, {"gpu_warm_up_steady", w.steady}};
+}
+
 nlohmann::json toJson(const RayKindStats& s) {
     return {
         {"n_q_rays", s.rays},

@@ -92,6 +92,9 @@ FrameStats summarizeRuns(const CounterSummary& counters, const std::vector<Frame
                          double uploadSeconds);
 
 nlohmann::json toJson(const RayKindStats& stats);
+// {"gpu_warm_up_s", "gpu_warm_up_frames", "gpu_warm_up_steady"}: the bench's GPU records and the
+// driver's ray tracing peer's.
+nlohmann::json toJson(const GpuWarmUp& warmUp);
 // {"device", "width_px", "height_px", "repeats", "frame_s", "frame_min_s", "frame_max_s",
 //  "primary": {...}, "shadow": {...}}
 nlohmann::json toJson(const FrameStats& stats);

@@ -1,6 +1,7 @@
 #include "renderer/vk/rt_peer.h"
 
 #include "renderer/camera.h"
+#include "renderer/measure/statistics.h"
 #include "shaders/bindings.h"
 #include "shaders/rt/rt_peer_params.glsl"
 
@@ -695,9 +696,7 @@ nlohmann::json rtPeerRecords(const RtPeerResult& result, const HitAgreement* agr
         r["t_k_max_s"] = seconds.max;
         r["t_r_us_per_ray"] = rays ? seconds.median / double(rays) * 1e6 : 0.0;
         r["perf_mrays_s"] = isPrimary ? result.primaryMraysPerSecond() : result.shadowMraysPerSecond();
-        r["gpu_warm_up_s"] = result.warmUp.seconds;
-        r["gpu_warm_up_frames"] = result.warmUp.frames;
-        r["gpu_warm_up_steady"] = result.warmUp.steady;
+        r.update(toJson(result.warmUp));
         if (agreement) {
             r["hits_compared"] = agreement->comparedRays;
             r["hits_agree_share"] = agreement->rayShare();
