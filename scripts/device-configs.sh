@@ -10,10 +10,7 @@
 # 10), BUDGET_S (default 420: no run starts after that many seconds). A device call brings back at
 # most 8 files: the runs' JSON and logs end up in OUT/runs.tar.xz.
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-configs.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 configs=${CONFIGS:-"exact-1:--builder sah-exact --leaf-size 1 --single-groups 8x16,8x32,16x8,8x4;\
 exact-2:--builder sah-exact --leaf-size 2;exact-4:--builder sah-exact --leaf-size 4;\
 split-1:--builder sah-split --leaf-size 1;split-2:--builder sah-split --leaf-size 2;\

@@ -15,11 +15,7 @@
 # the driver's ray tracing, and leaf2, leaf3, the report suite at sah-exact leaves of 2 and 3),
 # GROUPS_LIST (the groups run's --single-groups).
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-cwbvh.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-[ -d .device/bin ] || tar xJf .device/round.tar.xz
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 cli=.device/bin/raypack-cli
 repeat=${REPEAT:-10}
 budget=${BUDGET_S:-480}

@@ -11,11 +11,7 @@
 # Environment: ROUNDS (default 1), DRIVER_BUDGET_S (default 240), HYBRID_K (default 1/16,1/8,1/4,1/2,1/1; 1/1: split at the first node not all of the packet's rays want),
 # HYBRID_BUDGET_S (default 300), SKIP_DRIVER / SKIP_FAST / SKIP_HYBRID (1: skip that part).
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-driver-hybrid.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-[ -d .device/bin ] || tar xJf .device/round.tar.xz
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 nvidia-smi --query-gpu=name,driver_version,clocks.sm,clocks.max.sm --format=csv > "$out/gpu.txt" 2>&1
 start=$(date +%s)
 if [ "${SKIP_DRIVER:-0}" != 1 ]; then

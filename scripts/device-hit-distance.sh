@@ -14,11 +14,7 @@
 # comma-separated, e.g. Sibenik,Sponza; default all five), TREES (default "exact split"), OLD (0: skip
 # raypack-cli-old even where carried).
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-hit-distance.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-[ -d .device/bin ] || tar xJf .device/round.tar.xz
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 rounds=${ROUNDS:-2}
 repeat=${REPEAT:-10}
 budget=${BUDGET_S:-480}

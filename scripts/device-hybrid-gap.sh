@@ -17,11 +17,7 @@
 # Environment: REPEAT (default 5), SCALING (default "terrain 1M,terrain 10M,Dragon subdiv 3"; empty:
 # the report suite only).
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-hybrid-gap.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-[ -d .device/bin ] || tar xJf .device/round.tar.xz
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 nvidia-smi --query-gpu=name,driver_version --format=csv,noheader > "$out/gpu.txt" 2>&1
 common=(bench --scene-dir .device/scenes --device gpu --kernel all --packets 8x4
         --single-groups 8x16/32x4,8x4/8x4,8x16/8x16 --hybrid-min-rays 32,33 --hybrid-visit-ratios 0

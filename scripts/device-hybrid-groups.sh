@@ -7,10 +7,7 @@
 #   scripts/device-hybrid-groups.sh [OUT_DIR]   (default: $OUT)
 # Environment: REPEAT (default 5), GROUPS_PER (default 1,2,4).
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-hybrid-groups.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 common=(bench --scene-dir .device/scenes --device gpu --kernel all --packets 8x4 --hybrid-min-rays 1/4
         --hybrid-packets-per-group "${GROUPS_PER:-1,2,4}" --width 1920 --height 1080 --repeat "${REPEAT:-5}"
         --no-embree --no-driver-rt)

@@ -13,11 +13,7 @@
 # Environment: VARIANTS (names after raypack-cli-, default: every one carried), ROUNDS (default 2),
 # REPEAT (default 10), BUDGET_S (default 420), TRACER (default gpu-single), HITS (default 1).
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-kernel-variants.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-[ -d .device/bin ] || tar xJf .device/round.tar.xz
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 variants=${VARIANTS:-$(cd .device/bin && ls raypack-cli-* 2>/dev/null | sed 's/^raypack-cli-//')}
 rounds=${ROUNDS:-2}
 repeat=${REPEAT:-10}

@@ -9,10 +9,7 @@
 #   scripts/device-kernels.sh [OUT_DIR]   (default: $OUT)
 # Environment: REPEAT (default 10), BUDGET_S (default 240: no run starts after that many seconds).
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-kernels.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 cli=.device/bin/raypack-cli
 repeat=${REPEAT:-10}
 budget=${BUDGET_S:-240}

@@ -13,11 +13,7 @@
 # Environment: ROUNDS (default 4), BINARIES (default "new"), MODES (default "direct staged"), BUDGET_S
 # (default 330), BUILDER (default sah-binned).
 set -u
-out=${1:-${OUT:-}}
-[ -n "$out" ] || { echo "usage: scripts/device-slow-mode.sh OUT_DIR" >&2; exit 2; }
-mkdir -p "$out"
-[ -d .device/bin ] || tar xJf .device/round.tar.xz
-source scripts/device-env.sh > "$out/env.log" 2>&1
+source scripts/device-start.sh "$0" "${1:-}"
 nvidia-smi -q > "$out/nvidia-smi-before.txt" 2>&1
 nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,power.draw,temperature.gpu,utilization.gpu,utilization.memory,clocks_throttle_reasons.active \
   --format=csv,noheader -lms 100 > "$out/smi.csv" 2>&1 &
