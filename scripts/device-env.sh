@@ -1,7 +1,7 @@
 # Sourced on the lent GPU machine (no Debian packages there) from the repository root:
-# unpacks the carried Vulkan loader and glvnd (.gl/*.deb), the validation layer (.gl/extra) and
-# points the loader at the NVIDIA driver; programs and their libraries come from .device/
-# (scripts/device-bundle.sh).
+# unpacks the carried Vulkan loader and glvnd (.gl/*.deb), the validation layer (.gl/extra; both
+# made here by scripts/device-gl.sh) and points the loader at the NVIDIA driver; programs and their
+# libraries come from .device/ (scripts/device-bundle.sh).
 for f in .gl/*.deb; do dpkg -x "$f" /; done
 ldconfig
 mkdir -p /opt/vvl
