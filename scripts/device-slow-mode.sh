@@ -14,6 +14,12 @@
 # (default 330), BUILDER (default sah-binned).
 set -u
 source scripts/device-start.sh "$0" "${1:-}"
+# A call brings back at most 8 files: the runs go to OUT/runs, packed at the end into
+# OUT/results.tar.xz beside OUT/slow-mode.md (scripts/slow-mode-report's table).
+final=$out
+out=$out/runs
+mkdir -p "$out"
+mv "$final/env.log" "$out/"
 nvidia-smi -q > "$out/nvidia-smi-before.txt" 2>&1
 nvidia-smi --query-gpu=timestamp,clocks.sm,clocks.mem,power.draw,temperature.gpu,utilization.gpu,utilization.memory,clocks_throttle_reasons.active \
   --format=csv,noheader -lms 100 > "$out/smi.csv" 2>&1 &
@@ -25,7 +31,7 @@ for round in $(seq 1 "${ROUNDS:-4}"); do
     cli=.device/bin/raypack-cli; [ "$bin" = new ] || cli=.device/bin/raypack-cli-$bin
     for mode in ${MODES:-direct staged}; do
       name=$bin-$mode-$round
-      if [ $(( $(date +%s) - start )) -gt "${BUDGET_S:-330}" ]; then echo "$name: skipped (budget)" >> "$out/errors.txt"; continue; fi
+      if [ $(( $(date +%s) - start )) -gt "${BUDGET_S:-330}" ]; then echo "$name: skipped (budget)" >> "$final/errors.txt"; continue; fi
       echo "$(date +%s.%N) start $name" >> "$out/progress.txt"
       RAYPACK_UPLOAD=$mode "$cli" bench --suite scaling --only "terrain 10M,Dragon subdiv 3" \
         --scene-dir .device/scenes --device gpu --kernel single --width 1920 --height 1080 --repeat 10 --no-embree \
@@ -37,4 +43,5 @@ done
 kill "$smi" 2> /dev/null
 nvidia-smi --query-compute-apps=pid,name,used_memory --format=csv > "$out/apps.txt" 2>&1
 nvidia-smi -q > "$out/nvidia-smi-after.txt" 2>&1
-tar cJf "$out/results.tar.xz" -C "$out" --exclude results.tar.xz .
+python3 scripts/slow-mode-report "$out" > "$final/slow-mode.md" 2>> "$final/errors.txt"
+tar cJf "$final/results.tar.xz" -C "$out" . && rm -rf "$out"
