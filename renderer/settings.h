@@ -56,7 +56,10 @@ struct PacketShape {
 // density"). There, splitting that early was the fastest hybrid in 13 of the 16 scene and ray-kind
 // cells of the report and scaling suites, and within 0.02 of it in two more. Conference's primary
 // rays prefer K = 2 (0.96 of the single-ray kernel against 0.89). It beat or tied the earlier
-// default, a quarter of the packet, in 15 of the 16 cells.
+// default, a quarter of the packet, in 15 of the 16 cells. A K above the packet's ray count splits
+// every packet at the root: the kernel without its packet phase, which measured 0.964-1.034 of the
+// single-ray kernel in the same workgroup, and ahead of K = 32 in 31 of 32 cells, the other within
+// 0.4% (docs/gpu.md, "The hybrid kernel's gap in steps"): the packet phase is what costs.
 // `packetsPerGroup` packets share one workgroup, stacked in y (1: one packet a workgroup, as the
 // packet kernel); more than one needs packets of exactly one subgroup.
 struct HybridParams {

@@ -592,9 +592,9 @@ HybridVote hybridVote(bool leftHit, bool rightHit, bool rightFirst, bool wants, 
     v.stillActive = countActive ? subgroupBallotBitCount(subgroupBallot(isActive)) : 0u;
     h.wanting = subgroupBallotBitCount(subgroupBallot(wants));
     uvec2 packed = uvec2(v.rightFirst | (v.hitting << 16u), v.hitLeft | (v.hitRight << 16u));
-    if (kPacketIsOneSubgroup) {
-        subgroupBarrier();
-    } else {
+    // A packet of one subgroup keeps its stack in every ray's own (hybridPush): no lane reads what
+    // another wrote, so its vote needs no barrier.
+    if (!kPacketIsOneSubgroup) {
         const uint slot = parity & 3u;
         if (subgroupElect()) {
             atomicAdd(sVote[slot].x, packed.x);
@@ -618,14 +618,26 @@ HybridVote hybridVote(bool leftHit, bool rightHit, bool rightFirst, bool wants, 
     return h;
 }
 
+// The hybrid packet's stack. A packet of one subgroup runs in lockstep, so every ray pushes the
+// same entry onto its own stack (rayStack, which the split then compacts in place), and neither the
+// elected write to shared memory nor the barrier before the other lanes read it are needed. A
+// packet of several subgroups shares sStack as tracePacket does.
+void hybridPush(uint slot, uvec2 entry) {
+    if (kPacketIsOneSubgroup) rayStack[slot] = entry;
+    else pushEntry(slot, entry);
+}
+
+uvec2 hybridPop(uint slot) { return kPacketIsOneSubgroup ? rayStack[slot] : popEntry(slot); }
+
 // Hybrid packet / single-ray traversal after Benthin, Wald, Woop, Ernst and Mark 2012 ("Combining
 // Single and Packet-Ray Tracing for Arbitrary Ray Distributions on the Intel MIC Architecture"):
-// the packet traverses as tracePacket does (shared stack, one vote per inner node) while it is
-// coherent, and once a vote shows it is not, every ray continues alone with traceSingle's
-// while-while loop and its own stack, seeded with the packet's pending shared-stack entries that
-// the ray wanted and with its own step at the node of that vote. The split is for the rest of the
-// traversal (Benthin et al. return to packet mode after the subtree; a GPU packet whose rays have
-// diverged in a subgroup has no cheap way back). The decision is packet-uniform (it reads only the
+// the packet traverses as tracePacket does (one vote per inner node; the stack shared, or for a
+// packet of one subgroup the same entries in every ray's own, hybridPush) while it is coherent, and
+// once a vote shows it is not, every ray continues alone with traceSingle's while-while loop and
+// its own stack, seeded with the packet's pending entries that the ray wanted and with its own
+// step at the node of that vote. The split is for the rest of the traversal (Benthin et al. return
+// to packet mode after the subtree; a GPU packet whose rays have diverged in a subgroup has no
+// cheap way back). The decision is packet-uniform (it reads only the
 // vote's totals), so every invocation leaves the voting loop at the same iteration and no barrier
 // follows the split.
 void traceHybrid(inout RayQuery q) {
@@ -693,13 +705,14 @@ void traceHybrid(inout RayQuery q) {
             wantedVisits += float(hv.wanting);
             if (hv.wanting < kHybridMinRays ||
                 (visitRule && packetVisits * 100.0f > float(kHybridVisitRatio) * wantedVisits)) {
-                // Split. The pending entries were written before this vote's barrier; the ray
-                // keeps those it wanted, bottom first, so that it pops them in the packet's order.
+                // Split. The ray keeps the pending entries it wanted, bottom first, so that it pops
+                // them in the packet's order (in place where they are its own already: entry s moves
+                // to a slot at or below s). Shared entries were written before this vote's barrier.
                 split = true;
                 done = !q.isActive;
                 if (!done) {
                     for (uint s = 0u; s < stackSize; ++s)
-                        if (s >= 32u || (wantedBits & (1u << s)) != 0u) rayStack[rayStackSize++] = popEntry(s);
+                        if (s >= 32u || (wantedBits & (1u << s)) != 0u) rayStack[rayStackSize++] = hybridPop(s);
                     // This ray's own step at the voted node, as traceSingle's: the nearer child
                     // hit first, the farther pushed. A ray that did not want the node skips it.
                     const bool l = hitLeft && wantCurrent;
@@ -744,7 +757,7 @@ void traceHybrid(inout RayQuery q) {
                             if (gl_LocalInvocationIndex == 0u) atomicOr(status, kStatusStackOverflow);
                             break;
                         }
-                        pushEntry(stackSize, nodeEntry(other));
+                        hybridPush(stackSize, nodeEntry(other));
                         if (stackSize < 32u) {
                             const uint bit = 1u << stackSize;
                             wantedBits = wantOther ? (wantedBits | bit) : (wantedBits & ~bit);
@@ -772,7 +785,7 @@ void traceHybrid(inout RayQuery q) {
         }
         if (stackSize == 0u) break;
         --stackSize;
-        current = popEntry(stackSize);
+        current = hybridPop(stackSize);
         wantCurrent = stackSize < 32u ? (wantedBits & (1u << stackSize)) != 0u : true;
     }
     if (!split) return;

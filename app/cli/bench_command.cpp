@@ -666,7 +666,8 @@ CommandRunner addBenchCommand(CLI::App& app) {
         ->add_option("--hybrid-min-rays", f.hybridMinRays,
                      "Hybrid kernel: the values of K to run, comma-separated, each a ray count or a share "
                      "of the packet (1/4: a quarter of its rays); the packet splits into single rays at "
-                     "the first node fewer than K of its active rays want (0: never by this rule)")
+                     "the first node fewer than K of its active rays want (0: never by this rule; above the "
+                     "packet's rays, e.g. 33 for 8x4: at the root, the kernel without its packet phase)")
         ->capture_default_str();
     command
         ->add_option("--hybrid-visit-ratios", f.hybridVisitRatios,

@@ -223,7 +223,8 @@ CommandRunner addRenderCommand(CLI::App& app) {
     o.hybridMinRays = command
                           ->add_option("--hybrid-min-rays", f.hybridMinRays,
                                        "--kernel hybrid: the packet splits into single rays at the first "
-                                       "node fewer than K of its active rays want (0: never by this rule)")
+                                       "node fewer than K of its active rays want (0: never by this rule; above "
+                                       "the packet's rays: at the root)")
                           ->capture_default_str();
     o.hybridVisitRatio = command
                              ->add_option("--hybrid-visit-ratio", f.hybridVisitRatio,
