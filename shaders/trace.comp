@@ -570,6 +570,16 @@ void traceWide(inout RayQuery q) {
     }
 }
 
+// Whether the hybrid packet keeps its stack in every ray's own (rayStack) instead of sStack. A packet
+// of one subgroup runs in lockstep, so every ray can push the same entry onto its own stack, which
+// the split then compacts in place; neither the elected write to shared memory nor the barrier
+// before the other lanes read it are needed. Measured on an H100 (docs/gpu.md, "The hybrid
+// kernel's gap in steps"), against sStack: 1.007-1.084x with four packets a workgroup, 1.006-1.053x
+// for primary rays with one, 0.932-0.976x for shadow rays with one, which keep sStack.
+// A function, not a constant of specialization constants: glslang's SPIR-V for such a constant
+// negated in a function was invalid (an undefined id). The driver folds it all the same.
+bool hybridOwnStack() { return kPacketIsOneSubgroup && (kPacketsPerGroup > 1u || kPass != kPassShadowShade); }
+
 // The hybrid kernel's vote: packetVote's counts plus `wanting`, the active rays that want the node
 // being visited (its box was hit when it was entered or pushed), which both split rules read. The
 // same four rotating slots as packetVote, the fourth component of each slot (packetVote leaves it
@@ -592,9 +602,11 @@ HybridVote hybridVote(bool leftHit, bool rightHit, bool rightFirst, bool wants, 
     v.stillActive = countActive ? subgroupBallotBitCount(subgroupBallot(isActive)) : 0u;
     h.wanting = subgroupBallotBitCount(subgroupBallot(wants));
     uvec2 packed = uvec2(v.rightFirst | (v.hitting << 16u), v.hitLeft | (v.hitRight << 16u));
-    // A packet of one subgroup keeps its stack in every ray's own (hybridPush): no lane reads what
-    // another wrote, so its vote needs no barrier.
-    if (!kPacketIsOneSubgroup) {
+    // A packet of one subgroup that keeps its stack in every ray's own (hybridOwnStack) needs no
+    // barrier: no lane reads what another wrote.
+    if (kPacketIsOneSubgroup) {
+        if (!hybridOwnStack()) subgroupBarrier();
+    } else {
         const uint slot = parity & 3u;
         if (subgroupElect()) {
             atomicAdd(sVote[slot].x, packed.x);
@@ -618,16 +630,14 @@ HybridVote hybridVote(bool leftHit, bool rightHit, bool rightFirst, bool wants, 
     return h;
 }
 
-// The hybrid packet's stack. A packet of one subgroup runs in lockstep, so every ray pushes the
-// same entry onto its own stack (rayStack, which the split then compacts in place), and neither the
-// elected write to shared memory nor the barrier before the other lanes read it are needed. A
-// packet of several subgroups shares sStack as tracePacket does.
+// The hybrid packet's stack (hybridPush, hybridPop): sStack as tracePacket's, or with
+// hybridOwnStack (above hybridVote) every ray's own.
 void hybridPush(uint slot, uvec2 entry) {
-    if (kPacketIsOneSubgroup) rayStack[slot] = entry;
+    if (hybridOwnStack()) rayStack[slot] = entry;
     else pushEntry(slot, entry);
 }
 
-uvec2 hybridPop(uint slot) { return kPacketIsOneSubgroup ? rayStack[slot] : popEntry(slot); }
+uvec2 hybridPop(uint slot) { return hybridOwnStack() ? rayStack[slot] : popEntry(slot); }
 
 // Hybrid packet / single-ray traversal after Benthin, Wald, Woop, Ernst and Mark 2012 ("Combining
 // Single and Packet-Ray Tracing for Arbitrary Ray Distributions on the Intel MIC Architecture"):
