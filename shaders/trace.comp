@@ -576,8 +576,8 @@ void traceWide(inout RayQuery q) {
 // before the other lanes read it are needed. Measured on an H100 (docs/gpu.md, "The hybrid
 // kernel's gap in steps"), against sStack: 1.007-1.084x with four packets a workgroup, 1.006-1.053x
 // for primary rays with one, 0.932-0.976x for shadow rays with one, which keep sStack.
-// A function, not a constant of specialization constants: glslang's SPIR-V for such a constant
-// negated in a function was invalid (an undefined id). The driver folds it all the same.
+// A function, not a constant made of specialization constants: for such a constant glslang emitted
+// its negation before the constant itself, invalid SPIR-V. The driver folds the function the same.
 bool hybridOwnStack() { return kPacketIsOneSubgroup && (kPacketsPerGroup > 1u || kPass != kPassShadowShade); }
 
 // The hybrid kernel's vote: packetVote's counts plus `wanting`, the active rays that want the node
@@ -647,9 +647,8 @@ uvec2 hybridPop(uint slot) { return hybridOwnStack() ? rayStack[slot] : popEntry
 // its own stack, seeded with the packet's pending entries that the ray wanted and with its own
 // step at the node of that vote. The split is for the rest of the traversal (Benthin et al. return
 // to packet mode after the subtree; a GPU packet whose rays have diverged in a subgroup has no
-// cheap way back). The decision is packet-uniform (it reads only the
-// vote's totals), so every invocation leaves the voting loop at the same iteration and no barrier
-// follows the split.
+// cheap way back). The decision is packet-uniform (it reads only the vote's totals), so every
+// invocation leaves the voting loop at the same iteration and no barrier follows the split.
 void traceHybrid(inout RayQuery q) {
     // Each ray's own stack after the split: the packet's pending entries plus its own pushes (the
     // host sizes it as the two stacks together).
