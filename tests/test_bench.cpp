@@ -17,6 +17,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <vector>
 
 namespace raypack::test {
 namespace {
@@ -248,6 +249,49 @@ TEST(Bench, ReportScriptWritesTablesAndFigures) {
     EXPECT_EQ(sections, 1u);
     EXPECT_GT(fs::file_size(images / "quick-figure1.png"), 1000u);
     EXPECT_GT(fs::file_size(images / "quick-figure2.png"), 1000u);
+}
+
+// scripts/hybrid-gap-report (scripts/device-hybrid-gap.sh's table) over a bench run in the shape
+// that script runs, on lavapipe's 8-lane subgroups: one-subgroup 8x1 packets, K = 8 and K = 9
+// (above the packet's rays: every packet splits at the root), one and four packets a workgroup,
+// the single-ray kernel in the packet's 8x1 and the grouped 8x4. A row per scene and ray kind, and
+// in each the root-split hybrid's N_TR is the single-ray kernel's: the same traversal. (One small
+// scene: the time goes to building the eleven cells' pipelines on lavapipe.)
+TEST(Bench, HybridGapReportSplitsTheGapIntoSteps) {
+    const fs::path out = scratch() / "hybrid-gap.json";
+    const CliResult r = runCli(
+        "bench --scenes gen:sphereflake:1k --device gpu --kernel all --packets 8x1 "
+        "--single-groups 8x16/32x4,8x1/8x1,8x4/8x4 --hybrid-min-rays 8,9 --hybrid-visit-ratios 0 "
+        "--hybrid-packets-per-group 1,4 --width 48 --height 32 --repeat 1 --no-embree --no-driver-rt --out " +
+        quoted(out));
+    ASSERT_EQ(r.exitCode, 0) << r.output;
+    const fs::path table = scratch() / "hybrid-gap.md";
+    const std::string command = "/usr/bin/python3 '" + std::string(RAYPACK_SOURCE_DIR) +
+                                "/scripts/hybrid-gap-report' " + quoted(out) + " > " + quoted(table) + " 2>&1";
+    ASSERT_EQ(std::system(command.c_str()), 0) << command;
+    std::stringstream text;
+    text << std::ifstream(table).rdbuf();
+    const std::string md = text.str();
+    EXPECT_NE(md.find("Packets 8x1; K = 8 against K = 9"), std::string::npos) << md;
+    EXPECT_NE(md.find("4 packets a workgroup against the single-ray kernel in 8x4"), std::string::npos) << md;
+    size_t rows = 0;
+    std::istringstream lines(md);
+    for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("| gen:", 0) != 0) continue;
+        ++rows;
+        // The cells between '|': scene, rays, then the ratios; N_TR "single / K=9 / K=8" is the
+        // third from the end.
+        std::vector<std::string> cells;
+        for (size_t at = 1, next; (next = line.find('|', at)) != std::string::npos; at = next + 1)
+            cells.push_back(line.substr(at, next - at));
+        ASSERT_EQ(cells.size(), 13u) << line;
+        for (size_t c = 3; c <= 9; ++c) EXPECT_EQ(cells[c].find('-'), std::string::npos) << "missing cell: " << line;
+        std::istringstream ntr(cells[10]);
+        std::string single, slash, root;
+        ntr >> single >> slash >> root;
+        EXPECT_EQ(single, root) << "N_TR of the root-split hybrid against the single-ray kernel: " << line;
+    }
+    EXPECT_EQ(rows, 2u) << md;  // primary and shadow rays
 }
 
 // The trade suite's quick variant (issue 15), run once for the whole program (about 20-30 s on 2
