@@ -127,9 +127,10 @@ TEST(Bench, QuickSuiteRecordsCarryEveryStatisticFinite) {
         EXPECT_GT(r.at("perf_mrays_s").get<double>(), 0.0) << r.dump();
         EXPECT_LE(r.at("t_k_min_s").get<double>(), r.at("t_k_s").get<double>());
         EXPECT_LE(r.at("t_k_s").get<double>(), r.at("t_k_max_s").get<double>());
-        if (kind == "primary")
+        if (kind == "primary") {
             EXPECT_EQ(r.at("n_q_rays").get<uint64_t>(),
                       r.at("width_px").get<uint64_t>() * r.at("height_px").get<uint64_t>());
+        }
         if (tracer == "cpu-reference" || tracer == "cpu-packet") {
             EXPECT_EQ(r.at("t_cu_s").get<double>(), 0.0);
         } else {
