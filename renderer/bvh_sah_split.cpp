@@ -341,8 +341,10 @@ private:
         auto sweepAxis = [&](int axis) {
             throwIfCancelled(progress_);
             std::vector<SortKey> keys(total);
-            for (uint32_t i = 0; i < total; ++i)
+            for (uint32_t i = 0; i < total; ++i) {
+                if (i % kCancelCheckInterval == kCancelCheckInterval - 1) throwIfCancelled(progress_);
                 keys[i] = {(uint64_t(orderedKey(centroidOf(work.refs[i].box)[axis])) << 32) | work.refs[i].prim, i};
+            }
             radixSort(keys, progress_);
             std::vector<double> leftMeasure(total);
             Aabb box;
@@ -362,6 +364,7 @@ private:
                     result.mid = i;
                 }
             }
+            throwIfCancelled(progress_);
             result.order.resize(total);
             for (uint32_t i = 0; i < total; ++i) result.order[i] = keys[i].ref;
         };
@@ -381,8 +384,10 @@ private:
         }
         if (!best.found) return best;
         best.order = std::move(results[best.axis].order);
-        for (uint32_t i = 0; i < total; ++i)
+        for (uint32_t i = 0; i < total; ++i) {
+            if (i % kCancelCheckInterval == kCancelCheckInterval - 1) throwIfCancelled(progress_);
             (i < best.mid ? best.leftBox : best.rightBox).grow(work.refs[best.order[i]].box);
+        }
         return best;
     }
 
@@ -727,12 +732,14 @@ private:
     void partitionObject(Work& work, const ObjectSplit& split, Work& left, Work& right) const {
         left.refs.reserve(split.mid);
         right.refs.reserve(split.order.size() - split.mid);
-        for (uint32_t i = 0; i < split.order.size(); ++i)
+        throwIfCancelled(progress_);
+        for (uint32_t i = 0; i < split.order.size(); ++i) {
+            if (i % kCancelCheckInterval == kCancelCheckInterval - 1) throwIfCancelled(progress_);
             (i < split.mid ? left : right).refs.push_back(work.refs[split.order[i]]);
+        }
         RAYPACK_CHECK(!left.refs.empty() && !right.refs.empty());
-        left.box = right.box = Aabb{};
-        for (const Ref& ref : left.refs) left.box.grow(ref.box);
-        for (const Ref& ref : right.refs) right.box.grow(ref.box);
+        left.box = split.leftBox;  // the same union findObjectSplit grew, in the same order
+        right.box = split.rightBox;
         shareBudget(work.budget, left, right);
         std::vector<Ref>().swap(work.refs);
     }

@@ -1,6 +1,7 @@
 // BVH builders: structural invariants, statistics against an independent walk, the exact builder
 // against a brute-force implementation of the same algorithm, determinism across thread counts,
 // edge cases, bad input, progress and cancellation.
+#include "cancel_latency.h"
 #include "renderer/bvh.h"
 #include "renderer/bvh_build.h"
 #include "renderer/error.h"
@@ -12,17 +13,13 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <atomic>
-#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <limits>
 #include <memory>
 #include <numeric>
-#include <optional>
 #include <random>
-#include <thread>
 
 #if defined(__x86_64__)
 #include <xmmintrin.h>
@@ -512,52 +509,14 @@ TEST(BvhCancel, CancelledBeforeStartThrows) {
     }
 }
 
-// Milliseconds from setting `cancel` `delayMs` into a build of `bounds` to the build's
-// BuildCancelled; nothing (and a failure) when the build finishes first.
-std::optional<double> cancelLatencyMs(const std::vector<Aabb>& bounds, BvhBuilder builder, int delayMs) {
-    BuildProgress progress;
-    std::atomic<int64_t> cancelledAt{0};
-    std::thread canceller([&] {
-        std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
-        cancelledAt = std::chrono::steady_clock::now().time_since_epoch().count();
-        progress.cancel = true;
-    });
-    bool threw = false;
-    try {
-        buildBvh(bounds, optionsFor(builder), &progress);
-    } catch (const BuildCancelled&) {
-        threw = true;
-    }
-    const int64_t stoppedAt = std::chrono::steady_clock::now().time_since_epoch().count();
-    canceller.join();
-    EXPECT_TRUE(threw) << "the build finished before it was cancelled";
-    if (!threw) return std::nullopt;
-    return double(stoppedAt - cancelledAt.load()) * 1e-6;
-}
-
-// Cancels a multi-million-primitive build in flight and measures how long the builder takes to
-// notice. The builders check every 16k primitives of work (a few hundred microseconds, a few
-// milliseconds under ASan); a phase without checks would take hundreds of milliseconds at this
-// size, at the same point every time. The machine's two cores are shared (in CI with a second
-// sanitizer test process), and a descheduled build thread once took 570 ms to see the flag, so the
-// best of up to three tries must be under the bound: a missing check fails all three.
+// Cancels a multi-million-primitive build in flight (tests/cancel_latency.h).
 TEST(BvhCancel, CancelledMidBuildStopsQuickly) {
     const std::vector<Aabb> bounds = randomSoup(3'000'000, 8);
-    constexpr double kBoundMs = 500.0;
-    for (BvhBuilder builder : kCpuBvhBuilders) {
-        for (int delayMs : {5, 150}) {
-            SCOPED_TRACE(std::string(toString(builder)) + " after " + std::to_string(delayMs) + " ms");
-            double best = std::numeric_limits<double>::infinity();
-            for (int attempt = 0; attempt < 3 && best >= kBoundMs; ++attempt) {
-                const std::optional<double> latencyMs = cancelLatencyMs(bounds, builder, delayMs);
-                if (!latencyMs) return;
-                std::printf("  %s cancelled after %d ms: stopped %.1f ms later\n", toString(builder), delayMs,
-                            *latencyMs);
-                best = std::min(best, *latencyMs);
-            }
-            EXPECT_LT(best, kBoundMs);
-        }
-    }
+    for (BvhBuilder builder : kCpuBvhBuilders)
+        for (int delayMs : {5, 150})
+            test::expectCancelledQuickly(toString(builder), delayMs, [&](BuildProgress* progress) {
+                buildBvh(bounds, optionsFor(builder), progress);
+            });
 }
 
 // allocateLarge's storage (the builders' scratch): aligned, all of it writable, on both sides of the
