@@ -47,13 +47,14 @@ std::optional<double> cancelLatencyMs(int delayMs, const Build& build) {
     return double(stoppedAt - cancelledAt.load()) * 1e-6;
 }
 
-// The best of up to three cancellations `delayMs` into `build` stops within `boundMs`; prints each.
+// The default bound: four times as long in a sanitizer build (above).
 #if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
 inline constexpr double kCancelBoundMs = 2000.0;
 #else
 inline constexpr double kCancelBoundMs = 500.0;
 #endif
 
+// The best of up to three cancellations `delayMs` into `build` stops within `boundMs`; prints each.
 template <class Build>
 void expectCancelledQuickly(const std::string& what, int delayMs, const Build& build, double boundMs = kCancelBoundMs) {
     SCOPED_TRACE(what + " after " + std::to_string(delayMs) + " ms");
