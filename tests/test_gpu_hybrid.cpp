@@ -92,9 +92,15 @@ void expectSplitsMatchReference(GpuTracer& tracer, RenderSettings settings, cons
     for (const PacketShape& shape : shapes) {
         settings.packet = shape;
         const uint32_t rays = shape.rays();
-        const HybridParams rules[] = {{std::max(1u, rays / 4), 0.0f}, {std::max(1u, rays / 16), 0.0f},
-                                      {std::max(1u, rays / 2), 0.0f}, {0u, 1.5f},
-                                      {std::max(1u, rays / 8), 2.0f}, {1u, 1.0f}};
+        // K = the packet's rays is the default's rule (split at the first node not all rays
+        // want), which a packet of one subgroup decides by one vote instead of a count.
+        const HybridParams rules[] = {{rays, 0.0f},
+                                      {std::max(1u, rays / 4), 0.0f},
+                                      {std::max(1u, rays / 16), 0.0f},
+                                      {std::max(1u, rays / 2), 0.0f},
+                                      {0u, 1.5f},
+                                      {std::max(1u, rays / 8), 2.0f},
+                                      {1u, 1.0f}};
         for (const HybridParams& h : rules) {
             settings.hybrid = h;
             const Frame gpu = tracer.render(settings, request);
