@@ -620,13 +620,34 @@ void checkWorkgroup(const GpuTracer::State& s, const RenderSettings& settings, b
                     d.name + " dispatches");
 }
 
+// HybridParams' automatic packets per workgroup (kAutoPacketsPerGroup) on this device: four where
+// each packet fills exactly one subgroup of consecutive invocations (8x4 on NVIDIA; not lavapipe's
+// rows, where several packets a workgroup were not measured) and four fit the device's workgroup
+// and shared memory, otherwise one. On an H100 four measured 0.98-1.09x one (docs/gpu.md, "The
+// hybrid kernel's packets per workgroup").
+constexpr uint32_t kAutoHybridPackets = 4;
+uint32_t autoPacketsPerGroup(const GpuTracer::State& s, PacketShape packet) {
+    const vk::DeviceInfo& d = s.ctx.info;
+    const uint64_t rays = uint64_t(packet.width) * packet.height;
+    const bool fillsSubgroup =
+        !subgroupsAreRows(d) && packetsAreOneSubgroupEach(d, packet.width, packet.height, kAutoHybridPackets);
+    const bool fits = rays * kAutoHybridPackets <= d.maxWorkgroupInvocations &&
+                      uint64_t(packet.height) * kAutoHybridPackets <= d.maxWorkgroupSize[1] &&
+                      uint64_t(s.stackEntries) * 8u * kAutoHybridPackets + kVoteBytes <= d.maxSharedMemoryBytes;
+    return fillsSubgroup && fits ? kAutoHybridPackets : 1u;
+}
+
+RenderSettings deviceSettingsFor(const GpuTracer::State& s, RenderSettings settings) {
+    if (settings.kernel == KernelKind::Hybrid && settings.hybrid.packetsPerGroup == kAutoPacketsPerGroup)
+        settings.hybrid.packetsPerGroup = autoPacketsPerGroup(s, settings.packet);
+    return settings;
+}
+
 void checkSettings(const GpuTracer::State& s, const RenderSettings& settings) {
     if (!s.hasScene) throw Error("GPU: no scene uploaded");
     if (settings.width == 0 || settings.height == 0)
         throw Error("GPU: the image is empty (" + std::to_string(settings.width) + "x" +
                     std::to_string(settings.height) + ")");
-    if (settings.kernel == KernelKind::Hybrid && settings.hybrid.packetsPerGroup == 0)
-        throw Error("GPU: the hybrid kernel needs at least one packet per workgroup");
     checkWorkgroup(s, settings, false);
     if (settings.shadows) checkWorkgroup(s, settings, true);
     if (settings.bvhWidth != s.tree->bvhWidth)
@@ -691,9 +712,10 @@ struct HostPassClock {
     double shadowSeconds = 0.0;
 };
 
-glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSettings& settings,
+glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSettings& requested,
                        const GpuRecordOptions& options, bool writeHits, bool statistics,
                        HostPassClock* hostClock = nullptr) {
+    const RenderSettings settings = deviceSettingsFor(s, requested);
     checkSettings(s, settings);
     ensureFrameBuffers(s, settings.width, settings.height);
     glm::vec3 light;
@@ -805,9 +827,10 @@ void GpuTracer::traceBackToBack(const RenderSettings& settings, uint32_t frames)
     submitSyncCommandsAndWait(s);
 }
 
-Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& request) {
+Frame GpuTracer::render(const RenderSettings& requested, const FrameRequest& request) {
     State& s = *state_;
     const auto start = Clock::now();
+    const RenderSettings settings = deviceSettingsFor(s, requested);
     checkSettings(s, settings);
     ensureFrameBuffers(s, settings.width, settings.height);
     const VkDeviceSize pixels = VkDeviceSize(settings.width) * settings.height;
@@ -885,11 +908,16 @@ Frame GpuTracer::render(const RenderSettings& settings, const FrameRequest& requ
 
 HitDistanceMath GpuTracer::hitDistanceMath(HitDistanceMath requested) { return resolveHitDistance(*state_, requested); }
 
+RenderSettings GpuTracer::deviceSettings(const RenderSettings& settings) const {
+    return deviceSettingsFor(*state_, settings);
+}
+
 double GpuTracer::float64Rate() const { return state_->float64Rate; }
 
-std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const RenderSettings& settings,
+std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const RenderSettings& requested,
                                                                         bool shadowPass) {
     State& s = *state_;
+    const RenderSettings settings = deviceSettingsFor(s, requested);
     std::vector<PipelineStatistic> out;
     if (!s.ctx.pipelineStatistics) return out;
     const auto getProperties = reinterpret_cast<PFN_vkGetPipelineExecutablePropertiesKHR>(

@@ -105,6 +105,10 @@ public:
     // The rate of doubles against floats behind Auto's choice (0 before it, or where it chose
     // without measuring).
     double float64Rate() const;
+    // `settings` as this device traces them, with the scene uploaded now: the hybrid kernel's
+    // automatic packets per workgroup (kAutoPacketsPerGroup, renderer/settings.h) resolved to a
+    // count. render, recordFrame, traceBackToBack and pipelineStatistics resolve it themselves.
+    RenderSettings deviceSettings(const RenderSettings& settings) const;
 
     // Everything synchronously: records both passes, submits, waits and reads back what `request`
     // asks for. Frame::timings.primarySeconds / shadowSeconds are kernel times (T_K) from

@@ -61,14 +61,20 @@ struct PacketShape {
 // single-ray kernel in the same workgroup, and ahead of K = 32 in 31 of 32 cells, the other within
 // 0.4% (docs/gpu.md, "The hybrid kernel's gap in steps"): the packet phase is what costs.
 // `packetsPerGroup` packets share one workgroup, stacked in y (1: one packet a workgroup, as the
-// packet kernel); more than one needs packets of exactly one subgroup.
+// packet kernel); more than one needs packets of exactly one subgroup. The default,
+// kAutoPacketsPerGroup, lets the device choose (GpuTracer::deviceSettings): four where each packet
+// fills one subgroup of consecutive invocations (8x4 on NVIDIA), which measured 0.98-1.09x one a
+// workgroup on an H100, ahead in 13 of 16 cells of the report and scaling suites (docs/gpu.md, "The
+// hybrid kernel's packets per workgroup"); one elsewhere.
+inline constexpr uint32_t kAutoPacketsPerGroup = 0;
 struct HybridParams {
     uint32_t minRays = 32;
     float visitRatio = 0.0f;
-    uint32_t packetsPerGroup = 1;
+    uint32_t packetsPerGroup = kAutoPacketsPerGroup;
     bool operator==(const HybridParams&) const = default;
 };
 inline constexpr float kMaxHybridVisitRatio = 1000.0f;
+inline constexpr uint32_t kMaxHybridPacketsPerGroup = 64;
 
 struct RenderSettings {
     uint32_t width = 800;
@@ -109,6 +115,7 @@ struct RenderSettings {
 
 // The workgroup a GPU kernel of `settings` runs its primary or shadow pass in: the packet (the
 // hybrid kernel's packets per group stacked in y), or the single-ray kernel's group of that pass.
+// The hybrid kernel's packets per group must have been resolved (GpuTracer::deviceSettings).
 inline PacketShape gpuWorkgroup(const RenderSettings& settings, bool shadowPass = false) {
     if (settings.kernel == KernelKind::Hybrid)
         return PacketShape{settings.packet.width, settings.packet.height * settings.hybrid.packetsPerGroup};

@@ -123,7 +123,8 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["single_shadow_group"] = {{"width", s.singleShadowGroup.width}, {"height", s.singleShadowGroup.height}};
     j["hybrid"] = {{"min_rays", s.hybrid.minRays},
                    {"visit_ratio", s.hybrid.visitRatio},
-                   {"packets_per_group", s.hybrid.packetsPerGroup}};
+                   {"packets_per_group",
+                    s.hybrid.packetsPerGroup == kAutoPacketsPerGroup ? json("auto") : json(s.hybrid.packetsPerGroup)}};
     j["bvh_width"] = s.bvhWidth;
     j["collect_counters"] = s.collectCounters;
     j["view"] = toString(s.view);
@@ -217,8 +218,17 @@ RenderSettings renderSettingsFromJson(const nlohmann::json& j) {
         readFloat(*hybrid, "visit_ratio", "hybrid.", s.hybrid.visitRatio);
         if (!(s.hybrid.visitRatio >= 0.0f && s.hybrid.visitRatio <= kMaxHybridVisitRatio))
             badKey("hybrid", "visit_ratio must be 0 (off) or a ratio up to 1000");
-        readUint(*hybrid, "packets_per_group", "hybrid.", s.hybrid.packetsPerGroup);
-        if (s.hybrid.packetsPerGroup == 0) badKey("hybrid", "packets_per_group must be at least 1");
+        // "auto" (the device's choice, kAutoPacketsPerGroup) or a count of at least 1.
+        if (const json* packets = find(*hybrid, "packets_per_group"); packets && packets->is_string()) {
+            if (packets->get<std::string>() != "auto")
+                badKey("hybrid.packets_per_group",
+                       "must be \"auto\" or a count of at least 1, got " + shortDump(*packets));
+            s.hybrid.packetsPerGroup = kAutoPacketsPerGroup;
+        } else {
+            readUint(*hybrid, "packets_per_group", "hybrid.", s.hybrid.packetsPerGroup);
+            if (s.hybrid.packetsPerGroup == 0)
+                badKey("hybrid.packets_per_group", "must be \"auto\" or a count of at least 1, got 0");
+        }
     }
     readUint(j, "bvh_width", "", s.bvhWidth);
     if (s.bvhWidth != 2 && s.bvhWidth != 8)

@@ -208,6 +208,14 @@ float parseFiniteFloat(std::string_view what, std::string_view text) {
     return value;
 }
 
+uint32_t parseHybridPacketsPerGroup(std::string_view what, std::string_view text) {
+    if (text == "auto") return kAutoPacketsPerGroup;
+    uint32_t value = 0;
+    if (!parseUint(text, value) || value == 0 || value > kMaxHybridPacketsPerGroup)
+        badValue(what, text, "auto or a count from 1 to " + std::to_string(kMaxHybridPacketsPerGroup));
+    return value;
+}
+
 uint32_t parsePositiveCount(std::string_view what, std::string_view text) {
     uint32_t value = 0;
     if (!parseUint(text, value) || value == 0) badValue(what, text, "a positive integer");

@@ -61,6 +61,9 @@ struct HybridMinRaysSpec {
 std::vector<HybridMinRaysSpec> parseHybridMinRaysList(std::string_view what, std::string_view text);
 // A comma-separated list of visit ratios, each 0 (off) or in [1, kMaxHybridVisitRatio], at least one.
 std::vector<float> parseHybridVisitRatios(std::string_view what, std::string_view text);
+// The hybrid kernel's packets per workgroup: "auto" (kAutoPacketsPerGroup) or a count from 1 to
+// kMaxHybridPacketsPerGroup.
+uint32_t parseHybridPacketsPerGroup(std::string_view what, std::string_view text);
 
 // "x,y,z" / "x,y": that many finite numbers separated by commas, no empty component.
 glm::vec3 parseVec3(std::string_view what, std::string_view text);

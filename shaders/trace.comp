@@ -580,72 +580,53 @@ void traceWide(inout RayQuery q) {
 // its negation before the constant itself, invalid SPIR-V. The driver folds the function the same.
 bool hybridOwnStack() { return kPacketIsOneSubgroup && (kPacketsPerGroup > 1u || kPass != kPassShadowShade); }
 
-// The hybrid kernel's vote, reduced to what traceHybrid reads of it: whether any active ray hit a
-// child, the child the packet enters (tracePacket's rule: the right one when more of the hitting
-// rays want it first than the left), whether any ray wants the other one, whether fewer than
-// kHybridMinRays active rays want the node being visited (its box was hit when it was entered or
-// pushed), and the counts the visit rule and shadow packets need.
+// The hybrid kernel's vote: packetVote's counts plus `wanting`, the active rays that want the node
+// being visited (its box was hit when it was entered or pushed), which both split rules read. The
+// same four rotating slots as packetVote, the fourth component of each slot (packetVote leaves it
+// 0) carrying `wanting` across subgroups, so the two votes can follow each other in one traversal.
 struct HybridVote {
-    bool anyHit;
-    bool goRight;
-    bool otherWanted;
-    bool fewWant;
-    uint wanting;      // counted when the visit rule or kHybridMinRays needs the number
-    uint stillActive;  // counted when countActive
+    PacketVote packet;
+    uint wanting;
 };
 
 HybridVote hybridVote(bool leftHit, bool rightHit, bool rightFirst, bool wants, bool isActive, bool countActive,
-                      uint packetRays, inout uint parity) {
+                      inout uint parity) {
     HybridVote h;
-    const bool countWanting = kHybridVisitRatio != 0u || (kHybridMinRays != 0u && kHybridMinRays < packetRays);
-    if (kPacketIsOneSubgroup) {
-        // Within one subgroup the decisions come from the lanes' bits directly: two bit counts
-        // for the choice (a hitting ray wants either the right child first or the left), a vote
-        // each for the other child and for the split when K is the packet's size, no packing.
-        const uint byRight = subgroupBallotBitCount(subgroupBallot(rightFirst));
-        const uint byLeft = subgroupBallotBitCount(subgroupBallot(leftHit && !rightFirst));
-        h.anyHit = byRight + byLeft != 0u;
-        h.goRight = byRight > byLeft;
-        h.otherWanted = subgroupAny(h.goRight ? leftHit : rightHit);
-        h.wanting = countWanting ? subgroupBallotBitCount(subgroupBallot(wants)) : 0u;
-        if (kHybridMinRays == 0u) h.fewWant = false;
-        else if (kHybridMinRays > packetRays) h.fewWant = true;
-        else if (countWanting) h.fewWant = h.wanting < kHybridMinRays;
-        else h.fewWant = !subgroupAll(wants);  // K is the packet's size
-        h.stillActive = countActive ? subgroupBallotBitCount(subgroupBallot(isActive)) : 0u;
-        // A packet that keeps its stack in every ray's own (hybridOwnStack) needs no barrier: no
-        // lane reads what another wrote.
-        if (!hybridOwnStack()) subgroupBarrier();
-        return h;
-    }
-    // Across subgroups: packetVote's counts and rotating slots, with `wanting` in each slot's
-    // fourth component (packetVote leaves it 0, so the two votes can follow each other).
     const uvec4 left = subgroupBallot(leftHit);
     const uvec4 right = subgroupBallot(rightHit);
-    const uint rightFirstCount = subgroupBallotBitCount(subgroupBallot(rightFirst));
-    const uint hittingCount = subgroupBallotBitCount(left | right);
-    const uvec2 packed = uvec2(rightFirstCount | (hittingCount << 16u),
-                               subgroupBallotBitCount(left) | (subgroupBallotBitCount(right) << 16u));
-    const uint activeCount = countActive ? subgroupBallotBitCount(subgroupBallot(isActive)) : 0u;
-    const uint wantingCount = subgroupBallotBitCount(subgroupBallot(wants));
-    const uint slot = parity & 3u;
-    if (subgroupElect()) {  // the ballots above, not in here: in here only the elected lane votes
-        atomicAdd(sVote[slot].x, packed.x);
-        atomicAdd(sVote[slot].y, packed.y);
-        if (countActive) atomicAdd(sVote[slot].z, activeCount);
-        atomicAdd(sVote[slot].w, wantingCount);
+    PacketVote v;
+    v.rightFirst = subgroupBallotBitCount(subgroupBallot(rightFirst));
+    v.hitting = subgroupBallotBitCount(left | right);
+    v.hitLeft = subgroupBallotBitCount(left);
+    v.hitRight = subgroupBallotBitCount(right);
+    v.stillActive = countActive ? subgroupBallotBitCount(subgroupBallot(isActive)) : 0u;
+    h.wanting = subgroupBallotBitCount(subgroupBallot(wants));
+    uvec2 packed = uvec2(v.rightFirst | (v.hitting << 16u), v.hitLeft | (v.hitRight << 16u));
+    // A packet of one subgroup that keeps its stack in every ray's own (hybridOwnStack) needs no
+    // barrier: no lane reads what another wrote.
+    if (kPacketIsOneSubgroup) {
+        if (!hybridOwnStack()) subgroupBarrier();
+    } else {
+        const uint slot = parity & 3u;
+        if (subgroupElect()) {
+            atomicAdd(sVote[slot].x, packed.x);
+            atomicAdd(sVote[slot].y, packed.y);
+            if (countActive) atomicAdd(sVote[slot].z, v.stillActive);
+            atomicAdd(sVote[slot].w, h.wanting);
+        }
+        barrier();
+        const uvec4 total = sVote[slot];
+        if (gl_LocalInvocationIndex == 0u) sVote[(slot + 2u) & 3u] = uvec4(0u);
+        parity += 1u;
+        packed = total.xy;
+        v.stillActive = total.z;
+        h.wanting = total.w;
     }
-    barrier();
-    const uvec4 total = sVote[slot];
-    if (gl_LocalInvocationIndex == 0u) sVote[(slot + 2u) & 3u] = uvec4(0u);
-    parity += 1u;
-    const uint hitting = total.x >> 16u;
-    h.anyHit = hitting != 0u;
-    h.goRight = 2 * int(total.x & 0xFFFFu) - int(hitting) >= 1;
-    h.otherWanted = (h.goRight ? total.y & 0xFFFFu : total.y >> 16u) != 0u;
-    h.wanting = total.w;
-    h.fewWant = total.w < kHybridMinRays;
-    h.stillActive = total.z;
+    v.rightFirst = packed.x & 0xFFFFu;
+    v.hitting = packed.x >> 16u;
+    v.hitLeft = packed.y & 0xFFFFu;
+    v.hitRight = packed.y >> 16u;
+    h.packet = v;
     return h;
 }
 
@@ -684,12 +665,12 @@ void traceHybrid(inout RayQuery q) {
     // The visit rule weighs each visit by the rays still active: shadow packets count them at
     // every vote; primary rays stay active, so the root's count holds throughout.
     const bool countActive = shadowPacket && (!kPacketIsOneSubgroup || visitRule);
-    const uint packetRays = gl_WorkGroupSize.x * (gl_WorkGroupSize.y / kPacketsPerGroup);
     if (kPacketIsOneSubgroup) {
         // Packet k of the workgroup: rows [k PH, (k + 1) PH), one subgroup, as the host assumed.
-        const uint packet = gl_LocalInvocationID.y / (gl_WorkGroupSize.y / kPacketsPerGroup);
+        const uint packetHeight = gl_WorkGroupSize.y / kPacketsPerGroup;
+        const uint packet = gl_LocalInvocationID.y / packetHeight;
         packetStackBase = packet * kPacketStackEntries;
-        if (subgroupAdd(1u) != packetRays || !subgroupAllEqual(packet)) {
+        if (subgroupAdd(1u) != gl_WorkGroupSize.x * packetHeight || !subgroupAllEqual(packet)) {
             if (subgroupElect()) atomicOr(status, kStatusSubgroupMismatch);
             return;
         }
@@ -724,14 +705,14 @@ void traceHybrid(inout RayQuery q) {
             const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
             const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
-            const HybridVote hv = hybridVote(hitLeft, hitRight, rightFirst, q.isActive && wantCurrent, q.isActive,
-                                             countActive, packetRays, parity);
-            if (countActive && hv.stillActive == 0u) break;  // all shadow rays occluded
-            if (visitRule) {
-                packetVisits += float(countActive ? hv.stillActive : rootActive);
-                wantedVisits += float(hv.wanting);
-            }
-            if (hv.fewWant ||
+            const HybridVote hv =
+                hybridVote(hitLeft, hitRight, rightFirst, q.isActive && wantCurrent, q.isActive, countActive, parity);
+            const PacketVote votes = hv.packet;
+            if (countActive && votes.stillActive == 0u) break;  // all shadow rays occluded
+            const uint activeRays = countActive ? votes.stillActive : rootActive;
+            packetVisits += float(activeRays);
+            wantedVisits += float(hv.wanting);
+            if (hv.wanting < kHybridMinRays ||
                 (visitRule && packetVisits * 100.0f > float(kHybridVisitRatio) * wantedVisits)) {
                 // Split. The ray keeps the pending entries it wanted, bottom first, so that it pops
                 // them in the packet's order (in place where they are its own already: entry s moves
@@ -764,10 +745,11 @@ void traceHybrid(inout RayQuery q) {
                 }
                 break;
             }
-            if (hv.anyHit) {
+            if (votes.hitting != 0u) {
                 // tracePacket's choice of child and what it pushes.
-                const bool goRight = hv.goRight;
-                const bool otherWanted = hv.otherWanted;
+                const int sum = 2 * int(votes.rightFirst) - int(votes.hitting);
+                const bool goRight = sum >= 1;
+                const bool otherWanted = (goRight ? votes.hitLeft : votes.hitRight) != 0u;
                 const GpuNode chosen = goRight ? right : left;
                 const GpuNode other = goRight ? left : right;
                 const bool wantChosen = goRight ? hitRight : hitLeft;

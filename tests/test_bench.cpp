@@ -266,6 +266,15 @@ TEST(Bench, HybridGapReportSplitsTheGapIntoSteps) {
         "--hybrid-packets-per-group 1,4 --width 48 --height 32 --repeat 1 --no-embree --no-driver-rt --out " +
         quoted(out));
     ASSERT_EQ(r.exitCode, 0) << r.output;
+    // The counts asked for are the counts that ran (only "auto" resolves to another).
+    const nlohmann::json results = nlohmann::json::parse(std::ifstream(out));
+    size_t hybridRecords = 0;
+    for (const nlohmann::json& record : results["records"]) {
+        if (record["kernel"] != "hybrid") continue;
+        ++hybridRecords;
+        EXPECT_EQ(record["hybrid_packets_per_group"], record["hybrid_packets_per_group_requested"]) << record.dump();
+    }
+    EXPECT_EQ(hybridRecords, 8u);  // K = 8 and 9, one and four a workgroup, primary and shadow
     const fs::path table = scratch() / "hybrid-gap.md";
     const std::string command = "/usr/bin/python3 '" + std::string(RAYPACK_SOURCE_DIR) +
                                 "/scripts/hybrid-gap-report' " + quoted(out) + " > " + quoted(table) + " 2>&1";

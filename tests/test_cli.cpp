@@ -254,7 +254,27 @@ TEST(Cli, HybridFlagsApplyToTheHybridKernelOnly) {
                      "--hybrid-min-rays");
     expectCleanError(runCli("bench --suite quick --device gpu --kernel hybrid --hybrid-visit-ratios 0.5"),
                      "--hybrid-visit-ratios");
+    expectCleanError(runCli("bench --suite quick --device gpu --kernel hybrid --hybrid-packets-per-group 1,0"),
+                     "--hybrid-packets-per-group");
+    expectCleanError(runCli("render gen:terrain:1k --device gpu --kernel packet --hybrid-packets-per-group 2"),
+                     "--hybrid-packets-per-group");
+    expectCleanError(runCli("render gen:terrain:1k --device gpu --kernel hybrid --hybrid-packets-per-group 65"),
+                     "--hybrid-packets-per-group");
     expectCleanError(runCli("bench --suite quick --only Sibenik"), "Sibenik");
+}
+
+// The hybrid kernel's packets per workgroup: `render` says how many ran and whether "auto" chose
+// them (one on lavapipe, whose subgroups are rows; docs/gpu.md), and runs a count it is given.
+TEST(Cli, RenderSaysHowManyHybridPacketsShareAWorkgroup) {
+    const CliResult automatic =
+        runCli("render gen:terrain:1k --device gpu --kernel hybrid --packet 8x1 --width 16 --height 8");
+    ASSERT_EQ(automatic.exitCode, 0) << automatic.output;
+    EXPECT_NE(automatic.output.find("1 packet a workgroup (auto)"), std::string::npos) << automatic.output;
+    const CliResult three = runCli(
+        "render gen:terrain:1k --device gpu --kernel hybrid --packet 8x1 "
+        "--hybrid-packets-per-group 3 --width 16 --height 8");
+    ASSERT_EQ(three.exitCode, 0) << three.output;
+    EXPECT_NE(three.output.find("3 packets a workgroup\n"), std::string::npos) << three.output;
 }
 
 TEST(Cli, BadInputGivesOneClearLineAndExitCodeTwo) {

@@ -222,7 +222,7 @@ TEST(GpuHybrid, SeveralPacketsPerWorkgroupTraceAsOnePacketEach) {
     const bool rowsAreSubgroups = device.name.find("llvmpipe") != std::string::npos;
     settings.packet = rowsAreSubgroups ? PacketShape{8, 1} : PacketShape{8, std::max(1u, device.subgroupSize / 8)};
     const FrameRequest request{true, true, true};
-    for (const HybridParams rules : {HybridParams{2u, 1.5f}}) {
+    for (const HybridParams rules : {HybridParams{2u, 1.5f, 1u}}) {
         settings.hybrid = rules;
         const Frame one = tracer.render(settings, request);
         for (const uint32_t packets : {3u}) {
@@ -240,7 +240,7 @@ TEST(GpuHybrid, SeveralPacketsPerWorkgroupTraceAsOnePacketEach) {
         settings.hybrid.packetsPerGroup = 1;
     }
     // Packets of several subgroups cannot share a workgroup (their vote needs the workgroup's
-    // barrier), nor can packets that share a subgroup, nor can none.
+    // barrier), nor can packets that share a subgroup.
     const PacketShape oneSubgroup = settings.packet;
     settings.packet = {16, 16};
     settings.hybrid.packetsPerGroup = 2;
@@ -249,9 +249,16 @@ TEST(GpuHybrid, SeveralPacketsPerWorkgroupTraceAsOnePacketEach) {
         settings.packet = {1, 1};
         EXPECT_THROW(tracer.render(settings), Error);
     }
+    // "auto" (the default): four packets that each fill a subgroup of consecutive invocations, one
+    // on lavapipe's rows and for packets of several subgroups; the frame is that count's.
+    settings.hybrid.packetsPerGroup = kAutoPacketsPerGroup;
+    EXPECT_EQ(tracer.deviceSettings(settings).hybrid.packetsPerGroup, 1u) << "16x16: several subgroups";
     settings.packet = oneSubgroup;
-    settings.hybrid.packetsPerGroup = 0;
-    EXPECT_THROW(tracer.render(settings), Error);
+    const uint32_t chosen = tracer.deviceSettings(settings).hybrid.packetsPerGroup;
+    EXPECT_EQ(chosen, rowsAreSubgroups ? 1u : 4u);
+    const Frame automatic = tracer.render(settings, request);
+    settings.hybrid.packetsPerGroup = chosen;
+    EXPECT_TRUE(sameHits(automatic, tracer.render(settings, request)));
     expectNoValidationMessages();
 }
 

@@ -122,6 +122,28 @@ TEST(SettingsText, HybridRuleListsAndTheirJson) {
     EXPECT_NE(errorOf([] { renderSettingsFromJson(nlohmann::json::parse(R"({"hybrid": {"min_rays": -2}})")); }), "");
 }
 
+// Packets per workgroup: "auto" (the device's choice) or a count from 1 to 64, on the command line
+// and in the JSON, which writes the default as "auto" and reads it back.
+TEST(SettingsText, HybridPacketsPerGroupAreAutoOrACount) {
+    EXPECT_EQ(parseHybridPacketsPerGroup("--hybrid-packets-per-group", "auto"), kAutoPacketsPerGroup);
+    EXPECT_EQ(parseHybridPacketsPerGroup("--hybrid-packets-per-group", "4"), 4u);
+    EXPECT_EQ(parseHybridPacketsPerGroup("--hybrid-packets-per-group", "64"), 64u);
+    for (const char* bad : {"0", "65", "-1", "Auto", "", "4x"})
+        EXPECT_NE(errorOf([&] { parseHybridPacketsPerGroup("--hybrid-packets-per-group", bad); }), "")
+            << "accepted " << bad;
+
+    RenderSettings settings;
+    EXPECT_EQ(settings.hybrid.packetsPerGroup, kAutoPacketsPerGroup);
+    const nlohmann::json j = toJson(settings);
+    EXPECT_EQ(j["hybrid"]["packets_per_group"], "auto");
+    EXPECT_EQ(renderSettingsFromJson(j).hybrid.packetsPerGroup, kAutoPacketsPerGroup);
+    settings.hybrid.packetsPerGroup = 3;
+    EXPECT_EQ(renderSettingsFromJson(nlohmann::json::parse(toJson(settings).dump())).hybrid.packetsPerGroup, 3u);
+    for (const char* bad : {R"({"hybrid": {"packets_per_group": 0}})", R"({"hybrid": {"packets_per_group": "four"}})",
+                            R"({"hybrid": {"packets_per_group": -1}})"})
+        EXPECT_NE(errorOf([&] { renderSettingsFromJson(nlohmann::json::parse(bad)); }), "") << "accepted " << bad;
+}
+
 TEST(SettingsText, ListsDropEmptyEntries) {
     EXPECT_EQ(splitList("a,,b,"), (std::vector<std::string>{"a", "b"}));
     EXPECT_EQ(splitList("a;b", ';'), (std::vector<std::string>{"a", "b"}));

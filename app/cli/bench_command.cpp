@@ -45,7 +45,7 @@ struct BenchFlags {
     std::string only;       // names of the suite's scenes to run, comma-separated; empty: all
     std::string hybridMinRays = std::to_string(HybridParams{}.minRays);
     std::string hybridVisitRatios = "0";
-    std::string hybridPacketsPerGroup = "1";
+    std::string hybridPacketsPerGroup = "auto";
     std::string shadowOrder = "nearest";
     std::string hitDistances = "auto";  // the GPU kernels' cells, one per entry
     uint32_t width = 0, height = 0, repeat = 0;
@@ -70,9 +70,12 @@ struct Cell {
         if (shadowGroup) text += "/" + toString(*shadowGroup);
         if (hitDistance) text += std::string(" hit distance ") + toString(*hitDistance);
         if (hybrid) {
+            const std::string packets = hybrid->packetsPerGroup == kAutoPacketsPerGroup
+                                            ? std::string("auto")
+                                            : std::to_string(hybrid->packetsPerGroup);
             char rules[128];
-            std::snprintf(rules, sizeof rules, " K=%u (%s) visit ratio %g, %u packet(s) a workgroup", hybrid->minRays,
-                          hybridMinRaysText.c_str(), double(hybrid->visitRatio), hybrid->packetsPerGroup);
+            std::snprintf(rules, sizeof rules, " K=%u (%s) visit ratio %g, %s packet(s) a workgroup", hybrid->minRays,
+                          hybridMinRaysText.c_str(), double(hybrid->visitRatio), packets.c_str());
             text += rules;
         }
         return text;
@@ -94,7 +97,7 @@ json sceneFields(const BenchScene& scene, const LoadedScene& loaded, const Bvh& 
 
 // Two records (primary, shadow) of a frame tracer's cell.
 void addFrameRecords(json& records, const json& scene, const Tracer& tracer, const Cell& cell,
-                     const MeasuredFrames& measured) {
+                     const RenderSettings& ran, const MeasuredFrames& measured) {
     const std::optional<PacketShape>& packet = cell.packet;
     const FrameStats& s = measured.stats;
     for (const char* kind : {"primary", "shadow"}) {
@@ -110,7 +113,12 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["hybrid_min_rays"] = cell.hybrid ? json(cell.hybrid->minRays) : json(nullptr);
         r["hybrid_min_rays_spec"] = cell.hybrid ? json(cell.hybridMinRaysText) : json(nullptr);
         r["hybrid_visit_ratio"] = cell.hybrid ? json(cell.hybrid->visitRatio) : json(nullptr);
-        r["hybrid_packets_per_group"] = cell.hybrid ? json(cell.hybrid->packetsPerGroup) : json(nullptr);
+        // What the device ran ("auto" resolved), and what was asked for.
+        r["hybrid_packets_per_group"] = cell.hybrid ? json(ran.hybrid.packetsPerGroup) : json(nullptr);
+        r["hybrid_packets_per_group_requested"] = !cell.hybrid ? json(nullptr)
+                                                  : cell.hybrid->packetsPerGroup == kAutoPacketsPerGroup
+                                                      ? json("auto")
+                                                      : json(cell.hybrid->packetsPerGroup);
         r["hit_distance_requested"] = cell.hitDistance ? json(toString(*cell.hitDistance)) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;
@@ -260,7 +268,8 @@ json runTrade(const BenchSuite& suite, const TradeMatrix& matrix, const std::vec
                     gpuWarm = gpuWarm || gpu;
                     if (b == 0 && mode == IntersectMode::Robust)
                         references[tracer->name()] = {measured.frame.rgba, measured.frame.hits};
-                    addFrameRecords(records, scene, *tracer, Cell{tracer, packet, std::nullopt, ""}, measured);
+                    addFrameRecords(records, scene, *tracer, Cell{tracer, packet, std::nullopt, ""}, cellSettings,
+                                    measured);
                     addHitDistance(records, *tracer, cellSettings);
                     for (size_t k = records.size() - 2; k < records.size(); ++k)
                         records[k]["intersect"] = toString(mode);
@@ -340,11 +349,9 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
     const std::vector<HybridMinRaysSpec> hybridMinRays = parseHybridMinRaysList("--hybrid-min-rays", f.hybridMinRays);
     const std::vector<float> hybridVisitRatios = parseHybridVisitRatios("--hybrid-visit-ratios", f.hybridVisitRatios);
     std::vector<uint32_t> hybridPacketsPerGroup;
-    for (const std::string& entry : splitList(f.hybridPacketsPerGroup)) {
-        const uint32_t count = parsePositiveCount("--hybrid-packets-per-group", entry);
-        if (count > 64) throw Error("--hybrid-packets-per-group: \"" + entry + "\" is not a count from 1 to 64");
-        hybridPacketsPerGroup.push_back(count);
-    }
+    for (const std::string& entry : splitList(f.hybridPacketsPerGroup))
+        hybridPacketsPerGroup.push_back(parseHybridPacketsPerGroup("--hybrid-packets-per-group", entry));
+    if (hybridPacketsPerGroup.empty()) throw Error("--hybrid-packets-per-group: no count given");
 
     std::optional<VulkanSession> session;
     json machine = {{"cpu_model", cpuModel()},  {"cpu_threads", cpuThreads()}, {"os", operatingSystem()},
@@ -559,7 +566,7 @@ int runBench(const BenchFlags& f, const CLI::App& command) {
                 }
             } else {
                 MeasuredFrames measured = measureFrames(tracer, prepared[&tracer], cellSettings, repeats, false);
-                addFrameRecords(records, scene, tracer, cell, measured);
+                addFrameRecords(records, scene, tracer, cell, tracer.deviceSettings(cellSettings), measured);
                 addHitDistance(records, tracer, cellSettings);
                 if (const auto built = builtInTracer.find(&tracer); built != builtInTracer.end())
                     for (size_t k = records.size() - 2; k < records.size(); ++k) {
@@ -677,10 +684,11 @@ CommandRunner addBenchCommand(CLI::App& app) {
         ->capture_default_str();
     command
         ->add_option("--hybrid-packets-per-group", f.hybridPacketsPerGroup,
-                     "Hybrid kernel: packets per workgroup to run, comma-separated (1-64; more than 1 "
-                     "needs packets of one subgroup, e.g. 8x4 on NVIDIA, 8x1 on lavapipe): an SM holds a "
-                     "limited number of workgroups, 32 on the H200. One cell per packet shape, K, ratio "
-                     "and count")
+                     "Hybrid kernel: packets per workgroup to run, comma-separated, each auto or a count "
+                     "(1-64; more than 1 needs packets of one subgroup, e.g. 8x4 on NVIDIA, 8x1 on "
+                     "lavapipe): an SM holds a limited number of workgroups, 32 on the H200. auto: 4 where "
+                     "each packet fills one subgroup (8x4 on NVIDIA), else 1; the records' "
+                     "hybrid_packets_per_group is what ran. One cell per packet shape, K, ratio and entry")
         ->capture_default_str();
     command->add_option("--only", f.only,
                         "Run only these scenes of the suite, comma-separated names as the suite "

@@ -38,6 +38,7 @@ struct RenderFlags {
     std::string packet;
     uint32_t hybridMinRays = HybridParams{}.minRays;
     float hybridVisitRatio = HybridParams{}.visitRatio;
+    std::string hybridPacketsPerGroup = "auto";
     std::string view = "shaded";
     std::string intersect = "robust";
     std::string shadowOrder = "nearest";
@@ -54,8 +55,8 @@ struct RenderFlags {
 struct RenderOptions {
     CLI::Option *scene, *width, *height, *eye, *at, *up, *fov, *lightHeight, *noShadows, *leafSize, *builder, *bins,
         *splitAlpha, *splitBudget, *kernel, *packet, *view, *intersect, *shadowOrder, *spp, *scale, *heatScale,
-        *hybridMinRays, *hybridVisitRatio, *plocRadius, *treeletRounds, *treeletGamma, *topRebuild, *bvhWidth,
-        *hitDistance;
+        *hybridMinRays, *hybridVisitRatio, *hybridPacketsPerGroup, *plocRadius, *treeletRounds, *treeletGamma,
+        *topRebuild, *bvhWidth, *hitDistance;
 };
 
 bool given(const CLI::Option* option) { return option->count() > 0; }
@@ -89,6 +90,8 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.packet)) s.packet = parsePacketShape("--packet", f.packet);
     if (given(o.hybridMinRays)) s.hybrid.minRays = f.hybridMinRays;
     if (given(o.hybridVisitRatio)) s.hybrid.visitRatio = f.hybridVisitRatio;
+    if (given(o.hybridPacketsPerGroup))
+        s.hybrid.packetsPerGroup = parseHybridPacketsPerGroup("--hybrid-packets-per-group", f.hybridPacketsPerGroup);
     if (given(o.view)) s.view = requireViewMode("--view", f.view);
     if (given(o.intersect)) s.intersect = requireIntersectMode("--intersect", f.intersect);
     if (given(o.shadowOrder)) s.shadowOrder = requireShadowOrder("--shadow-order", f.shadowOrder);
@@ -233,6 +236,13 @@ CommandRunner addRenderCommand(CLI::App& app) {
                                           "(0: off)")
                              ->check(CLI::Range(0.0f, kMaxHybridVisitRatio))
                              ->capture_default_str();
+    o.hybridPacketsPerGroup =
+        command
+            ->add_option("--hybrid-packets-per-group", f.hybridPacketsPerGroup,
+                         "--kernel hybrid: packets per workgroup, stacked in y: auto (4 where each packet fills "
+                         "one subgroup, 8x4 on NVIDIA; else 1) or a count from 1 to 64 (more than 1 needs "
+                         "packets of one subgroup)")
+            ->capture_default_str();
     o.view = command
                  ->add_option("--view", f.view,
                               "Image: shaded (Phong), nodes (heat map of N_TR) or tests (heat map "
@@ -328,8 +338,10 @@ CommandRunner addRenderCommand(CLI::App& app) {
             throw Error("--packet applies to --kernel packet or hybrid only");
         if (cpu && settings.kernel == KernelKind::Hybrid) throw Error("--kernel hybrid applies to --device gpu only");
         if (settings.kernel != KernelKind::Hybrid &&
-            (given(options->hybridMinRays) || given(options->hybridVisitRatio)))
-            throw Error("--hybrid-min-rays and --hybrid-visit-ratio apply to --kernel hybrid only");
+            (given(options->hybridMinRays) || given(options->hybridVisitRatio) ||
+             given(options->hybridPacketsPerGroup)))
+            throw Error(
+                "--hybrid-min-rays, --hybrid-visit-ratio and --hybrid-packets-per-group apply to --kernel hybrid only");
         // A settings file's 8-wide tree applies to the GPU single-ray kernel it was traced with; another
         // device or kernel (a flag beside --from) traces the binary tree. The flag itself is refused there.
         if (!given(options->bvhWidth) && (cpu || settings.kernel != KernelKind::Single)) settings.bvhWidth = 2;
@@ -436,15 +448,18 @@ CommandRunner addRenderCommand(CLI::App& app) {
         settings.height = outHeight;
         settings.pixelJitter = glm::vec2(0.0f);
 
+        const bool singleKernel = gpu && settings.kernel == KernelKind::Single;
         if (gpu || packets)
-            std::printf("kernel     %s, %s %s\n", toString(settings.kernel),
-                        gpu && settings.kernel == KernelKind::Single ? "workgroup" : "packet",
-                        toString(gpuWorkgroup(settings)).c_str());
+            std::printf("kernel     %s, %s %s\n", toString(settings.kernel), singleKernel ? "workgroup" : "packet",
+                        toString(singleKernel ? gpuWorkgroup(settings) : settings.packet).c_str());
         if (gpu && settings.bvhWidth == 8)
             std::printf("tree       compressed 8-wide (Ylitie et al. 2017), made from the binary BVH at upload\n");
-        if (settings.kernel == KernelKind::Hybrid)
-            std::printf("hybrid     split below %u rays, visit ratio %g (0: off)\n", settings.hybrid.minRays,
-                        double(settings.hybrid.visitRatio));
+        if (settings.kernel == KernelKind::Hybrid) {
+            const uint32_t perGroup = tracer->deviceSettings(settings).hybrid.packetsPerGroup;
+            std::printf("hybrid     split below %u rays, visit ratio %g (0: off), %u packet%s a workgroup%s\n",
+                        settings.hybrid.minRays, double(settings.hybrid.visitRatio), perGroup, perGroup == 1 ? "" : "s",
+                        settings.hybrid.packetsPerGroup == kAutoPacketsPerGroup ? " (auto)" : "");
+        }
         if (gpu && settings.intersect == IntersectMode::Robust)
             if (const std::optional<std::string> math = tracer->hitDistance(settings)) {
                 std::string why = settings.hitDistance == HitDistanceMath::Auto ? "auto" : "as asked";

@@ -79,6 +79,9 @@ public:
         return std::string(toString(tracer_->hitDistanceMath(settings.hitDistance)));
     }
     double float64Rate() const override { return tracer_->float64Rate(); }
+    RenderSettings deviceSettings(const RenderSettings& settings) const override {
+        return tracer_->deviceSettings(withKernel(settings));
+    }
 
 private:
     RenderSettings withKernel(RenderSettings settings) const {

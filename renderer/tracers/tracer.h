@@ -120,6 +120,9 @@ public:
     // The rate of doubles against floats that the device was measured at for that choice
     // (GpuTracer::float64Rate); 0 where none was measured.
     virtual double float64Rate() const { return 0.0; }
+    // `settings` as this tracer runs them on its device after prepare(): what an automatic choice
+    // comes to (the hybrid kernel's packets per workgroup, GpuTracer::deviceSettings).
+    virtual RenderSettings deviceSettings(const RenderSettings& settings) const { return settings; }
 
     // Tracers whose measurement is not a frame write their own bench records: Embree's five ray
     // modes at two build qualities, the driver's acceleration structure build and launch figures.
