@@ -621,16 +621,15 @@ void checkWorkgroup(const GpuTracer::State& s, const RenderSettings& settings, b
 }
 
 // HybridParams' automatic packets per workgroup (kAutoPacketsPerGroup) on this device: four where
-// each packet fills exactly one subgroup of consecutive invocations (8x4 on NVIDIA; not lavapipe's
-// rows, where several packets a workgroup were not measured) and four fit the device's workgroup
-// and shared memory, otherwise one. On an H100 four measured 0.98-1.09x one (docs/gpu.md, "The
-// hybrid kernel's packets per workgroup").
+// each packet fills exactly one subgroup (8x4 on NVIDIA, an 8x1 row on lavapipe) and four fit the
+// device's workgroup and shared memory, otherwise one. Four measured 0.98-1.09x one on an H100 and
+// 0.98-3.4x on lavapipe (docs/gpu.md, "The hybrid kernel's packets per workgroup").
 constexpr uint32_t kAutoHybridPackets = 4;
 uint32_t autoPacketsPerGroup(const GpuTracer::State& s, PacketShape packet) {
     const vk::DeviceInfo& d = s.ctx.info;
     const uint64_t rays = uint64_t(packet.width) * packet.height;
     const bool fillsSubgroup =
-        !subgroupsAreRows(d) && packetsAreOneSubgroupEach(d, packet.width, packet.height, kAutoHybridPackets);
+        rays == d.subgroupSize && packetsAreOneSubgroupEach(d, packet.width, packet.height, kAutoHybridPackets);
     const bool fits = rays * kAutoHybridPackets <= d.maxWorkgroupInvocations &&
                       uint64_t(packet.height) * kAutoHybridPackets <= d.maxWorkgroupSize[1] &&
                       uint64_t(s.stackEntries) * 8u * kAutoHybridPackets + kVoteBytes <= d.maxSharedMemoryBytes;

@@ -63,9 +63,9 @@ struct PacketShape {
 // `packetsPerGroup` packets share one workgroup, stacked in y (1: one packet a workgroup, as the
 // packet kernel); more than one needs packets of exactly one subgroup. The default,
 // kAutoPacketsPerGroup, lets the device choose (GpuTracer::deviceSettings): four where each packet
-// fills one subgroup of consecutive invocations (8x4 on NVIDIA), which measured 0.98-1.09x one a
-// workgroup on an H100, ahead in 13 of 16 cells of the report and scaling suites (docs/gpu.md, "The
-// hybrid kernel's packets per workgroup"); one elsewhere.
+// fills exactly one subgroup (8x4 on NVIDIA, an 8x1 row on lavapipe), which measured 0.98-1.09x one
+// a workgroup on an H100, ahead in 13 of 16 cells of the report and scaling suites, and 0.98-3.4x
+// on lavapipe (docs/gpu.md, "The hybrid kernel's packets per workgroup"); one elsewhere.
 inline constexpr uint32_t kAutoPacketsPerGroup = 0;
 struct HybridParams {
     uint32_t minRays = 32;

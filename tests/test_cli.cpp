@@ -264,10 +264,11 @@ TEST(Cli, HybridFlagsApplyToTheHybridKernelOnly) {
 }
 
 // The hybrid kernel's packets per workgroup: `render` says how many ran and whether "auto" chose
-// them (one on lavapipe, whose subgroups are rows; docs/gpu.md), and runs a count it is given.
+// them (one for 16x16 packets, which span several subgroups on every device; docs/gpu.md), and
+// runs a count it is given.
 TEST(Cli, RenderSaysHowManyHybridPacketsShareAWorkgroup) {
     const CliResult automatic =
-        runCli("render gen:terrain:1k --device gpu --kernel hybrid --packet 8x1 --width 16 --height 8");
+        runCli("render gen:terrain:1k --device gpu --kernel hybrid --packet 16x16 --width 16 --height 16");
     ASSERT_EQ(automatic.exitCode, 0) << automatic.output;
     EXPECT_NE(automatic.output.find("1 packet a workgroup (auto)"), std::string::npos) << automatic.output;
     const CliResult three = runCli(

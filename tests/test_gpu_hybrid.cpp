@@ -249,13 +249,13 @@ TEST(GpuHybrid, SeveralPacketsPerWorkgroupTraceAsOnePacketEach) {
         settings.packet = {1, 1};
         EXPECT_THROW(tracer.render(settings), Error);
     }
-    // "auto" (the default): four packets that each fill a subgroup of consecutive invocations, one
-    // on lavapipe's rows and for packets of several subgroups; the frame is that count's.
+    // "auto" (the default): four packets that each fill a subgroup (the 8x1 row on lavapipe), one
+    // for packets of several subgroups; the frame is that count's.
     settings.hybrid.packetsPerGroup = kAutoPacketsPerGroup;
     EXPECT_EQ(tracer.deviceSettings(settings).hybrid.packetsPerGroup, 1u) << "16x16: several subgroups";
     settings.packet = oneSubgroup;
     const uint32_t chosen = tracer.deviceSettings(settings).hybrid.packetsPerGroup;
-    EXPECT_EQ(chosen, rowsAreSubgroups ? 1u : 4u);
+    EXPECT_EQ(chosen, oneSubgroup.rays() == device.subgroupSize ? 4u : 1u);
     const Frame automatic = tracer.render(settings, request);
     settings.hybrid.packetsPerGroup = chosen;
     EXPECT_TRUE(sameHits(automatic, tracer.render(settings, request)));

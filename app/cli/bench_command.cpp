@@ -687,7 +687,7 @@ CommandRunner addBenchCommand(CLI::App& app) {
                      "Hybrid kernel: packets per workgroup to run, comma-separated, each auto or a count "
                      "(1-64; more than 1 needs packets of one subgroup, e.g. 8x4 on NVIDIA, 8x1 on "
                      "lavapipe): an SM holds a limited number of workgroups, 32 on the H200. auto: 4 where "
-                     "each packet fills one subgroup (8x4 on NVIDIA), else 1; the records' "
+                     "each packet fills one subgroup (8x4 on NVIDIA, 8x1 on lavapipe), else 1; the records' "
                      "hybrid_packets_per_group is what ran. One cell per packet shape, K, ratio and entry")
         ->capture_default_str();
     command->add_option("--only", f.only,

@@ -238,10 +238,11 @@ CommandRunner addRenderCommand(CLI::App& app) {
                              ->capture_default_str();
     o.hybridPacketsPerGroup =
         command
-            ->add_option("--hybrid-packets-per-group", f.hybridPacketsPerGroup,
-                         "--kernel hybrid: packets per workgroup, stacked in y: auto (4 where each packet fills "
-                         "one subgroup, 8x4 on NVIDIA; else 1) or a count from 1 to 64 (more than 1 needs "
-                         "packets of one subgroup)")
+            ->add_option(
+                "--hybrid-packets-per-group", f.hybridPacketsPerGroup,
+                "--kernel hybrid: packets per workgroup, stacked in y: auto (4 where each packet fills "
+                "one subgroup, 8x4 on NVIDIA, 8x1 on lavapipe; else 1) or a count from 1 to 64 (more than 1 needs "
+                "packets of one subgroup)")
             ->capture_default_str();
     o.view = command
                  ->add_option("--view", f.view,
