@@ -711,10 +711,10 @@ struct HostPassClock {
     double shadowSeconds = 0.0;
 };
 
-glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSettings& requested,
+// `settings` as deviceSettingsFor resolved them (the public entry points do).
+glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSettings& settings,
                        const GpuRecordOptions& options, bool writeHits, bool statistics,
                        HostPassClock* hostClock = nullptr) {
-    const RenderSettings settings = deviceSettingsFor(s, requested);
     checkSettings(s, settings);
     ensureFrameBuffers(s, settings.width, settings.height);
     glm::vec3 light;
@@ -804,7 +804,7 @@ std::optional<FrameTimings> slotTimings(GpuTracer::State& s, uint32_t slot, bool
 }  // namespace
 
 void GpuTracer::recordFrame(VkCommandBuffer cmd, const RenderSettings& settings, const GpuRecordOptions& options) {
-    recordPasses(*state_, cmd, settings, options, false, false);
+    recordPasses(*state_, cmd, deviceSettingsFor(*state_, settings), options, false, false);
 }
 
 std::optional<FrameTimings> GpuTracer::lastKernelTimes() {
@@ -819,8 +819,9 @@ std::optional<FrameTimings> GpuTracer::lastKernelTimes() {
 
 void GpuTracer::setHostTimedPasses(bool on) { state_->hostTimedPasses = on; }
 
-void GpuTracer::traceBackToBack(const RenderSettings& settings, uint32_t frames) {
+void GpuTracer::traceBackToBack(const RenderSettings& requested, uint32_t frames) {
     State& s = *state_;
+    const RenderSettings settings = deviceSettingsFor(s, requested);
     beginSyncCommands(s);
     for (uint32_t i = 0; i < frames; ++i) recordPasses(s, s.syncCommands, settings, {}, false, false);
     submitSyncCommandsAndWait(s);

@@ -99,6 +99,10 @@ std::string oneLine(std::string text) {
 
 }  // namespace
 
+nlohmann::json hybridPacketsPerGroupJson(uint32_t packetsPerGroup) {
+    return packetsPerGroup == kAutoPacketsPerGroup ? json("auto") : json(packetsPerGroup);
+}
+
 nlohmann::json toJson(const RenderSettings& s) {
     json j;
     j["width"] = s.width;
@@ -123,8 +127,7 @@ nlohmann::json toJson(const RenderSettings& s) {
     j["single_shadow_group"] = {{"width", s.singleShadowGroup.width}, {"height", s.singleShadowGroup.height}};
     j["hybrid"] = {{"min_rays", s.hybrid.minRays},
                    {"visit_ratio", s.hybrid.visitRatio},
-                   {"packets_per_group",
-                    s.hybrid.packetsPerGroup == kAutoPacketsPerGroup ? json("auto") : json(s.hybrid.packetsPerGroup)}};
+                   {"packets_per_group", hybridPacketsPerGroupJson(s.hybrid.packetsPerGroup)}};
     j["bvh_width"] = s.bvhWidth;
     j["collect_counters"] = s.collectCounters;
     j["view"] = toString(s.view);

@@ -13,7 +13,7 @@
 //     "phong": {"ambient": 0.15, "diffuse": 0.75, "specular": 0.25, "shininess": 32},
 //     "background": [r,g,b],
 //     "kernel": "packet" | "single" | "hybrid", "packet": {"width": 8, "height": 4},
-//     "hybrid": {"min_rays": 32, "visit_ratio": 0},
+//     "hybrid": {"min_rays": 32, "visit_ratio": 0, "packets_per_group": "auto" | 4},
 //     "collect_counters": false, "view": "shaded" | "nodes" | "tests",
 //     "bvh": {"builder": "sah-exact" | "sah-binned", "leaf_size": 2, "traversal_cost": 1,
 //             "intersection_cost": 1, "bin_count": 32},
@@ -49,6 +49,8 @@ nlohmann::json toJson(const RenderSettings& settings);
 nlohmann::json toJson(const BvhBuildOptions& options);
 // The settings' keys at the top level, plus "scene" and "bvh".
 nlohmann::json toJson(const RenderSetup& setup);
+// HybridParams::packetsPerGroup as the JSON holds it: "auto" (kAutoPacketsPerGroup) or the count.
+nlohmann::json hybridPacketsPerGroupJson(uint32_t packetsPerGroup);
 
 // Each throws raypack::Error naming the offending key and what is wrong (wrong type, out of range,
 // unknown name). They read the layout above; renderSetupFromJson reads all three parts.

@@ -115,10 +115,8 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["hybrid_visit_ratio"] = cell.hybrid ? json(cell.hybrid->visitRatio) : json(nullptr);
         // What the device ran ("auto" resolved), and what was asked for.
         r["hybrid_packets_per_group"] = cell.hybrid ? json(ran.hybrid.packetsPerGroup) : json(nullptr);
-        r["hybrid_packets_per_group_requested"] = !cell.hybrid ? json(nullptr)
-                                                  : cell.hybrid->packetsPerGroup == kAutoPacketsPerGroup
-                                                      ? json("auto")
-                                                      : json(cell.hybrid->packetsPerGroup);
+        r["hybrid_packets_per_group_requested"] =
+            cell.hybrid ? hybridPacketsPerGroupJson(cell.hybrid->packetsPerGroup) : json(nullptr);
         r["hit_distance_requested"] = cell.hitDistance ? json(toString(*cell.hitDistance)) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;
