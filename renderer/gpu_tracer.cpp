@@ -122,6 +122,9 @@ struct GpuTracer::State {
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
     vk::StorageSetLayout layout;  // trace.comp's storage buffers and push constants
+#ifdef RP_VARIANT_TEXEL_NODES
+    VkBufferView nodeView = VK_NULL_HANDLE;  // the nodes as RGBA32F texels, binding kBindingCount
+#endif
     VkShaderModule module = VK_NULL_HANDLE;
     VkShaderModule moduleF64 = VK_NULL_HANDLE;  // trace.comp with RP_FLOAT64, where the device has doubles
     // HitDistanceMath::Auto's choice on this device, made on first use, and the measured rate of
@@ -170,7 +173,11 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
     try {
         s.pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, "vkCreateCommandPool");
 
+#ifdef RP_VARIANT_TEXEL_NODES
+        s.layout = vk::createStorageSetLayout(context, gpu::kBindingCount, sizeof(gpu::GpuFrameParams), 1);
+#else
         s.layout = vk::createStorageSetLayout(context, gpu::kBindingCount, sizeof(gpu::GpuFrameParams));
+#endif
 
         s.module = vk::createShaderModule(context, trace_spv, sizeof(trace_spv), "trace.comp");
         if (context.float64)
@@ -226,6 +233,9 @@ void destroyState(GpuTracer::State& s) {
     if (s.pipelineCache) vkDestroyPipelineCache(device, s.pipelineCache, nullptr);
     if (s.module) vkDestroyShaderModule(device, s.module, nullptr);
     if (s.moduleF64) vkDestroyShaderModule(device, s.moduleF64, nullptr);
+#ifdef RP_VARIANT_TEXEL_NODES
+    if (s.nodeView) vkDestroyBufferView(device, s.nodeView, nullptr);
+#endif
     if (device) vk::destroyStorageSetLayout(s.ctx, s.layout);
     if (s.pool) vkDestroyCommandPool(device, s.pool, nullptr);
     s.pool = VK_NULL_HANDLE;
@@ -480,6 +490,16 @@ void writeDescriptors(GpuTracer::State& s) {
     buffers[gpu::kBindTextures] = (s.hasUvs ? s.textures : s.dummy).buffer;
     buffers[gpu::kBindTexels] = (s.hasUvs ? s.texels : s.dummy).buffer;
     vk::writeStorageSet(s.ctx, s.layout.set, buffers);
+#ifdef RP_VARIANT_TEXEL_NODES
+    if (s.nodeView) vkDestroyBufferView(s.ctx.device, s.nodeView, nullptr);
+    s.nodeView = VK_NULL_HANDLE;
+    VkBufferViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+    viewInfo.buffer = tree.nodes.buffer;
+    viewInfo.format = VK_FORMAT_R32G32B32A32_SFLOAT;
+    viewInfo.range = VK_WHOLE_SIZE;
+    vk::check(vkCreateBufferView(s.ctx.device, &viewInfo, nullptr, &s.nodeView), "vkCreateBufferView");
+    vk::writeTexelBuffer(s.ctx, s.layout.set, gpu::kBindingCount, s.nodeView);
+#endif
 }
 
 // (Re-)creates the per-pixel buffers for a width x height frame.

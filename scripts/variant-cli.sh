@@ -2,8 +2,9 @@
 # Builds a variant of build/raypack-cli for measuring a kernel or tree variant beside the build
 # itself in one device call (scripts/device-pack.sh BUILD /tmp/v-NAME/raypack-cli-NAME ...):
 # trace.comp compiled with SHADER_MACRO (glslangValidator -D..., "" for none) and
-# renderer/gpu_wide.cpp with HOST_MACRO (a compiler -D..., "" for none), linked against the rest of
-# build/'s objects, into /tmp/v-NAME/raypack-cli-NAME. build/ must be a current Release build.
+# renderer/gpu_wide.cpp, renderer/gpu_tracer.cpp and renderer/vk/context.cpp with HOST_MACRO (a
+# compiler -D..., "" for none), linked against the rest of build/'s objects, into
+# /tmp/v-NAME/raypack-cli-NAME. build/ must be a current Release build.
 #   scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO
 set -euo pipefail
 [ $# -eq 3 ] || { echo "usage: scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO" >&2; exit 2; }
@@ -15,12 +16,20 @@ CXX="/usr/bin/c++ -DGLM_ENABLE_EXPERIMENTAL -DGLM_FORCE_XYZW_ONLY -DRAYPACK_HAVE
 cd $root
 if [ -n "$sm" ]; then
   glslangValidator -V --target-env vulkan1.2 -Ishaders $sm --vn trace_spv -o $d/shaders/trace.spv.h shaders/trace.comp > /dev/null
-  $CXX -I$d/shaders -I$root/build/shaders -c renderer/gpu_tracer.cpp -o $d/gpu_tracer.cpp.o
+  # The module with doubles too: where a device's doubles are fast (the H100 and H200), primary
+  # passes run that one (gpu_tracer.cpp, key.float64); without it a variant's primary figures
+  # would be the build's own.
+  glslangValidator -V --target-env vulkan1.2 -Ishaders -DRP_FLOAT64=1 $sm --vn trace_f64_spv \
+    -o $d/shaders/trace_f64.spv.h shaders/trace.comp > /dev/null
+fi
+if [ -n "$sm" ] || [ -n "$hm" ]; then
+  $CXX -I$d/shaders -I$root/build/shaders $hm -c renderer/gpu_tracer.cpp -o $d/gpu_tracer.cpp.o
   (cd $d && ar r libraypack.a gpu_tracer.cpp.o)
 fi
 if [ -n "$hm" ]; then
   $CXX -I$root/build/shaders $hm -c renderer/gpu_wide.cpp -o $d/gpu_wide.cpp.o
-  (cd $d && ar r libraypack.a gpu_wide.cpp.o)
+  $CXX -I$root/build/shaders $hm -c renderer/vk/context.cpp -o $d/context.cpp.o
+  (cd $d && ar r libraypack.a gpu_wide.cpp.o context.cpp.o)
 fi
 (cd $root/build && ninja -t commands raypack-cli | tail -1) > /tmp/link.sh
 cd $root/build

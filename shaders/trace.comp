@@ -68,6 +68,10 @@ layout(push_constant) uniform Params { GpuFrameParams params; };
 layout(std430, set = 0, binding = kBindNodes) readonly buffer Nodes { GpuNode nodes[]; };
 // The same binding seen as the compressed 8-wide tree's nodes (kWideBvh): a pipeline reads one or the other.
 layout(std430, set = 0, binding = kBindNodes) readonly buffer WideNodes { GpuWideNode wideNodes[]; };
+#ifdef RP_VARIANT_TEXEL_NODES
+// Variant: the same nodes read through a uniform texel buffer (RGBA32F, two texels a node).
+layout(set = 0, binding = kBindingCount) uniform samplerBuffer nodeTexels;
+#endif
 layout(std430, set = 0, binding = kBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = kBindNormals) readonly buffer Normals { GpuTriangleNormals normals[]; };
 layout(std430, set = 0, binding = kBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
@@ -99,6 +103,9 @@ shared uvec4 sVote[4];
 // +inf: the t of a miss (HitRecord). GLSL has no infinity literal; 1.0 / 0.0 folds to +inf.
 const float kInfinity = 1.0f / 0.0f;
 
+// fusedBoxTest's absolute slack: 8u of |org/dir| per axis (u = 2^-24).
+const float kSlabFusedSlack = 4.76837158203125e-07f;  // 8u = 2^-21
+
 // One ray's state during a traversal.
 struct RayQuery {
     TraceRay ray;
@@ -112,6 +119,8 @@ struct RayQuery {
     bool isActive;   // takes part in the traversal (and in the vote)
     uint nodes;      // N_TR
     uint tests;      // N_IT
+    vec3 slabLo;     // fusedBoxTest's offsets for the box's lo and hi planes (makeQuery)
+    vec3 slabHi;
 };
 
 RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, bool tracing) {
@@ -127,13 +136,57 @@ RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, b
     q.isActive = tracing;
     q.nodes = 0u;
     q.tests = 0u;
+    // -org/dir per axis, moved by the slack towards the near side on the near plane and the far
+    // side on the far plane (lo is the near plane where 1/dir > 0).
+    const vec3 offset = -org * q.ray.invDir;
+    const vec3 slack = kSlabFusedSlack * abs(offset);
+    const vec3 nearIsLo = step(vec3(0.0f), q.ray.invDir);
+    q.slabLo = offset - slack * (2.0f * nearIsLo - 1.0f);
+    q.slabHi = offset + slack * (2.0f * nearIsLo - 1.0f);
     return q;
 }
 
+// The binary kernels' slab test: the distances in fused form, t = bound * (1/dir) + (-org/dir), one
+// multiply-add a plane where intersectBox (the CPU reference's) subtracts and multiplies; Aila and
+// Laine's kernels store the ray the same way. It stays conservative:
+//   - the relative part of its rounding is intersectBox's: the reciprocal, a product and a sum (the
+//     multiply-add's one rounding, or two if a compiler does not fuse), which kSlabFarWiden covers;
+//   - the absolute part, from -org/dir: its product and the offset's sum round by u |org/dir| each,
+//     an unfused product once more. 8u |org/dir| (kSlabFusedSlack) per axis is folded into the
+//     axis's two offsets in makeQuery, the near plane's distance lowered and the far plane's
+//     raised, so that part never narrows the slab;
+//   - parallel axes have 1/dir = 0 and offset 0, so t = 0 there as in intersectBox, which then
+//     decides them the same way.
+// The slack is per axis: one slack for all three axes, from the largest |org/dir|, loosened the
+// boxes for the other two and cost 3% on Sibenik (docs/gpu.md, "The slab test in fused form").
+// Hits are the reference's; boxes within the slack may be visited where intersectBox would not.
+bool fusedBoxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
+    const vec3 tLo = fma(lo, q.ray.invDir, q.slabLo);
+    const vec3 tHi = fma(hi, q.ray.invDir, q.slabHi);
+    const vec3 tNear3 = min(tLo, tHi);
+    vec3 tFar3 = max(tLo, tHi);
+    if (q.ray.anyParallel) {
+        tFar3 = tFar3 + q.ray.farBias;
+        const vec3 inSlab = step(lo, q.ray.org) * step(q.ray.org, hi);
+        if (dot(q.ray.parallel, vec3(1.0f) - inSlab) > 0.0f) {
+            tEntry = 0.0f;
+            return false;
+        }
+    }
+    const float tNear = max(max(tNear3.x, tNear3.y), max(tNear3.z, 0.0f));
+    const float tFar = min(min(tFar3.x, tFar3.y), tFar3.z) * kSlabFarWiden;
+    tEntry = tNear;
+    return tNear <= min(tFar, q.tmax * kBoxTmaxWiden);
+}
+
 // The box and triangle tests of the pipeline's IntersectMode.
-bool boxTest(TraceRay r, vec3 lo, vec3 hi, float tmax, out float tEntry) {
-    if (kFastIntersect) return intersectBoxFast(r, lo, hi, tmax, tEntry);
-    return intersectBox(r, lo, hi, tmax, tEntry);
+bool boxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
+    if (kFastIntersect) return intersectBoxFast(q.ray, lo, hi, q.tmax, tEntry);
+#ifdef RP_VARIANT_SUBTRACTED_SLABS
+    return intersectBox(q.ray, lo, hi, q.tmax, tEntry);
+#else
+    return fusedBoxTest(q, lo, hi, tEntry);
+#endif
 }
 
 bool triangleTest(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary, out bool inexactT) {
@@ -256,7 +309,7 @@ void tracePacket(inout RayQuery q) {
     const GpuNode root = nodes[0];
     float entry;
     uvec2 current = nodeEntry(root);
-    bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+    bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
     q.isActive = wantCurrent;
     uint parity = 0u;
     uint stackSize = 0u;
@@ -304,9 +357,9 @@ void tracePacket(inout RayQuery q) {
             if (kStatistics && q.isActive) q.nodes += 1u;
             float entryLeft, entryRight;
             const bool hitLeft =
-                boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
+                boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft) && q.isActive;
             const bool hitRight =
-                boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
+                boxTest(q, right.lo.xyz, right.hi.xyz, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
             const PacketVote votes = packetVote(hitLeft, hitRight, rightFirst, q.isActive,
                                                 countActive, parity);
@@ -403,12 +456,41 @@ void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
                 atomicOr(status, kStatusTraversalTruncated);
                 return;
             }
+#ifdef RP_VARIANT_TEXEL_NODES
+            const int texel = int(2u * current.x);
+            const GpuNode left = GpuNode(texelFetch(nodeTexels, texel), texelFetch(nodeTexels, texel + 1));
+            const GpuNode right = GpuNode(texelFetch(nodeTexels, texel + 2), texelFetch(nodeTexels, texel + 3));
+#else
             const GpuNode left = nodes[current.x];
             const GpuNode right = nodes[current.x + 1u];
+#endif
             if (kStatistics) q.nodes += 1u;
             float entryLeft, entryRight;
-            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft);
-            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight);
+#if defined(RP_VARIANT_ALU2)
+            // Diagnostic only: both box tests twice, on boxes scaled by a 1 the compiler cannot
+            // see (the image is at most 16384 pixels wide), so a visit costs about 30 more
+            // instructions and no more loads.
+            const float one = min(float(params.frame.x), 1.0f);
+            float unusedLeft, unusedRight;
+            const bool leftOnce = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft);
+            const bool leftTwice = boxTest(q, left.lo.xyz * one, left.hi.xyz * one, unusedLeft);
+            const bool rightOnce = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight);
+            const bool rightTwice = boxTest(q, right.lo.xyz * one, right.hi.xyz * one, unusedRight);
+            const bool hitLeft = (uint(leftOnce) & uint(leftTwice)) != 0u;
+            const bool hitRight = (uint(rightOnce) & uint(rightTwice)) != 0u;
+#elif defined(RP_VARIANT_MEM2)
+            // Diagnostic only: the node pair loaded a second time from an offset of 0 the compiler
+            // cannot see, and the two copies combined (the same values, the same boxes): twice the
+            // loads of a visit, all of them to lines the first load brought in.
+            const uint zero = params.frame.x >> 31u;
+            const GpuNode left2 = nodes[current.x + zero];
+            const GpuNode right2 = nodes[current.x + 1u + zero];
+            const bool hitLeft = boxTest(q, min(left.lo.xyz, left2.lo.xyz), max(left.hi.xyz, left2.hi.xyz), entryLeft);
+            const bool hitRight = boxTest(q, min(right.lo.xyz, right2.lo.xyz), max(right.hi.xyz, right2.hi.xyz), entryRight);
+#else
+            const bool hitLeft = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft);
+            const bool hitRight = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight);
+#endif
             if (hitLeft && hitRight) {
                 const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
                 current = nodeEntry(rightFirst ? right : left);
@@ -446,7 +528,7 @@ bool startSingle(RayQuery q, out uvec2 current) {
     const GpuNode root = nodes[0];
     current = nodeEntry(root);
     float entry;
-    return q.isActive && !isEmptyRoot(current) && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+    return q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
 }
 
 // The single-ray traversal (Aila and Laine 2009): each ray its own stack.
@@ -506,7 +588,7 @@ uint wideNodeHits(RayQuery q, GpuWideNode node, uint octant, out uint triangleHi
             vec3 lo, hi;
             wideChildBox(node, scale, i, lo, hi);
             float entry;
-            if (!boxTest(q.ray, lo, hi, q.tmax, entry)) continue;
+            if (!boxTest(q, lo, hi, entry)) continue;
             if ((innerMask & (1u << i)) != 0u) innerHits |= 1u << (24u + (i ^ octant));
             else triangleHits |= (meta >> 5u) << (meta & 31u);
         }
@@ -656,7 +738,7 @@ void traceHybrid(inout RayQuery q) {
     const GpuNode root = nodes[0];
     float entry;
     uvec2 current = nodeEntry(root);
-    bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q.ray, root.lo.xyz, root.hi.xyz, q.tmax, entry);
+    bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
     q.isActive = wantCurrent;
     uint parity = 0u;
     uint stackSize = 0u;
@@ -702,8 +784,8 @@ void traceHybrid(inout RayQuery q) {
             const GpuNode right = nodes[current.x + 1u];
             if (kStatistics && q.isActive) q.nodes += 1u;
             float entryLeft, entryRight;
-            const bool hitLeft = boxTest(q.ray, left.lo.xyz, left.hi.xyz, q.tmax, entryLeft) && q.isActive;
-            const bool hitRight = boxTest(q.ray, right.lo.xyz, right.hi.xyz, q.tmax, entryRight) && q.isActive;
+            const bool hitLeft = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft) && q.isActive;
+            const bool hitRight = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight) && q.isActive;
             const bool rightFirst = hitRight && (!hitLeft || entryRight < entryLeft);
             const HybridVote hv =
                 hybridVote(hitLeft, hitRight, rightFirst, q.isActive && wantCurrent, q.isActive, countActive, parity);

@@ -598,14 +598,17 @@ void uploadToBuffer(const VulkanContext& ctx, VkCommandPool pool, const Buffer& 
     destroyBuffer(ctx, staging);
 }
 
-StorageSetLayout createStorageSetLayout(const VulkanContext& ctx, uint32_t bindingCount, uint32_t pushConstantBytes) {
+StorageSetLayout createStorageSetLayout(const VulkanContext& ctx, uint32_t bindingCount, uint32_t pushConstantBytes,
+                                        uint32_t texelBindings) {
     StorageSetLayout layout;
     try {
-        std::vector<VkDescriptorSetLayoutBinding> bindings(bindingCount);
-        for (uint32_t b = 0; b < bindingCount; ++b)
-            bindings[b] = {b, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+        std::vector<VkDescriptorSetLayoutBinding> bindings(bindingCount + texelBindings);
+        for (uint32_t b = 0; b < bindings.size(); ++b)
+            bindings[b] = {
+                b, b < bindingCount ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER : VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 1,
+                VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
         VkDescriptorSetLayoutCreateInfo setInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
-        setInfo.bindingCount = bindingCount;
+        setInfo.bindingCount = uint32_t(bindings.size());
         setInfo.pBindings = bindings.data();
         check(vkCreateDescriptorSetLayout(ctx.device, &setInfo, nullptr, &layout.setLayout),
               "vkCreateDescriptorSetLayout");
@@ -617,11 +620,12 @@ StorageSetLayout createStorageSetLayout(const VulkanContext& ctx, uint32_t bindi
         layoutInfo.pPushConstantRanges = &push;
         check(vkCreatePipelineLayout(ctx.device, &layoutInfo, nullptr, &layout.pipelineLayout),
               "vkCreatePipelineLayout");
-        VkDescriptorPoolSize poolSize{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, bindingCount};
+        const VkDescriptorPoolSize poolSizes[2] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, bindingCount},
+                                                   {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, texelBindings}};
         VkDescriptorPoolCreateInfo poolInfo{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
         poolInfo.maxSets = 1;
-        poolInfo.poolSizeCount = 1;
-        poolInfo.pPoolSizes = &poolSize;
+        poolInfo.poolSizeCount = texelBindings > 0 ? 2 : 1;
+        poolInfo.pPoolSizes = poolSizes;
         check(vkCreateDescriptorPool(ctx.device, &poolInfo, nullptr, &layout.pool), "vkCreateDescriptorPool");
         VkDescriptorSetAllocateInfo allocate{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
         allocate.descriptorPool = layout.pool;
@@ -656,6 +660,16 @@ void writeStorageSet(const VulkanContext& ctx, VkDescriptorSet set, std::span<co
         writes[b].pBufferInfo = &infos[b];
     }
     vkUpdateDescriptorSets(ctx.device, uint32_t(writes.size()), writes.data(), 0, nullptr);
+}
+
+void writeTexelBuffer(const VulkanContext& ctx, VkDescriptorSet set, uint32_t binding, VkBufferView view) {
+    VkWriteDescriptorSet write{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+    write.dstSet = set;
+    write.dstBinding = binding;
+    write.descriptorCount = 1;
+    write.descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+    write.pTexelBufferView = &view;
+    vkUpdateDescriptorSets(ctx.device, 1, &write, 0, nullptr);
 }
 
 void checkBindable(const VulkanContext& ctx, size_t bytes, const char* what) {

@@ -151,11 +151,15 @@ struct StorageSetLayout {
     VkDescriptorSet set = VK_NULL_HANDLE;
 };
 // Throws raypack::Error naming the call that failed; what was created is destroyed first.
-StorageSetLayout createStorageSetLayout(const VulkanContext& context, uint32_t bindingCount,
-                                        uint32_t pushConstantBytes);
+// Bindings 0 .. bindingCount - 1 are storage buffers, the texelBindings after them uniform texel
+// buffers (writeTexelBuffer).
+StorageSetLayout createStorageSetLayout(const VulkanContext& context, uint32_t bindingCount, uint32_t pushConstantBytes,
+                                        uint32_t texelBindings = 0);
 void destroyStorageSetLayout(const VulkanContext& context, StorageSetLayout& layout);
 // Points binding b of `set` at the whole of buffers[b].
 void writeStorageSet(const VulkanContext& context, VkDescriptorSet set, std::span<const VkBuffer> buffers);
+// Points the uniform texel buffer `binding` of `set` at `view`.
+void writeTexelBuffer(const VulkanContext& context, VkDescriptorSet set, uint32_t binding, VkBufferView view);
 
 // Device-local buffers filled from the host: add() creates one and returns memory to write (null for
 // an empty array, which still gets its device buffer), submit() makes every write reach the device.
@@ -178,8 +182,12 @@ public:
     double allocationSeconds() const { return allocationSeconds_; }
     double transferSeconds() const { return transferSeconds_; }
     // Storage, transfer source and destination: what the tracers' and the builder's arrays use.
-    static constexpr VkBufferUsageFlags kUsage =
-        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
+    static constexpr VkBufferUsageFlags kUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
+                                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT
+#ifdef RP_VARIANT_TEXEL_NODES
+                                                 | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT
+#endif
+        ;
 
 private:
     struct Staged {
