@@ -119,14 +119,11 @@ RP_HOT_FUNC TraceRay makeTraceRay(vec3 org, vec3 dir) {
     return r;
 }
 
-// The slab test against [lo, hi] for t in [0, tmax], its far distance multiplied by farWiden and
-// tmax by tmaxWiden: intersectBox (conservative, Ize's factors) and intersectBoxFast (both 1, the
-// plain slab test) are this one body, the factors constants that fold away. Multiplying by 1 is
-// exact, so the fast test is exactly the unwidened one.
-RP_HOT_FUNC bool intersectBoxWidened(TraceRay r, vec3 lo, vec3 hi, float tmax, float farWiden, float tmaxWiden,
-                                     RP_OUT(float) tEntry) {
-    const vec3 tLo = (lo - r.org) * r.invDir;
-    const vec3 tHi = (hi - r.org) * r.invDir;
+// The slab test's decision from each axis's two plane distances tLo, tHi (however they were
+// computed; trace.comp's fusedBoxTest computes them in fused form): the far distance widened by
+// farWiden and tmax by tmaxWiden.
+RP_HOT_FUNC bool slabsHit(TraceRay r, vec3 lo, vec3 hi, vec3 tLo, vec3 tHi, float tmax, float farWiden, float tmaxWiden,
+                          RP_OUT(float) tEntry) {
     const vec3 tNear3 = min(tLo, tHi);
     vec3 tFar3 = max(tLo, tHi);
     if (r.anyParallel) {
@@ -143,6 +140,15 @@ RP_HOT_FUNC bool intersectBoxWidened(TraceRay r, vec3 lo, vec3 hi, float tmax, f
     const float tFar = min(min(tFar3.x, tFar3.y), tFar3.z) * farWiden;
     tEntry = tNear;
     return tNear <= min(tFar, tmax * tmaxWiden);
+}
+
+// The slab test against [lo, hi] for t in [0, tmax], its far distance multiplied by farWiden and
+// tmax by tmaxWiden: intersectBox (conservative, Ize's factors) and intersectBoxFast (both 1, the
+// plain slab test) are this one body, the factors constants that fold away. Multiplying by 1 is
+// exact, so the fast test is exactly the unwidened one.
+RP_HOT_FUNC bool intersectBoxWidened(TraceRay r, vec3 lo, vec3 hi, float tmax, float farWiden, float tmaxWiden,
+                                     RP_OUT(float) tEntry) {
+    return slabsHit(r, lo, hi, (lo - r.org) * r.invDir, (hi - r.org) * r.invDir, tmax, farWiden, tmaxWiden, tEntry);
 }
 
 // Conservative slab test against [lo, hi] for t in [0, tmax] (tmax widened by kBoxTmaxWiden); closed

@@ -140,9 +140,9 @@ RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, b
     // side on the far plane (lo is the near plane where 1/dir > 0).
     const vec3 offset = -org * q.ray.invDir;
     const vec3 slack = kSlabFusedSlack * abs(offset);
-    const vec3 nearIsLo = step(vec3(0.0f), q.ray.invDir);
-    q.slabLo = offset - slack * (2.0f * nearIsLo - 1.0f);
-    q.slabHi = offset + slack * (2.0f * nearIsLo - 1.0f);
+    const vec3 loSlack = slack * (2.0f * step(vec3(0.0f), q.ray.invDir) - 1.0f);  // + where lo is near
+    q.slabLo = offset - loSlack;
+    q.slabHi = offset + loSlack;
     return q;
 }
 
@@ -161,22 +161,8 @@ RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, b
 // boxes for the other two and cost 3% on Sibenik (docs/gpu.md, "The slab test in fused form").
 // Hits are the reference's; boxes within the slack may be visited where intersectBox would not.
 bool fusedBoxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
-    const vec3 tLo = fma(lo, q.ray.invDir, q.slabLo);
-    const vec3 tHi = fma(hi, q.ray.invDir, q.slabHi);
-    const vec3 tNear3 = min(tLo, tHi);
-    vec3 tFar3 = max(tLo, tHi);
-    if (q.ray.anyParallel) {
-        tFar3 = tFar3 + q.ray.farBias;
-        const vec3 inSlab = step(lo, q.ray.org) * step(q.ray.org, hi);
-        if (dot(q.ray.parallel, vec3(1.0f) - inSlab) > 0.0f) {
-            tEntry = 0.0f;
-            return false;
-        }
-    }
-    const float tNear = max(max(tNear3.x, tNear3.y), max(tNear3.z, 0.0f));
-    const float tFar = min(min(tFar3.x, tFar3.y), tFar3.z) * kSlabFarWiden;
-    tEntry = tNear;
-    return tNear <= min(tFar, q.tmax * kBoxTmaxWiden);
+    return slabsHit(q.ray, lo, hi, fma(lo, q.ray.invDir, q.slabLo), fma(hi, q.ray.invDir, q.slabHi), q.tmax,
+                    kSlabFarWiden, kBoxTmaxWiden, tEntry);
 }
 
 // The box and triangle tests of the pipeline's IntersectMode.
