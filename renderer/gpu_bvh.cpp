@@ -891,13 +891,17 @@ std::unique_ptr<GpuTree> buildGpuTree(GpuBvhBuilder& builder, const Scene& scene
     // The arrays the build fills on the device: device-local, never written by the host.
     const auto allocationStart = SteadyClock::now();
     const GpuBvhSizes sizes = gpuBvhSizes(scene.triangleCount());
-    const auto create = [&](vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what) {
+    const auto create = [&](vk::Buffer& buffer, size_t count, size_t entryBytes, const char* what,
+                            VkBufferUsageFlags extraUsage = 0) {
         vk::checkBindable(ctx, count * entryBytes, what);
-        buffer = vk::createBuffer(ctx, count * entryBytes, kStorage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+        buffer =
+            vk::createBuffer(ctx, count * entryBytes, kStorage | extraUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
         return buffer.buffer;
     };
     GpuBvhOutputs outputs;
-    outputs.nodes = create(tree->nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes");
+    // The tracer may read the nodes through a texel view (NodeFetch, renderer/gpu_tracer.h).
+    outputs.nodes =
+        create(tree->nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes", VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
     outputs.triangles = create(tree->triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles");
     const GpuTreeAttributes attributes = gpuTreeAttributes(scene);
     if (attributes.normals)

@@ -13,9 +13,11 @@
 #include "trace.spv.h"
 #include "trace_f64.spv.h"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <map>
@@ -33,6 +35,20 @@ constexpr uint32_t kQueriesPerFrame = 4;  // primary begin/end, shadow begin/end
 // Shared memory of the packet kernel besides its stack: four rotating uvec4 vote sums.
 constexpr uint32_t kVoteBytes = 4 * 16;
 
+// The node texels (NodeFetch::Texel): a GpuNode is two of them.
+constexpr VkFormat kNodeTexelFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+constexpr VkBufferUsageFlags kNodeTexelUsage = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
+static_assert(sizeof(gpu::GpuNode) == 32, "a node is two RGBA32F texels");
+
+// RAYPACK_NODE_FETCH: auto (or unset), storage or texel.
+NodeFetch nodeFetchFromEnvironment() {
+    const char* value = std::getenv("RAYPACK_NODE_FETCH");
+    if (!value || !*value || std::strcmp(value, "auto") == 0) return NodeFetch::Auto;
+    if (std::strcmp(value, "storage") == 0) return NodeFetch::Storage;
+    if (std::strcmp(value, "texel") == 0) return NodeFetch::Texel;
+    throw Error(std::string("RAYPACK_NODE_FETCH is '") + value + "': expected auto, storage or texel");
+}
+
 // One pipeline per combination, built on first use.
 struct PipelineKey {
     KernelKind kernel;
@@ -49,9 +65,10 @@ struct PipelineKey {
     uint32_t packetsPerGroup = 1;   // the hybrid kernel's packets per workgroup (packetHeight: all of them)
     bool wideBvh = false;           // the single-ray kernel over the compressed 8-wide tree
     bool float64 = false;           // trace_f64's module: the accurate hit distance in doubles
+    bool texelNodes = false;        // binary nodes through the uniform texel buffer (NodeFetch::Texel)
     auto tie() const {
         return std::tie(kernel, packetWidth, packetHeight, pass, statistics, view, stackEntries, intersect, shadowOrder,
-                        hybridMinRays, hybridVisitRatio, packetsPerGroup, wideBvh, float64);
+                        hybridMinRays, hybridVisitRatio, packetsPerGroup, wideBvh, float64, texelNodes);
     }
     bool operator<(const PipelineKey& o) const { return tie() < o.tie(); }
 };
@@ -98,9 +115,10 @@ uint32_t viewConstant(ViewMode view) {
 // 0, one pipeline), and the module. One place for the frame's dispatches and for
 // pipelineStatistics. `float64`: the settings' robust hit distance resolves to doubles on this
 // device (usesFloat64); only the primary pass computes the distance, so only it takes the doubles'
-// module.
+// module. `texelNodes`: the uploaded tree's nodes are read as texels (State::nodeFetch), which only
+// the binary tree's kernels do.
 PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries,
-                           bool float64) {
+                           bool float64, bool texelNodes) {
     const PacketShape group = gpuWorkgroup(settings, pass == gpu::kPassShadowShade);
     PipelineKey key{
         settings.kernel, group.width,        group.height,        pass, statistics, viewConstant(settings.view),
@@ -112,6 +130,7 @@ PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool s
     }
     key.wideBvh = settings.kernel == KernelKind::Single && settings.bvhWidth == 8;
     key.float64 = float64 && pass != gpu::kPassShadowShade;
+    key.texelNodes = texelNodes && !key.wideBvh;
     return key;
 }
 
@@ -121,10 +140,13 @@ struct GpuTracer::State {
     UploadTimings lastUpload;
     const vk::VulkanContext& ctx;
     VkCommandPool pool = VK_NULL_HANDLE;
-    vk::StorageSetLayout layout;  // trace.comp's storage buffers and push constants
-#ifdef RP_VARIANT_TEXEL_NODES
-    VkBufferView nodeView = VK_NULL_HANDLE;  // the nodes as RGBA32F texels, binding kBindingCount
-#endif
+    vk::StorageSetLayout layout;  // trace.comp's storage buffers, the node texels and push constants
+    // The uploaded tree's nodes as RGBA32F texels (binding kBindNodeTexels), cut to what the device
+    // can view where that is less than the whole buffer; nodeFetch says whether the kernels read it.
+    VkBufferView nodeView = VK_NULL_HANDLE;
+    NodeFetch requestedNodeFetch = NodeFetch::Auto;  // RAYPACK_NODE_FETCH
+    NodeFetch nodeFetch = NodeFetch::Storage;        // what the uploaded tree's kernels read (installTree)
+    std::string nodeFetchReason;                     // why, in words
     VkShaderModule module = VK_NULL_HANDLE;
     VkShaderModule moduleF64 = VK_NULL_HANDLE;  // trace.comp with RP_FLOAT64, where the device has doubles
     // HitDistanceMath::Auto's choice on this device, made on first use, and the measured rate of
@@ -173,11 +195,9 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
     try {
         s.pool = vk::createCommandPool(context, VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT, "vkCreateCommandPool");
 
-#ifdef RP_VARIANT_TEXEL_NODES
+        s.requestedNodeFetch = nodeFetchFromEnvironment();
+        static_assert(gpu::kBindNodeTexels == gpu::kBindingCount, "the texel binding follows the storage buffers");
         s.layout = vk::createStorageSetLayout(context, gpu::kBindingCount, sizeof(gpu::GpuFrameParams), 1);
-#else
-        s.layout = vk::createStorageSetLayout(context, gpu::kBindingCount, sizeof(gpu::GpuFrameParams));
-#endif
 
         s.module = vk::createShaderModule(context, trace_spv, sizeof(trace_spv), "trace.comp");
         if (context.float64)
@@ -223,6 +243,8 @@ void destroyState(GpuTracer::State& s) {
     if (device) vk::deviceWaitIdle(s.ctx);
     for (auto& [key, pipeline] : s.pipelines) vkDestroyPipeline(device, pipeline, nullptr);
     s.pipelines.clear();
+    if (s.nodeView) vkDestroyBufferView(device, s.nodeView, nullptr);
+    s.nodeView = VK_NULL_HANDLE;
     s.tree.reset();
     s.builder.reset();
     for (vk::Buffer* b : {&s.materials, &s.textures, &s.texels, &s.dummy, &s.primaryHits, &s.output, &s.hits,
@@ -233,9 +255,6 @@ void destroyState(GpuTracer::State& s) {
     if (s.pipelineCache) vkDestroyPipelineCache(device, s.pipelineCache, nullptr);
     if (s.module) vkDestroyShaderModule(device, s.module, nullptr);
     if (s.moduleF64) vkDestroyShaderModule(device, s.moduleF64, nullptr);
-#ifdef RP_VARIANT_TEXEL_NODES
-    if (s.nodeView) vkDestroyBufferView(device, s.nodeView, nullptr);
-#endif
     if (device) vk::destroyStorageSetLayout(s.ctx, s.layout);
     if (s.pool) vkDestroyCommandPool(device, s.pool, nullptr);
     s.pool = VK_NULL_HANDLE;
@@ -289,12 +308,41 @@ GpuTracer::UploadTimings uploadTables(GpuTracer::State& s, const Scene& scene) {
     return timings;
 }
 
+// What `tree`'s kernels read nodes through on this device (NodeFetch), and why.
+void chooseNodeFetch(GpuTracer::State& s, const GpuTree& tree) {
+    const vk::DeviceInfo& device = s.ctx.info;
+    const bool cpuDevice = device.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+    const NodeFetch wanted = s.requestedNodeFetch != NodeFetch::Auto ? s.requestedNodeFetch
+                             : cpuDevice                             ? NodeFetch::Texel
+                                                                     : NodeFetch::Storage;
+    const std::string asked = s.requestedNodeFetch != NodeFetch::Auto ? "RAYPACK_NODE_FETCH"
+                              : cpuDevice                             ? "auto: a CPU device"
+                                                                      : "auto: not a CPU device";
+    s.nodeFetch = NodeFetch::Storage;
+    if (wanted == NodeFetch::Storage) {
+        s.nodeFetchReason = asked;
+    } else if (tree.bvhWidth != 2) {
+        s.nodeFetchReason = asked + "; the 8-wide tree reads storage";
+    } else if (!device.rgba32fTexelBuffers) {
+        s.nodeFetchReason = asked + "; the device has no RGBA32F uniform texel buffers";
+    } else if (tree.nodes.size / 16 > device.maxTexelBufferElements) {
+        s.nodeFetchReason = asked + "; " + std::to_string(tree.nodes.size / 16) + " node texels exceed the device's " +
+                            std::to_string(device.maxTexelBufferElements);
+    } else {
+        s.nodeFetch = NodeFetch::Texel;
+        s.nodeFetchReason = asked;
+    }
+}
+
 // Makes `tree` the traced one (the queue idle, the previous tree dropped, the tables in place),
 // with the kernels' stack sized for `stackEntries`. The scene's bounds (for the light) are computed
 // unless `sameScene` (a gather over every vertex of every triangle: 0.1 s at 13M triangles).
 void installTree(GpuTracer::State& s, std::unique_ptr<GpuTree> tree, uint32_t stackEntries, bool sameScene) {
     const Scene& scene = *tree->scene;
     s.stackEntries = stackEntries;
+    if (s.nodeView) vkDestroyBufferView(s.ctx.device, s.nodeView, nullptr);
+    s.nodeView = VK_NULL_HANDLE;  // writeDescriptors makes the new tree's
+    chooseNodeFetch(s, *tree);
     s.tree = std::move(tree);
     if (!sameScene) s.sceneBounds = scene.bounds();
     s.hasScene = true;
@@ -330,9 +378,11 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) 
     vk::StagedUpload staging(s.ctx, s.pool);
     GpuLayoutTargets targets;
     const GpuLayoutCounts written = stageSceneTables(s, staging, scene, counts, targets);
+    // Texel usage: the kernels may read the nodes through a texel view (NodeFetch).
     void* nodes = bvhWidth == 8
-                      ? staging.add(tree->nodes, wide.nodes.size() * sizeof(gpu::GpuWideNode), "8-wide BVH nodes")
-                      : staging.add(tree->nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes");
+                      ? staging.add(tree->nodes, wide.nodes.size() * sizeof(gpu::GpuWideNode), "8-wide BVH nodes",
+                                    kNodeTexelUsage)
+                      : staging.add(tree->nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes", kNodeTexelUsage);
     if (bvhWidth == 2) targets.nodes = static_cast<gpu::GpuNode*>(nodes);
     targets.triangles = static_cast<gpu::GpuTriangle*>(
         staging.add(tree->triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles"));
@@ -490,16 +540,18 @@ void writeDescriptors(GpuTracer::State& s) {
     buffers[gpu::kBindTextures] = (s.hasUvs ? s.textures : s.dummy).buffer;
     buffers[gpu::kBindTexels] = (s.hasUvs ? s.texels : s.dummy).buffer;
     vk::writeStorageSet(s.ctx, s.layout.set, buffers);
-#ifdef RP_VARIANT_TEXEL_NODES
-    if (s.nodeView) vkDestroyBufferView(s.ctx.device, s.nodeView, nullptr);
-    s.nodeView = VK_NULL_HANDLE;
-    VkBufferViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
-    viewInfo.buffer = tree.nodes.buffer;
-    viewInfo.format = VK_FORMAT_R32G32B32A32_SFLOAT;
-    viewInfo.range = VK_WHOLE_SIZE;
-    vk::check(vkCreateBufferView(s.ctx.device, &viewInfo, nullptr, &s.nodeView), "vkCreateBufferView");
-    vk::writeTexelBuffer(s.ctx, s.layout.set, gpu::kBindingCount, s.nodeView);
-#endif
+    if (!s.nodeView) {
+        // Every pipeline declares the binding, so it always holds a valid view: the whole node
+        // buffer where the kernels read it (chooseNodeFetch checked that it fits), else its first
+        // texels.
+        VkBufferViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+        viewInfo.buffer = tree.nodes.buffer;
+        viewInfo.format = kNodeTexelFormat;
+        viewInfo.range =
+            std::min<VkDeviceSize>(tree.nodes.size, VkDeviceSize(s.ctx.info.maxTexelBufferElements) * 16) / 16 * 16;
+        vk::check(vkCreateBufferView(s.ctx.device, &viewInfo, nullptr, &s.nodeView), "vkCreateBufferView");
+    }
+    vk::writeTexelBuffer(s.ctx, s.layout.set, gpu::kBindNodeTexels, s.nodeView);
 }
 
 // (Re-)creates the per-pixel buffers for a width x height frame.
@@ -587,6 +639,7 @@ VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
             : VK_FALSE;
     data.packetsPerGroup = key.packetsPerGroup;
     data.wideBvh = key.wideBvh ? VK_TRUE : VK_FALSE;
+    data.texelNodes = key.texelNodes ? VK_TRUE : VK_FALSE;
     data.fastIntersect = key.intersect == IntersectMode::Fast ? VK_TRUE : VK_FALSE;
     data.shadowOrder = key.shadowOrder == ShadowOrder::Tree     ? gpu::kShadowOrderTree
                        : key.shadowOrder == ShadowOrder::Larger ? gpu::kShadowOrderLarger
@@ -756,8 +809,9 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
 
     // checkSettings has held each pass's workgroup count to the device's limit.
     const WorkgroupCount groups = workgroupCount(settings.width, settings.height, gpuWorkgroup(settings));
-    PipelineKey key = pipelineKeyFor(settings, settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade,
-                                     statistics, s.stackEntries, usesFloat64(s, settings));
+    PipelineKey key =
+        pipelineKeyFor(settings, settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade, statistics,
+                       s.stackEntries, usesFloat64(s, settings), s.nodeFetch == NodeFetch::Texel);
     // What the dispatches use: bound here, and again after a host split, which re-opens the
     // command buffer.
     auto bindState = [&] {
@@ -782,7 +836,8 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
         vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         // The shadow pass's workgroup may differ from the primary pass's (the single-ray kernel).
-        key = pipelineKeyFor(settings, gpu::kPassShadowShade, statistics, s.stackEntries, false);
+        key = pipelineKeyFor(settings, gpu::kPassShadowShade, statistics, s.stackEntries, false,
+                             s.nodeFetch == NodeFetch::Texel);
         const WorkgroupCount shadowGroups =
             workgroupCount(settings.width, settings.height, gpuWorkgroup(settings, true));
         if (hostClock) bindState();
@@ -934,6 +989,18 @@ RenderSettings GpuTracer::deviceSettings(const RenderSettings& settings) const {
 
 double GpuTracer::float64Rate() const { return state_->float64Rate; }
 
+NodeFetch GpuTracer::nodeFetch() const { return state_->nodeFetch; }
+
+const std::string& GpuTracer::nodeFetchReason() const { return state_->nodeFetchReason; }
+
+const char* toString(NodeFetch fetch) {
+    switch (fetch) {
+    case NodeFetch::Storage: return "storage";
+    case NodeFetch::Texel: return "texel";
+    default: return "auto";
+    }
+}
+
 std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const RenderSettings& requested,
                                                                         bool shadowPass) {
     State& s = *state_;
@@ -949,7 +1016,8 @@ std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const Re
     const uint32_t pass = shadowPass         ? gpu::kPassShadowShade
                           : settings.shadows ? gpu::kPassPrimary
                                              : gpu::kPassPrimaryShade;
-    const PipelineKey key = pipelineKeyFor(settings, pass, statistics, s.stackEntries, usesFloat64(s, settings));
+    const PipelineKey key = pipelineKeyFor(settings, pass, statistics, s.stackEntries, usesFloat64(s, settings),
+                                           s.nodeFetch == NodeFetch::Texel);
     VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
     pipelineInfo.pipeline = pipelineFor(s, key);
     uint32_t executables = 0;

@@ -26,6 +26,15 @@
 
 namespace raypack {
 
+// How the binary tree's kernels read nodes: through the node storage buffer, or through a uniform
+// texel buffer over the same memory (RGBA32F, two texels a node). On lavapipe texels are
+// 1.07-1.70x the storage loads, on an H100 0.97-1.03x (docs/gpu.md, "Nodes through a texel
+// buffer"), so Auto takes texels on CPU devices. The environment variable RAYPACK_NODE_FETCH
+// (auto, storage or texel) overrides it. A tree with more texels than the device's
+// maxTexelBufferElements, the 8-wide tree and a device without RGBA32F texel buffers read storage.
+enum class NodeFetch { Auto, Storage, Texel };
+const char* toString(NodeFetch fetch);
+
 // Options of a recorded frame that concern only how the output is consumed.
 struct GpuRecordOptions {
     // Write the output as B8G8R8A8 instead of R8G8B8A8, for copying into a BGRA swapchain image.
@@ -105,6 +114,10 @@ public:
     // The rate of doubles against floats behind Auto's choice (0 before it, or where it chose
     // without measuring).
     double float64Rate() const;
+    // What the uploaded tree's binary kernels read nodes through (Storage or Texel, never Auto;
+    // Storage before an upload), and why, in words ("auto: a CPU device", ...).
+    NodeFetch nodeFetch() const;
+    const std::string& nodeFetchReason() const;
     // `settings` as this device traces them, with the scene uploaded now: the hybrid kernel's
     // automatic packets per workgroup (kAutoPacketsPerGroup, renderer/settings.h) resolved to a
     // count. render, recordFrame, traceBackToBack and pipelineStatistics resolve it themselves.

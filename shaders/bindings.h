@@ -29,7 +29,10 @@ const uint kBindUvs = 9u;          // GpuTriangleUvs[] (kFrameHasUvs)
 const uint kBindColors = 10u;      // GpuTriangleColors[] (kFrameHasColors)
 const uint kBindTextures = 11u;    // GpuTexture[] (kFrameHasUvs)
 const uint kBindTexels = 12u;      // uint[] texels of every texture (kFrameHasUvs)
-const uint kBindingCount = 13u;
+const uint kBindingCount = 13u;    // the storage buffers above
+// After the storage buffers: the nodes again, as a uniform texel buffer of RGBA32F texels (two a
+// GpuNode), which the binary kernels read instead of kBindNodes where kSpecTexelNodes says so.
+const uint kBindNodeTexels = kBindingCount;
 
 // Specialization constants of shaders/trace.comp (constant_id, local_size_*_id).
 const uint kSpecPacketWidth = 0u;          // local_size_x: packet width PW
@@ -47,7 +50,8 @@ const uint kSpecHybridMinRays = 11u;       // hybrid kernel: split when fewer ra
 const uint kSpecHybridVisitRatio = 12u;    // hybrid kernel: split at this visit ratio, in 1/100 (0: off)
 const uint kSpecPacketsPerGroup = 13u;     // hybrid kernel: one-subgroup packets per workgroup, stacked in y
 const uint kSpecWideBvh = 14u;             // bool: the single-ray kernel traces the compressed 8-wide tree
-const uint kSpecCount = 15u;
+const uint kSpecTexelNodes = 15u;          // bool: binary nodes read through kBindNodeTexels
+const uint kSpecCount = 16u;
 
 // Values of kSpecShadowOrder, as ShadowOrder (renderer/settings.h).
 const uint kShadowOrderNearest = 0u;
@@ -80,9 +84,10 @@ struct TraceSpecialization {
     uint hybridMinRays;
     uint hybridVisitRatio;
     uint packetsPerGroup;
-    uint wideBvh;  // VkBool32
+    uint wideBvh;     // VkBool32
+    uint texelNodes;  // VkBool32
 };
-RP_CHECK_SIZE(TraceSpecialization, 60);
+RP_CHECK_SIZE(TraceSpecialization, 64);
 RP_CHECK_OFFSET(TraceSpecialization, packetWidth, 0);
 RP_CHECK_OFFSET(TraceSpecialization, packetHeight, 4);
 RP_CHECK_OFFSET(TraceSpecialization, kernel, 8);
@@ -98,6 +103,7 @@ RP_CHECK_OFFSET(TraceSpecialization, hybridMinRays, 44);
 RP_CHECK_OFFSET(TraceSpecialization, hybridVisitRatio, 48);
 RP_CHECK_OFFSET(TraceSpecialization, packetsPerGroup, 52);
 RP_CHECK_OFFSET(TraceSpecialization, wideBvh, 56);
+RP_CHECK_OFFSET(TraceSpecialization, texelNodes, 60);
 
 // One VkSpecializationMapEntry's fields (constantID, offset, size), without Vulkan's header here.
 struct SpecializationEntry {
@@ -124,6 +130,7 @@ inline constexpr std::array<SpecializationEntry, kSpecCount> kTraceSpecializatio
     RP_SPEC_ENTRY(kSpecHybridVisitRatio, hybridVisitRatio),
     RP_SPEC_ENTRY(kSpecPacketsPerGroup, packetsPerGroup),
     RP_SPEC_ENTRY(kSpecWideBvh, wideBvh),
+    RP_SPEC_ENTRY(kSpecTexelNodes, texelNodes),
 };
 #undef RP_SPEC_ENTRY
 

@@ -62,16 +62,19 @@ layout(constant_id = kSpecPacketsPerGroup) const uint kPacketsPerGroup = 1;
 // The single-ray kernel traces the compressed 8-wide tree (GpuWideNode, traceWide) that the host
 // uploaded instead of the binary one (RenderSettings::bvhWidth 8).
 layout(constant_id = kSpecWideBvh) const bool kWideBvh = false;
+// The binary kernels read nodes through the uniform texel buffer nodeTexels instead of the storage
+// buffer: on lavapipe 1.07-1.70x the storage loads, on an H100 0.97-1.03x (docs/gpu.md, "Nodes
+// through a texel buffer"), so the host takes it on CPU devices.
+layout(constant_id = kSpecTexelNodes) const bool kTexelNodes = false;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };
 
 layout(std430, set = 0, binding = kBindNodes) readonly buffer Nodes { GpuNode nodes[]; };
 // The same binding seen as the compressed 8-wide tree's nodes (kWideBvh): a pipeline reads one or the other.
 layout(std430, set = 0, binding = kBindNodes) readonly buffer WideNodes { GpuWideNode wideNodes[]; };
-#ifdef RP_VARIANT_TEXEL_NODES
-// Variant: the same nodes read through a uniform texel buffer (RGBA32F, two texels a node).
-layout(set = 0, binding = kBindingCount) uniform samplerBuffer nodeTexels;
-#endif
+// The same nodes as RGBA32F texels, two a node (kTexelNodes). Always bound: the host gives a view of
+// the node buffer, cut to the device's maxTexelBufferElements where the texel path is not taken.
+layout(set = 0, binding = kBindNodeTexels) uniform samplerBuffer nodeTexels;
 layout(std430, set = 0, binding = kBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = kBindNormals) readonly buffer Normals { GpuTriangleNormals normals[]; };
 layout(std430, set = 0, binding = kBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
@@ -168,11 +171,7 @@ bool fusedBoxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
 // The box and triangle tests of the pipeline's IntersectMode.
 bool boxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
     if (kFastIntersect) return intersectBoxFast(q.ray, lo, hi, q.tmax, tEntry);
-#ifdef RP_VARIANT_SUBTRACTED_SLABS
-    return intersectBox(q.ray, lo, hi, q.tmax, tEntry);
-#else
     return fusedBoxTest(q, lo, hi, tEntry);
-#endif
 }
 
 bool triangleTest(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t, out vec2 bary, out bool inexactT) {
@@ -184,6 +183,15 @@ bool triangleTest(TraceRay r, vec3 v0, vec3 v1, vec3 v2, float tmax, out float t
 }
 
 uvec2 nodeEntry(GpuNode n) { return uvec2(floatBitsToUint(n.lo.w), floatBitsToUint(n.hi.w)); }
+
+// Binary node `index`, through the path kTexelNodes picks.
+GpuNode loadNode(uint index) {
+    if (kTexelNodes) {
+        const int texel = int(2u * index);
+        return GpuNode(texelFetch(nodeTexels, texel), texelFetch(nodeTexels, texel + 1));
+    }
+    return nodes[index];
+}
 
 // The root entry of an empty scene: a leaf of no triangles. Its box (lo > hi) is no guard, since the
 // slab test orders each axis's two distances and so "hits" an inverted box; a kernel that took the
@@ -292,7 +300,7 @@ uvec2 popEntry(uint slot) {
 // Every invocation of the workgroup runs this loop in lockstep, padding and finished rays included
 // (report 3.5): all control flow depends only on packet-uniform values (votes and the stack).
 void tracePacket(inout RayQuery q) {
-    const GpuNode root = nodes[0];
+    const GpuNode root = loadNode(0u);
     float entry;
     uvec2 current = nodeEntry(root);
     bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
@@ -334,8 +342,8 @@ void tracePacket(inout RayQuery q) {
         bool wantNext = false;
         if (current.y == 0u) {
             // Inner node: both children in one 64-byte read (siblings are adjacent).
-            const GpuNode left = nodes[current.x];
-            const GpuNode right = nodes[current.x + 1u];
+            const GpuNode left = loadNode(current.x);
+            const GpuNode right = loadNode(current.x + 1u);
             // A child whose entry distance lies beyond the nearest hit counts as missed. Inactive
             // rays test too and are masked afterwards (the test first: && would branch): a branch
             // around the tests, which the packet takes together anyway, was measured 2% slower on
@@ -442,41 +450,12 @@ void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
                 atomicOr(status, kStatusTraversalTruncated);
                 return;
             }
-#ifdef RP_VARIANT_TEXEL_NODES
-            const int texel = int(2u * current.x);
-            const GpuNode left = GpuNode(texelFetch(nodeTexels, texel), texelFetch(nodeTexels, texel + 1));
-            const GpuNode right = GpuNode(texelFetch(nodeTexels, texel + 2), texelFetch(nodeTexels, texel + 3));
-#else
-            const GpuNode left = nodes[current.x];
-            const GpuNode right = nodes[current.x + 1u];
-#endif
+            const GpuNode left = loadNode(current.x);
+            const GpuNode right = loadNode(current.x + 1u);
             if (kStatistics) q.nodes += 1u;
             float entryLeft, entryRight;
-#if defined(RP_VARIANT_ALU2)
-            // Diagnostic only: both box tests twice, on boxes scaled by a 1 the compiler cannot
-            // see (the image is at most 16384 pixels wide), so a visit costs about 30 more
-            // instructions and no more loads.
-            const float one = min(float(params.frame.x), 1.0f);
-            float unusedLeft, unusedRight;
-            const bool leftOnce = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft);
-            const bool leftTwice = boxTest(q, left.lo.xyz * one, left.hi.xyz * one, unusedLeft);
-            const bool rightOnce = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight);
-            const bool rightTwice = boxTest(q, right.lo.xyz * one, right.hi.xyz * one, unusedRight);
-            const bool hitLeft = (uint(leftOnce) & uint(leftTwice)) != 0u;
-            const bool hitRight = (uint(rightOnce) & uint(rightTwice)) != 0u;
-#elif defined(RP_VARIANT_MEM2)
-            // Diagnostic only: the node pair loaded a second time from an offset of 0 the compiler
-            // cannot see, and the two copies combined (the same values, the same boxes): twice the
-            // loads of a visit, all of them to lines the first load brought in.
-            const uint zero = params.frame.x >> 31u;
-            const GpuNode left2 = nodes[current.x + zero];
-            const GpuNode right2 = nodes[current.x + 1u + zero];
-            const bool hitLeft = boxTest(q, min(left.lo.xyz, left2.lo.xyz), max(left.hi.xyz, left2.hi.xyz), entryLeft);
-            const bool hitRight = boxTest(q, min(right.lo.xyz, right2.lo.xyz), max(right.hi.xyz, right2.hi.xyz), entryRight);
-#else
             const bool hitLeft = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft);
             const bool hitRight = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight);
-#endif
             if (hitLeft && hitRight) {
                 const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
                 current = nodeEntry(rightFirst ? right : left);
@@ -511,7 +490,7 @@ void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
 // root's box. Returns false when there is nothing to traverse.
 bool startSingle(RayQuery q, out uvec2 current) {
     rayStackSize = 0u;
-    const GpuNode root = nodes[0];
+    const GpuNode root = loadNode(0u);
     current = nodeEntry(root);
     float entry;
     return q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
@@ -721,7 +700,7 @@ void traceHybrid(inout RayQuery q) {
     // Each ray's own stack after the split: the packet's pending entries plus its own pushes (the
     // host sizes it as the two stacks together).
     rayStackSize = 0u;
-    const GpuNode root = nodes[0];
+    const GpuNode root = loadNode(0u);
     float entry;
     uvec2 current = nodeEntry(root);
     bool wantCurrent = q.isActive && !isEmptyRoot(current) && boxTest(q, root.lo.xyz, root.hi.xyz, entry);
@@ -766,8 +745,8 @@ void traceHybrid(inout RayQuery q) {
         uvec2 next = uvec2(0u);
         bool wantNext = false;
         if (current.y == 0u) {
-            const GpuNode left = nodes[current.x];
-            const GpuNode right = nodes[current.x + 1u];
+            const GpuNode left = loadNode(current.x);
+            const GpuNode right = loadNode(current.x + 1u);
             if (kStatistics && q.isActive) q.nodes += 1u;
             float entryLeft, entryRight;
             const bool hitLeft = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft) && q.isActive;

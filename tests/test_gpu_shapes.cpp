@@ -2,10 +2,14 @@
 // against the CPU reference on small images (lavapipe is slow). Validation is on throughout.
 #include "test_gpu_common.h"
 
+#include "renderer/error.h"
 #include "scenes/generators.h"
 #include "shaders/shading.h"
 
+#include <cstdlib>
 #include <cstring>
+#include <memory>
+#include <string>
 
 namespace raypack::test {
 namespace {
@@ -248,6 +252,89 @@ TEST(GpuDeepTree, StackIsSizedFromTheTree) {
             (kernel == KernelKind::Single ? settings.singleGroup : settings.packet) = shape;
             expectMatchesReference(tracer.render(settings, request), cpu, std::string("deep ") + toString(kernel));
         }
+    }
+    expectNoValidationMessages();
+}
+
+// A tracer made while RAYPACK_NODE_FETCH is `value` (unset for nullptr), which it reads once.
+std::unique_ptr<GpuTracer> tracerWithNodeFetch(const char* value) {
+    const char* before = std::getenv("RAYPACK_NODE_FETCH");
+    const std::string saved = before ? before : "";
+    if (value)
+        setenv("RAYPACK_NODE_FETCH", value, 1);
+    else
+        unsetenv("RAYPACK_NODE_FETCH");
+    std::unique_ptr<GpuTracer> tracer;
+    try {
+        tracer = std::make_unique<GpuTracer>(validatedContext());
+    } catch (...) {
+        before ? setenv("RAYPACK_NODE_FETCH", saved.c_str(), 1) : unsetenv("RAYPACK_NODE_FETCH");
+        throw;
+    }
+    before ? setenv("RAYPACK_NODE_FETCH", saved.c_str(), 1) : unsetenv("RAYPACK_NODE_FETCH");
+    return tracer;
+}
+
+// Nodes read through the texel buffer (NodeFetch::Texel, the default on CPU devices) and through
+// the storage buffer are the same nodes: every binary kernel gives the same hits and counts, ray
+// for ray, over a host tree and over a device-built one, and both match the CPU reference. Auto
+// takes texels on a CPU device only; the 8-wide tree reads storage whatever is asked; a bad value
+// is an error that names the variable.
+TEST(GpuNodeFetch, TexelAndStorageNodesTraceTheSame) {
+    const LoadedScene s = loadForTest(sharedScene("sibenik/sibenik_geom_75284.ply"));
+    const std::unique_ptr<GpuTracer> storage = tracerWithNodeFetch("storage");
+    const std::unique_ptr<GpuTracer> texel = tracerWithNodeFetch("texel");
+    const std::unique_ptr<GpuTracer> automatic = tracerWithNodeFetch(nullptr);
+    EXPECT_EQ(storage->nodeFetch(), NodeFetch::Storage);  // before any upload
+    RenderSettings settings;
+    settings.width = 96;
+    settings.height = 64;
+    settings.camera = s.camera;
+    const FrameRequest request{true, true, true};
+    const Frame cpu = renderCpu(s.scene, s.bvh, settings, request);
+
+    BvhBuildOptions deviceBuild;
+    deviceBuild.builder = BvhBuilder::GpuPloc;
+    deviceBuild.leafSize = 2;
+    for (const bool onDevice : {false, true}) {
+        SCOPED_TRACE(onDevice ? "device-built tree" : "host tree");
+        for (GpuTracer* tracer : {storage.get(), texel.get(), automatic.get()}) {
+            if (onDevice)
+                tracer->buildOnDevice(s.scene, deviceBuild);
+            else
+                tracer->upload(s.scene, s.bvh);
+        }
+        EXPECT_EQ(storage->nodeFetch(), NodeFetch::Storage);
+        EXPECT_EQ(texel->nodeFetch(), NodeFetch::Texel) << texel->nodeFetchReason();
+        const bool cpuDevice = validatedContext().info.type == VK_PHYSICAL_DEVICE_TYPE_CPU;
+        EXPECT_EQ(automatic->nodeFetch(), cpuDevice ? NodeFetch::Texel : NodeFetch::Storage)
+            << automatic->nodeFetchReason();
+        for (const KernelKind kernel : {KernelKind::Packet, KernelKind::Single, KernelKind::Hybrid}) {
+            settings.kernel = kernel;
+            const Frame a = storage->render(settings, request);
+            const Frame b = texel->render(settings, request);
+            EXPECT_TRUE(sameHits(a, b)) << toString(kernel);
+            ASSERT_EQ(a.counters.size(), b.counters.size());
+            EXPECT_EQ(0, std::memcmp(a.counters.data(), b.counters.data(), a.counters.size() * sizeof(RayCounters)))
+                << toString(kernel);
+            EXPECT_EQ(a.rgba, b.rgba) << toString(kernel);
+            EXPECT_GT(summarizeCounters(b).primaryNodes, 0.0) << toString(kernel);
+            if (!onDevice) expectMatchesReference(b, cpu, std::string("texel nodes, ") + toString(kernel));
+        }
+    }
+
+    texel->upload(s.scene, s.bvh, 8);
+    EXPECT_EQ(texel->nodeFetch(), NodeFetch::Storage);
+    EXPECT_NE(texel->nodeFetchReason().find("8-wide"), std::string::npos) << texel->nodeFetchReason();
+    settings.kernel = KernelKind::Single;
+    settings.bvhWidth = 8;
+    expectMatchesReference(texel->render(settings, request), cpu, "8-wide tree, texels asked for");
+
+    try {
+        tracerWithNodeFetch("textures");
+        ADD_FAILURE() << "RAYPACK_NODE_FETCH=textures was accepted";
+    } catch (const Error& e) {
+        EXPECT_NE(std::string(e.what()).find("RAYPACK_NODE_FETCH"), std::string::npos) << e.what();
     }
     expectNoValidationMessages();
 }

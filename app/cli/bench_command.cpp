@@ -117,6 +117,8 @@ void addFrameRecords(json& records, const json& scene, const Tracer& tracer, con
         r["hybrid_packets_per_group"] = cell.hybrid ? json(ran.hybrid.packetsPerGroup) : json(nullptr);
         r["hybrid_packets_per_group_requested"] =
             cell.hybrid ? hybridPacketsPerGroupJson(cell.hybrid->packetsPerGroup) : json(nullptr);
+        const auto fetch = tracer.nodeFetch();
+        r["node_fetch"] = fetch ? json(fetch->first) : json(nullptr);
         r["hit_distance_requested"] = cell.hitDistance ? json(toString(*cell.hitDistance)) : json(nullptr);
         r["ray_kind"] = kind;
         r["width_px"] = s.width;

@@ -461,6 +461,9 @@ CommandRunner addRenderCommand(CLI::App& app) {
                         settings.hybrid.minRays, double(settings.hybrid.visitRatio), perGroup, perGroup == 1 ? "" : "s",
                         settings.hybrid.packetsPerGroup == kAutoPacketsPerGroup ? " (auto)" : "");
         }
+        if (const auto fetch = tracer->nodeFetch())
+            std::printf("nodes      read through %s buffer (%s)\n",
+                        fetch->first == "texel" ? "a uniform texel" : "the storage", fetch->second.c_str());
         if (gpu && settings.intersect == IntersectMode::Robust)
             if (const std::optional<std::string> math = tracer->hitDistance(settings)) {
                 std::string why = settings.hitDistance == HitDistanceMath::Auto ? "auto" : "as asked";

@@ -79,6 +79,9 @@ public:
         return std::string(toString(tracer_->hitDistanceMath(settings.hitDistance)));
     }
     double float64Rate() const override { return tracer_->float64Rate(); }
+    std::optional<std::pair<std::string, std::string>> nodeFetch() const override {
+        return std::make_pair(std::string(toString(tracer_->nodeFetch())), tracer_->nodeFetchReason());
+    }
     RenderSettings deviceSettings(const RenderSettings& settings) const override {
         return tracer_->deviceSettings(withKernel(settings));
     }

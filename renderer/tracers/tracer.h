@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace raypack {
@@ -120,6 +121,9 @@ public:
     // The rate of doubles against floats that the device was measured at for that choice
     // (GpuTracer::float64Rate); 0 where none was measured.
     virtual double float64Rate() const { return 0.0; }
+    // What the prepared scene's kernels read their nodes through ("storage", "texel"; the bench's
+    // "node_fetch" field) and why (GpuTracer::nodeFetch); nullopt for tracers without that choice.
+    virtual std::optional<std::pair<std::string, std::string>> nodeFetch() const { return std::nullopt; }
     // `settings` as this tracer runs them on its device after prepare(): what an automatic choice
     // comes to (the hybrid kernel's packets per workgroup, GpuTracer::deviceSettings).
     virtual RenderSettings deviceSettings(const RenderSettings& settings) const { return settings; }

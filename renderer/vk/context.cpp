@@ -145,6 +145,10 @@ DeviceInfo queryDevice(VkPhysicalDevice physical, uint32_t index) {
     info.subgroupSize = subgroup.subgroupSize;
     info.maxSharedMemoryBytes = limits.maxComputeSharedMemorySize;
     info.maxStorageBufferBytes = limits.maxStorageBufferRange;
+    info.maxTexelBufferElements = limits.maxTexelBufferElements;
+    VkFormatProperties rgba32f{};
+    vkGetPhysicalDeviceFormatProperties(physical, VK_FORMAT_R32G32B32A32_SFLOAT, &rgba32f);
+    info.rgba32fTexelBuffers = (rgba32f.bufferFeatures & VK_FORMAT_FEATURE_UNIFORM_TEXEL_BUFFER_BIT) != 0;
     info.maxWorkgroupInvocations = limits.maxComputeWorkGroupInvocations;
     for (int i = 0; i < 3; ++i) {
         info.maxWorkgroupSize[i] = limits.maxComputeWorkGroupSize[i];
@@ -698,12 +702,12 @@ StagedUpload::StagedUpload(const VulkanContext& context, VkCommandPool pool)
     if (const char* mode = std::getenv("RAYPACK_UPLOAD"); mode && std::strcmp(mode, "staged") == 0) direct_ = false;
 }
 
-void* StagedUpload::add(Buffer& device, size_t bytes, const char* what) {
+void* StagedUpload::add(Buffer& device, size_t bytes, const char* what, VkBufferUsageFlags extraUsage) {
     const auto start = std::chrono::steady_clock::now();
     checkBindable(context_, bytes, what);
     if (direct_ && bytes > 0) {
         try {
-            device = createBuffer(context_, bytes, kUsage,
+            device = createBuffer(context_, bytes, kUsage | extraUsage,
                                   VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT | VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
                                       VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
                                   what);
@@ -713,7 +717,7 @@ void* StagedUpload::add(Buffer& device, size_t bytes, const char* what) {
             // The mappable part of the heap is used up: stage the rest.
         }
     }
-    device = createBuffer(context_, bytes, kUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
+    device = createBuffer(context_, bytes, kUsage | extraUsage, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, what);
     if (bytes == 0) return nullptr;
     staged_.push_back({&device, createBuffer(context_, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT,
                                              VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,

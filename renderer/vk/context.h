@@ -52,6 +52,8 @@ struct DeviceInfo {
     uint32_t subgroupSize = 0;
     uint32_t maxSharedMemoryBytes = 0;          // maxComputeSharedMemorySize
     uint32_t maxStorageBufferBytes = 0;         // maxStorageBufferRange
+    uint32_t maxTexelBufferElements = 0;        // maxTexelBufferElements
+    bool rgba32fTexelBuffers = false;           // R32G32B32A32_SFLOAT uniform texel buffers
     uint32_t maxWorkgroupInvocations = 0;       // maxComputeWorkGroupInvocations
     uint32_t maxWorkgroupSize[3] = {0, 0, 0};   // maxComputeWorkGroupSize
     uint32_t maxWorkgroupCount[3] = {0, 0, 0};  // maxComputeWorkGroupCount
@@ -176,18 +178,15 @@ public:
     StagedUpload& operator=(const StagedUpload&) = delete;
     // Throws raypack::Error when `bytes` exceed what one storage buffer binds on the device (naming
     // `what`) or the device is out of memory.
-    void* add(Buffer& device, size_t bytes, const char* what);
+    // `extraUsage` is added to kUsage (the nodes: VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT).
+    void* add(Buffer& device, size_t bytes, const char* what, VkBufferUsageFlags extraUsage = 0);
     void submit();
     // Host seconds spent creating buffers in `add`, and in `submit` (copies and the wait).
     double allocationSeconds() const { return allocationSeconds_; }
     double transferSeconds() const { return transferSeconds_; }
     // Storage, transfer source and destination: what the tracers' and the builder's arrays use.
-    static constexpr VkBufferUsageFlags kUsage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT |
-                                                 VK_BUFFER_USAGE_TRANSFER_SRC_BIT
-#ifdef RP_VARIANT_TEXEL_NODES
-                                                 | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT
-#endif
-        ;
+    static constexpr VkBufferUsageFlags kUsage =
+        VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT | VK_BUFFER_USAGE_TRANSFER_SRC_BIT;
 
 private:
     struct Staged {
