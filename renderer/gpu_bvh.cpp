@@ -902,8 +902,7 @@ std::unique_ptr<GpuTree> buildGpuTree(GpuBvhBuilder& builder, const Scene& scene
     // The tracer may read the nodes through a texel view (NodeFetch, renderer/gpu_tracer.h).
     outputs.nodes =
         create(tree->nodes, sizes.nodes, sizeof(gpu::GpuNode), "BVH nodes", VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
-    outputs.triangles = create(tree->triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles",
-                               VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT);
+    outputs.triangles = create(tree->triangles, sizes.triangles, sizeof(gpu::GpuTriangle), "triangles");
     const GpuTreeAttributes attributes = gpuTreeAttributes(scene);
     if (attributes.normals)
         outputs.normals = create(tree->normals, sizes.triangles, sizeof(gpu::GpuTriangleNormals), "vertex normals");

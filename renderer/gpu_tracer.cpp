@@ -144,7 +144,6 @@ struct GpuTracer::State {
     // The uploaded tree's nodes as RGBA32F texels (binding kBindNodeTexels), cut to what the device
     // can view where that is less than the whole buffer; nodeFetch says whether the kernels read it.
     VkBufferView nodeView = VK_NULL_HANDLE;
-    VkBufferView triangleView = VK_NULL_HANDLE;
     NodeFetch requestedNodeFetch = NodeFetch::Auto;  // RAYPACK_NODE_FETCH
     NodeFetch nodeFetch = NodeFetch::Storage;        // what the uploaded tree's kernels read (installTree)
     std::string nodeFetchReason;                     // why, in words
@@ -198,7 +197,7 @@ GpuTracer::GpuTracer(const vk::VulkanContext& context) : state_(std::make_unique
 
         s.requestedNodeFetch = nodeFetchFromEnvironment();
         static_assert(gpu::kBindNodeTexels == gpu::kBindingCount, "the texel binding follows the storage buffers");
-        s.layout = vk::createStorageSetLayout(context, gpu::kBindingCount, sizeof(gpu::GpuFrameParams), 2);
+        s.layout = vk::createStorageSetLayout(context, gpu::kBindingCount, sizeof(gpu::GpuFrameParams), 1);
 
         s.module = vk::createShaderModule(context, trace_spv, sizeof(trace_spv), "trace.comp");
         if (context.float64)
@@ -246,8 +245,6 @@ void destroyState(GpuTracer::State& s) {
     s.pipelines.clear();
     if (s.nodeView) vkDestroyBufferView(device, s.nodeView, nullptr);
     s.nodeView = VK_NULL_HANDLE;
-    if (s.triangleView) vkDestroyBufferView(device, s.triangleView, nullptr);
-    s.triangleView = VK_NULL_HANDLE;
     s.tree.reset();
     s.builder.reset();
     for (vk::Buffer* b : {&s.materials, &s.textures, &s.texels, &s.dummy, &s.primaryHits, &s.output, &s.hits,
@@ -345,8 +342,6 @@ void installTree(GpuTracer::State& s, std::unique_ptr<GpuTree> tree, uint32_t st
     s.stackEntries = stackEntries;
     if (s.nodeView) vkDestroyBufferView(s.ctx.device, s.nodeView, nullptr);
     s.nodeView = VK_NULL_HANDLE;  // writeDescriptors makes the new tree's
-    if (s.triangleView) vkDestroyBufferView(s.ctx.device, s.triangleView, nullptr);
-    s.triangleView = VK_NULL_HANDLE;
     chooseNodeFetch(s, *tree);
     s.tree = std::move(tree);
     if (!sameScene) s.sceneBounds = scene.bounds();
@@ -390,7 +385,7 @@ double GpuTracer::upload(const Scene& scene, const Bvh& bvh, uint32_t bvhWidth) 
                       : staging.add(tree->nodes, counts.nodes * sizeof(gpu::GpuNode), "BVH nodes", kNodeTexelUsage);
     if (bvhWidth == 2) targets.nodes = static_cast<gpu::GpuNode*>(nodes);
     targets.triangles = static_cast<gpu::GpuTriangle*>(
-        staging.add(tree->triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles", kNodeTexelUsage));
+        staging.add(tree->triangles, counts.triangles * sizeof(gpu::GpuTriangle), "triangles"));
     if (s.hasNormals)
         targets.normals = static_cast<gpu::GpuTriangleNormals*>(
             staging.add(tree->normals, counts.triangles * sizeof(gpu::GpuTriangleNormals), "vertex normals"));
@@ -557,15 +552,6 @@ void writeDescriptors(GpuTracer::State& s) {
         vk::check(vkCreateBufferView(s.ctx.device, &viewInfo, nullptr, &s.nodeView), "vkCreateBufferView");
     }
     vk::writeTexelBuffer(s.ctx, s.layout.set, gpu::kBindNodeTexels, s.nodeView);
-    if (!s.triangleView) {
-        VkBufferViewCreateInfo viewInfo{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
-        viewInfo.buffer = tree.triangles.buffer;
-        viewInfo.format = kNodeTexelFormat;
-        viewInfo.range =
-            std::min<VkDeviceSize>(tree.triangles.size, VkDeviceSize(s.ctx.info.maxTexelBufferElements) * 16) / 16 * 16;
-        vk::check(vkCreateBufferView(s.ctx.device, &viewInfo, nullptr, &s.triangleView), "vkCreateBufferView");
-    }
-    vk::writeTexelBuffer(s.ctx, s.layout.set, gpu::kBindTriangleTexels, s.triangleView);
 }
 
 // (Re-)creates the per-pixel buffers for a width x height frame.

@@ -33,7 +33,6 @@ const uint kBindingCount = 13u;    // the storage buffers above
 // After the storage buffers: the nodes again, as a uniform texel buffer of RGBA32F texels (two a
 // GpuNode), which the binary kernels read instead of kBindNodes where kSpecTexelNodes says so.
 const uint kBindNodeTexels = kBindingCount;
-const uint kBindTriangleTexels = kBindingCount + 1u;  // the triangles likewise, three texels each
 
 // Specialization constants of shaders/trace.comp (constant_id, local_size_*_id).
 const uint kSpecPacketWidth = 0u;          // local_size_x: packet width PW

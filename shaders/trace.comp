@@ -75,7 +75,6 @@ layout(std430, set = 0, binding = kBindNodes) readonly buffer WideNodes { GpuWid
 // The same nodes as RGBA32F texels, two a node (kTexelNodes). Always bound: the host gives a view of
 // the node buffer, cut to the device's maxTexelBufferElements where the texel path is not taken.
 layout(set = 0, binding = kBindNodeTexels) uniform samplerBuffer nodeTexels;
-layout(set = 0, binding = kBindTriangleTexels) uniform samplerBuffer triangleTexels;
 layout(std430, set = 0, binding = kBindTriangles) readonly buffer Triangles { GpuTriangle triangles[]; };
 layout(std430, set = 0, binding = kBindNormals) readonly buffer Normals { GpuTriangleNormals normals[]; };
 layout(std430, set = 0, binding = kBindMaterials) readonly buffer Materials { GpuMaterial materials[]; };
@@ -204,14 +203,7 @@ bool isEmptyRoot(uvec2 entry) { return entry == uvec2(0u); }
 // and then leave the traversal: a ray that has found one stops voting (report 2.3).
 void intersectLeaf(inout RayQuery q, uint first, uint count) {
     for (uint i = first; i < first + count; ++i) {
-        GpuTriangle tri;
-        if (kTexelNodes) {
-            const int texel = int(3u * i);
-            tri = GpuTriangle(texelFetch(triangleTexels, texel), texelFetch(triangleTexels, texel + 1),
-                              texelFetch(triangleTexels, texel + 2));
-        } else {
-            tri = triangles[i];
-        }
+        const GpuTriangle tri = triangles[i];
         const uint file = floatBitsToUint(tri.v0.w);
         if (kStatistics) q.tests += 1u;
         if (q.anyHit && file == q.skipFile) continue;
