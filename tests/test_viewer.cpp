@@ -633,6 +633,21 @@ TEST_F(ViewerUnderXvfb, ABadStartSceneFailsAScriptedRun) {
         << viewer.output;
 }
 
+// The scene as the one positional argument (`raypack model.ply`), as raypack-cli render takes it;
+// a bad one fails the same way as --scene's, and both at once is a usage error.
+TEST_F(ViewerUnderXvfb, TheSceneMayBeThePositionalArgument) {
+    const CommandRun bad = runCommand(viewerCommand("/nonexistent/scene.ply --width 64 --height 48 --frames 3"));
+    EXPECT_EQ(bad.exitCode, 2) << bad.output;
+    EXPECT_NE(bad.output.find("/nonexistent/scene.ply"), std::string::npos) << bad.output;
+    const fs::path summary = dir_ / "positional-summary.json";
+    const CommandRun good = runCommand(
+        viewerCommand("gen:sphereflake:1k --width 64 --height 48 --frames 3 --summary " + summary.string()));
+    ASSERT_EQ(good.exitCode, 0) << good.output;
+    EXPECT_EQ(readJsonFile(summary)["scene"], "gen:sphereflake:1k");
+    const CommandRun both = runCommand(viewerCommand("gen:default --scene gen:default --frames 1"));
+    EXPECT_NE(both.exitCode, 0) << both.output;
+}
+
 TEST_F(ViewerUnderXvfb, F12AndTheScreenshotKeyWriteAPngAndItsSidecar) {
     // A real key press through the X server (xdotool), as a user would: F12 writes
     // raypack-DATE-TIME.png and its sidecar into the current folder.

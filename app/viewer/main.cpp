@@ -25,7 +25,8 @@ int main(int argc, char** argv) {
     std::vector<std::string> script;
     float fov = 0.0f;
     bool noShadows = false, noCounters = false;
-    app.add_option("--scene", options.scene, "scene file (OBJ, PLY, glTF, GLB) or generator spec")
+    // Named or as the one positional argument (`raypack model.glb`), as raypack-cli render takes it.
+    app.add_option("scene,--scene", options.scene, "scene file (OBJ, PLY, glTF, GLB) or generator spec")
         ->capture_default_str();
     app.add_option("--width", options.width, "window width in pixels")->capture_default_str();
     app.add_option("--height", options.height, "window height in pixels")->capture_default_str();
