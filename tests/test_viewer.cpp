@@ -640,8 +640,8 @@ TEST_F(ViewerUnderXvfb, TheSceneMayBeThePositionalArgument) {
     EXPECT_EQ(bad.exitCode, 2) << bad.output;
     EXPECT_NE(bad.output.find("/nonexistent/scene.ply"), std::string::npos) << bad.output;
     const fs::path summary = dir_ / "positional-summary.json";
-    const CommandRun good = runCommand(
-        viewerCommand("gen:sphereflake:1k --width 64 --height 48 --frames 3 --summary " + summary.string()));
+    const CommandRun good =
+        runCommand(viewerCommand("gen:sphereflake:1k --width 64 --height 48 --frames 3 --summary " + summary.string()));
     ASSERT_EQ(good.exitCode, 0) << good.output;
     EXPECT_EQ(readJsonFile(summary)["scene"], "gen:sphereflake:1k");
     const CommandRun both = runCommand(viewerCommand("gen:default --scene gen:default --frames 1"));
