@@ -140,10 +140,9 @@ RayQuery makeQuery(vec3 org, vec3 dir, float tmax, bool anyHit, uint skipFile, b
     q.nodes = 0u;
     q.tests = 0u;
     // -org/dir per axis, moved by the slack towards the near side on the near plane and the far
-    // side on the far plane (lo is the near plane where 1/dir > 0). The fast path's plain slab test
-    // takes -org/dir as it is.
+    // side on the far plane (lo is the near plane where 1/dir > 0).
     const vec3 offset = -org * q.ray.invDir;
-    const vec3 slack = kFastIntersect ? vec3(0.0f) : kSlabFusedSlack * abs(offset);
+    const vec3 slack = kSlabFusedSlack * abs(offset);
     const vec3 loSlack = slack * (2.0f * step(vec3(0.0f), q.ray.invDir) - 1.0f);  // + where lo is near
     q.slabLo = offset - loSlack;
     q.slabHi = offset + loSlack;
@@ -169,15 +168,9 @@ bool fusedBoxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
                     kSlabFarWiden, kBoxTmaxWiden, tEntry);
 }
 
-// The box and triangle tests of the pipeline's IntersectMode. The fast path's box test is the plain
-// slab test (intersectBoxFast: no widening, no slack) in the same fused form, one multiply-add a
-// plane; the CPU's fast path subtracts, so rays that graze a box may decide differently (within
-// the GPU bars of the fast path's tests). The subtracted form cost the fast path its lead once the
-// robust test was fused (docs/gpu.md, "The fast path's box test in fused form").
+// The box and triangle tests of the pipeline's IntersectMode.
 bool boxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
-    if (kFastIntersect)
-        return slabsHit(q.ray, lo, hi, fma(lo, q.ray.invDir, q.slabLo), fma(hi, q.ray.invDir, q.slabHi), q.tmax,
-                        1.0f, 1.0f, tEntry);
+    if (kFastIntersect) return intersectBoxFast(q.ray, lo, hi, q.tmax, tEntry);
     return fusedBoxTest(q, lo, hi, tEntry);
 }
 
