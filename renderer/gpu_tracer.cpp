@@ -110,30 +110,6 @@ uint32_t viewConstant(ViewMode view) {
     }
 }
 
-// The pipeline that traces `settings`' pass `pass` (kPass*): everything of the settings a
-// specialization constant takes, the hybrid kernel's split rules included (the other kernels keep
-// 0, one pipeline), and the module. One place for the frame's dispatches and for
-// pipelineStatistics. `float64`: the settings' robust hit distance resolves to doubles on this
-// device (usesFloat64); only the primary pass computes the distance, so only it takes the doubles'
-// module. `texelNodes`: the uploaded tree's nodes are read as texels (State::nodeFetch), which only
-// the binary tree's kernels do.
-PipelineKey pipelineKeyFor(const RenderSettings& settings, uint32_t pass, bool statistics, uint32_t stackEntries,
-                           bool float64, bool texelNodes) {
-    const PacketShape group = gpuWorkgroup(settings, pass == gpu::kPassShadowShade);
-    PipelineKey key{
-        settings.kernel, group.width,        group.height,        pass, statistics, viewConstant(settings.view),
-        stackEntries,    settings.intersect, settings.shadowOrder};
-    if (settings.kernel == KernelKind::Hybrid) {
-        key.hybridMinRays = settings.hybrid.minRays;
-        key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
-        key.packetsPerGroup = settings.hybrid.packetsPerGroup;
-    }
-    key.wideBvh = settings.kernel == KernelKind::Single && settings.bvhWidth == 8;
-    key.float64 = float64 && pass != gpu::kPassShadowShade;
-    key.texelNodes = texelNodes && !key.wideBvh;
-    return key;
-}
-
 }  // namespace
 
 struct GpuTracer::State {
@@ -615,6 +591,29 @@ bool usesFloat64(GpuTracer::State& s, const RenderSettings& settings) {
            resolveHitDistance(s, settings.hitDistance) == HitDistanceMath::Float64;
 }
 
+// The pipeline that traces `settings`' pass `pass` (kPass*): everything of the settings a
+// specialization constant takes, the hybrid kernel's split rules included (the other kernels keep
+// 0, one pipeline), and what the uploaded tree and the device decide: the stack's entries, the
+// module (doubles where the robust hit distance resolves to them, usesFloat64; only the primary
+// pass computes the distance, so only it takes the doubles' module) and the node path
+// (State::nodeFetch; only the binary tree's kernels read texels). One place for the frame's
+// dispatches and for pipelineStatistics.
+PipelineKey pipelineKeyFor(GpuTracer::State& s, const RenderSettings& settings, uint32_t pass, bool statistics) {
+    const PacketShape group = gpuWorkgroup(settings, pass == gpu::kPassShadowShade);
+    PipelineKey key{
+        settings.kernel, group.width,        group.height,        pass, statistics, viewConstant(settings.view),
+        s.stackEntries,  settings.intersect, settings.shadowOrder};
+    if (settings.kernel == KernelKind::Hybrid) {
+        key.hybridMinRays = settings.hybrid.minRays;
+        key.hybridVisitRatio = uint32_t(std::lround(double(settings.hybrid.visitRatio) * 100.0));
+        key.packetsPerGroup = settings.hybrid.packetsPerGroup;
+    }
+    key.wideBvh = settings.kernel == KernelKind::Single && settings.bvhWidth == 8;
+    key.float64 = usesFloat64(s, settings) && pass != gpu::kPassShadowShade;
+    key.texelNodes = s.nodeFetch == NodeFetch::Texel && !key.wideBvh;
+    return key;
+}
+
 VkPipeline pipelineFor(GpuTracer::State& s, const PipelineKey& key) {
     if (auto found = s.pipelines.find(key); found != s.pipelines.end()) return found->second;
     // The packet and hybrid kernels trace packets with the shared stack; the single-ray and hybrid
@@ -810,8 +809,7 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
     // checkSettings has held each pass's workgroup count to the device's limit.
     const WorkgroupCount groups = workgroupCount(settings.width, settings.height, gpuWorkgroup(settings));
     PipelineKey key =
-        pipelineKeyFor(settings, settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade, statistics,
-                       s.stackEntries, usesFloat64(s, settings), s.nodeFetch == NodeFetch::Texel);
+        pipelineKeyFor(s, settings, settings.shadows ? gpu::kPassPrimary : gpu::kPassPrimaryShade, statistics);
     // What the dispatches use: bound here, and again after a host split, which re-opens the
     // command buffer.
     auto bindState = [&] {
@@ -836,8 +834,7 @@ glm::vec3 recordPasses(GpuTracer::State& s, VkCommandBuffer cmd, const RenderSet
         vk::memoryBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                           VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         // The shadow pass's workgroup may differ from the primary pass's (the single-ray kernel).
-        key = pipelineKeyFor(settings, gpu::kPassShadowShade, statistics, s.stackEntries, false,
-                             s.nodeFetch == NodeFetch::Texel);
+        key = pipelineKeyFor(s, settings, gpu::kPassShadowShade, statistics);
         const WorkgroupCount shadowGroups =
             workgroupCount(settings.width, settings.height, gpuWorkgroup(settings, true));
         if (hostClock) bindState();
@@ -1016,8 +1013,7 @@ std::vector<GpuTracer::PipelineStatistic> GpuTracer::pipelineStatistics(const Re
     const uint32_t pass = shadowPass         ? gpu::kPassShadowShade
                           : settings.shadows ? gpu::kPassPrimary
                                              : gpu::kPassPrimaryShade;
-    const PipelineKey key = pipelineKeyFor(settings, pass, statistics, s.stackEntries, usesFloat64(s, settings),
-                                           s.nodeFetch == NodeFetch::Texel);
+    const PipelineKey key = pipelineKeyFor(s, settings, pass, statistics);
     VkPipelineInfoKHR pipelineInfo{VK_STRUCTURE_TYPE_PIPELINE_INFO_KHR};
     pipelineInfo.pipeline = pipelineFor(s, key);
     uint32_t executables = 0;

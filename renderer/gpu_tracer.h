@@ -28,7 +28,7 @@ namespace raypack {
 
 // How the binary tree's kernels read nodes: through the node storage buffer, or through a uniform
 // texel buffer over the same memory (RGBA32F, two texels a node). On lavapipe texels are
-// 1.07-1.70x the storage loads, on an H100 0.97-1.03x (docs/gpu.md, "Nodes through a texel
+// 1.14-1.59x the storage loads (medians), on an H100 0.97-1.03x (docs/gpu.md, "Nodes through a texel
 // buffer"), so Auto takes texels on CPU devices. The environment variable RAYPACK_NODE_FETCH
 // (auto, storage or texel) overrides it. A tree with more texels than the device's
 // maxTexelBufferElements, the 8-wide tree and a device without RGBA32F texel buffers read storage.

@@ -63,8 +63,8 @@ layout(constant_id = kSpecPacketsPerGroup) const uint kPacketsPerGroup = 1;
 // uploaded instead of the binary one (RenderSettings::bvhWidth 8).
 layout(constant_id = kSpecWideBvh) const bool kWideBvh = false;
 // The binary kernels read nodes through the uniform texel buffer nodeTexels instead of the storage
-// buffer: on lavapipe 1.07-1.70x the storage loads, on an H100 0.97-1.03x (docs/gpu.md, "Nodes
-// through a texel buffer"), so the host takes it on CPU devices.
+// buffer: on lavapipe 1.14-1.59x the storage loads (medians, every binary kernel), on an H100
+// 0.97-1.03x (docs/gpu.md, "Nodes through a texel buffer"), so the host takes it on CPU devices.
 layout(constant_id = kSpecTexelNodes) const bool kTexelNodes = false;
 
 layout(push_constant) uniform Params { GpuFrameParams params; };

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace raypack::test {
@@ -256,23 +257,16 @@ TEST(GpuDeepTree, StackIsSizedFromTheTree) {
     expectNoValidationMessages();
 }
 
-// A tracer made while RAYPACK_NODE_FETCH is `value` (unset for nullptr), which it reads once.
+// A tracer made while RAYPACK_NODE_FETCH is `value` (unset for nullptr), which it reads once; the
+// variable is as before afterwards, whether the tracer was made or threw.
 std::unique_ptr<GpuTracer> tracerWithNodeFetch(const char* value) {
-    const char* before = std::getenv("RAYPACK_NODE_FETCH");
-    const std::string saved = before ? before : "";
-    if (value)
-        setenv("RAYPACK_NODE_FETCH", value, 1);
-    else
-        unsetenv("RAYPACK_NODE_FETCH");
-    std::unique_ptr<GpuTracer> tracer;
-    try {
-        tracer = std::make_unique<GpuTracer>(validatedContext());
-    } catch (...) {
-        before ? setenv("RAYPACK_NODE_FETCH", saved.c_str(), 1) : unsetenv("RAYPACK_NODE_FETCH");
-        throw;
-    }
-    before ? setenv("RAYPACK_NODE_FETCH", saved.c_str(), 1) : unsetenv("RAYPACK_NODE_FETCH");
-    return tracer;
+    struct Restore {
+        std::optional<std::string> saved;
+        ~Restore() { saved ? setenv("RAYPACK_NODE_FETCH", saved->c_str(), 1) : unsetenv("RAYPACK_NODE_FETCH"); }
+    } restore;
+    if (const char* before = std::getenv("RAYPACK_NODE_FETCH")) restore.saved = before;
+    value ? setenv("RAYPACK_NODE_FETCH", value, 1) : unsetenv("RAYPACK_NODE_FETCH");
+    return std::make_unique<GpuTracer>(validatedContext());
 }
 
 // Nodes read through the texel buffer (NodeFetch::Texel, the default on CPU devices) and through

@@ -841,8 +841,7 @@ void recordKernelTimes(Session& s, const FrameTimings& kernel, uint32_t width, u
     st.kernelTimesNote = note;
     // Which path the Vulkan kernels read the tree's nodes through (NodeFetch), as render prints it.
     if (!isCpuTracer(s.panel.tracer) && s.tracer && s.tracer->hasScene())
-        st.kernelTimesNote += std::string("\nnodes read through the ") +
-                              (s.tracer->nodeFetch() == NodeFetch::Texel ? "texel" : "storage") + " buffer";
+        st.kernelTimesNote += std::string("\nnodes read through the ") + toString(s.tracer->nodeFetch()) + " buffer";
     st.primaryKernelSeconds = kernel.primarySeconds;
     st.shadowKernelSeconds = kernel.shadowSeconds;
     s.primaryKernelTimes.push_back(kernel.primarySeconds);
