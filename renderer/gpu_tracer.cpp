@@ -39,8 +39,6 @@ constexpr uint32_t kVoteBytes = 4 * 16;
 constexpr VkFormat kNodeTexelFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 constexpr VkBufferUsageFlags kNodeTexelUsage = VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
 static_assert(sizeof(gpu::GpuNode) == 32, "a node is two RGBA32F texels");
-// The single-ray kernel keeps a leaf's triangle count in kStackCountMask's bits of a stack entry.
-static_assert(kMaxLeafPrimitives <= gpu::kStackCountMask, "a leaf's count fits its bits of a stack entry");
 
 // RAYPACK_NODE_FETCH: auto (or unset), storage or texel.
 NodeFetch nodeFetchFromEnvironment() {

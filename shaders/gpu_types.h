@@ -149,10 +149,6 @@ const uint kViewHeatIntersections = 2u;
 // (kStatusTraversalTruncated), and the BVH builders never make a leaf of more than
 // kMaxLeafPrimitives (renderer/bvh.h) triangles, so a ray can test dozens of full leaves within it.
 const uint kMaxTraversalSteps = 60000u;
-// The bits of a leaf's triangle count (at most kMaxLeafPrimitives = 1024) in the single-ray
-// kernel's stack entries, whose other bits hold the entry distance of a closest-hit ray's pending
-// node (trace.comp, pushPending).
-const uint kStackCountMask = 0x7FFu;
 
 // Status word written by the kernels (should stay 0): set when a stack would overflow, which the
 // host's sizing from the tree's depth rules out; checked after every synchronous frame.

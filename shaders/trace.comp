@@ -439,40 +439,6 @@ bool secondChildFirst(RayQuery q, GpuNode left, GpuNode right, float entryLeft, 
 // that singleRayLoop uses it without an array parameter, which GLSL would copy in and out.
 uvec2 rayStack[kRayStackEntries];
 uint rayStackSize = 0u;
-// Closest-hit rays keep with each pending entry the distance at which the ray enters its box, and
-// drop an entry popped beyond the nearest hit found since without loading its children (the CPU
-// reference's traversal does the same). The distance shares the entry's second word with the
-// triangle count (0 for an inner node, at most kMaxLeafPrimitives = 1024 for a leaf, so 11 bits:
-// kStackCountMask): the float's low mantissa bits give way to the count, which rounds the distance
-// towards 0, so the test stays conservative. Shadow rays keep their tmax, below which every pushed
-// box was entered, so their pass stores bare entries.
-const bool kCullPending = kPass != kPassShadowShade;
-
-// Pushes `entry`, whose box the ray enters at tEntry (0 where that is not known: never dropped).
-void pushPending(uvec2 entry, float tEntry) {
-    if (kCullPending) entry.y |= floatBitsToUint(tEntry) & ~kStackCountMask;
-    rayStack[rayStackSize++] = entry;
-}
-
-// Pops the nearest pending entry that may still hold a hit closer than q.tmax, with the margin the
-// box test culls with (kBoxTmaxWiden: a tie at equal t with a lower file index must still be found).
-// Returns false when none is left. A dropped entry's box lies beyond the nearest hit, and so does
-// everything in it, since the box test is conservative.
-bool popPending(RayQuery q, out uvec2 current) {
-    const float limit = kFastIntersect ? q.tmax : q.tmax * kBoxTmaxWiden;
-    while (rayStackSize > 0u) {
-        const uvec2 entry = rayStack[--rayStackSize];
-        if (!kCullPending) {
-            current = entry;
-            return true;
-        }
-        if (uintBitsToFloat(entry.y & ~kStackCountMask) <= limit) {
-            current = uvec2(entry.x, entry.y & kStackCountMask);
-            return true;
-        }
-    }
-    return false;
-}
 
 // The single-ray while-while loop (Aila and Laine 2009) from `current` and rayStack until the ray is
 // done: nearer child first, the farther one pushed. `steps` (inner nodes visited plus triangles
@@ -497,11 +463,13 @@ void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
                     atomicOr(status, kStatusStackOverflow);
                     return;
                 }
-                pushPending(nodeEntry(rightFirst ? left : right), rightFirst ? entryLeft : entryRight);
+                rayStack[rayStackSize++] = nodeEntry(rightFirst ? left : right);
             } else if (hitLeft || hitRight) {
                 current = nodeEntry(hitLeft ? left : right);
-            } else if (!popPending(q, current)) {
+            } else if (rayStackSize == 0u) {
                 return;
+            } else {
+                current = rayStack[--rayStackSize];
             }
         }
         while (current.y != 0u) {
@@ -512,7 +480,8 @@ void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
             }
             if (kStatistics) q.nodes += 1u;
             intersectLeaf(q, current.x, current.y);
-            if (!q.isActive || !popPending(q, current)) return;
+            if (!q.isActive || rayStackSize == 0u) return;
+            current = rayStack[--rayStackSize];
         }
     }
 }
@@ -799,7 +768,7 @@ void traceHybrid(inout RayQuery q) {
                 done = !q.isActive;
                 if (!done) {
                     for (uint s = 0u; s < stackSize; ++s)
-                        if (s >= 32u || (wantedBits & (1u << s)) != 0u) pushPending(hybridPop(s), 0.0f);
+                        if (s >= 32u || (wantedBits & (1u << s)) != 0u) rayStack[rayStackSize++] = hybridPop(s);
                     // This ray's own step at the voted node, as traceSingle's: the nearer child
                     // hit first, the farther pushed. A ray that did not want the node skips it.
                     const bool l = hitLeft && wantCurrent;
@@ -811,12 +780,14 @@ void traceHybrid(inout RayQuery q) {
                             atomicOr(status, kStatusStackOverflow);
                             done = true;
                         } else {
-                            pushPending(nodeEntry(nearRight ? left : right), nearRight ? entryLeft : entryRight);
+                            rayStack[rayStackSize++] = nodeEntry(nearRight ? left : right);
                         }
                     } else if (l || r) {
                         current = nodeEntry(l ? left : right);
-                    } else if (!popPending(q, current)) {
+                    } else if (rayStackSize == 0u) {
                         done = true;
+                    } else {
+                        current = rayStack[--rayStackSize];
                     }
                 }
                 break;
