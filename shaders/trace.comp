@@ -168,26 +168,6 @@ bool fusedBoxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
                     kSlabFarWiden, kBoxTmaxWiden, tEntry);
 }
 
-// fusedBoxTest for a ray that runs backwards on exactly the axes named (negX, negY, negZ), parallel
-// to none: the near plane of each axis is known (lo where the ray runs forwards, else hi), so the
-// per-axis min and max of the two planes' distances are not needed. The same multiply-adds as
-// fusedBoxTest, so the same distances and decisions. Called with constant directions
-// (childBoxTests), so that the choices fold away.
-bool octantBoxTest(RayQuery q, vec3 lo, vec3 hi, bool negX, bool negY, bool negZ, out float tEntry) {
-    const vec3 nearBound = vec3(negX ? hi.x : lo.x, negY ? hi.y : lo.y, negZ ? hi.z : lo.z);
-    const vec3 farBound = vec3(negX ? lo.x : hi.x, negY ? lo.y : hi.y, negZ ? lo.z : hi.z);
-    const vec3 nearOffset = vec3(negX ? q.slabHi.x : q.slabLo.x, negY ? q.slabHi.y : q.slabLo.y,
-                                 negZ ? q.slabHi.z : q.slabLo.z);
-    const vec3 farOffset = vec3(negX ? q.slabLo.x : q.slabHi.x, negY ? q.slabLo.y : q.slabHi.y,
-                                negZ ? q.slabLo.z : q.slabHi.z);
-    const vec3 tNear3 = fma(nearBound, q.ray.invDir, nearOffset);
-    const vec3 tFar3 = fma(farBound, q.ray.invDir, farOffset);
-    const float tNear = max(max(tNear3.x, tNear3.y), max(tNear3.z, 0.0f));
-    const float tFar = min(min(tFar3.x, tFar3.y), tFar3.z) * kSlabFarWiden;
-    tEntry = tNear;
-    return tNear <= min(tFar, q.tmax * kBoxTmaxWiden);
-}
-
 // The box and triangle tests of the pipeline's IntersectMode.
 bool boxTest(RayQuery q, vec3 lo, vec3 hi, out float tEntry) {
     if (kFastIntersect) return intersectBoxFast(q.ray, lo, hi, q.tmax, tEntry);
@@ -455,42 +435,6 @@ bool secondChildFirst(RayQuery q, GpuNode left, GpuNode right, float entryLeft, 
     return entryRight < entryLeft;
 }
 
-// Where a ray's octant is its whole subgroup's and no axis is parallel, octantBoxTest in that
-// octant's form (0 to 7), else boxTest (8). The path need not be uniform for the results, only for
-// the speed: each ray takes a test valid for it.
-uint boxPath(RayQuery q) {
-    const uint octant = rayOctant(q.ray.dir);
-    const bool sharedOctant = subgroupAllEqual(octant);
-    return !kFastIntersect && sharedOctant && !q.ray.anyParallel ? octant : 8u;
-}
-
-#define RP_OCTANT_BOXES(o)                                                                              \
-    case o:                                                                                             \
-        hitLeft = octantBoxTest(q, left.lo.xyz, left.hi.xyz, (o & 1) != 0, (o & 2) != 0, (o & 4) != 0, \
-                                entryLeft);                                                             \
-        hitRight = octantBoxTest(q, right.lo.xyz, right.hi.xyz, (o & 1) != 0, (o & 2) != 0,            \
-                                 (o & 4) != 0, entryRight);                                             \
-        break;
-
-// Both children's box tests by `path` (boxPath).
-void childBoxTests(RayQuery q, GpuNode left, GpuNode right, uint path, out bool hitLeft, out bool hitRight,
-                   out float entryLeft, out float entryRight) {
-    switch (path) {
-        RP_OCTANT_BOXES(0)
-        RP_OCTANT_BOXES(1)
-        RP_OCTANT_BOXES(2)
-        RP_OCTANT_BOXES(3)
-        RP_OCTANT_BOXES(4)
-        RP_OCTANT_BOXES(5)
-        RP_OCTANT_BOXES(6)
-        RP_OCTANT_BOXES(7)
-        default:
-            hitLeft = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft);
-            hitRight = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight);
-    }
-}
-#undef RP_OCTANT_BOXES
-
 // A ray's own stack (the single-ray kernel; the hybrid kernel after its split), at module scope so
 // that singleRayLoop uses it without an array parameter, which GLSL would copy in and out.
 uvec2 rayStack[kRayStackEntries];
@@ -500,7 +444,6 @@ uint rayStackSize = 0u;
 // done: nearer child first, the farther one pushed. `steps` (inner nodes visited plus triangles
 // tested) is bounded by kMaxTraversalSteps.
 void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
-    const uint path = boxPath(q);
     while (true) {
         while (current.y == 0u) {
             if (++steps > kMaxTraversalSteps) {
@@ -511,8 +454,8 @@ void singleRayLoop(inout RayQuery q, inout uvec2 current, inout uint steps) {
             const GpuNode right = loadNode(current.x + 1u);
             if (kStatistics) q.nodes += 1u;
             float entryLeft, entryRight;
-            bool hitLeft, hitRight;
-            childBoxTests(q, left, right, path, hitLeft, hitRight, entryLeft, entryRight);
+            const bool hitLeft = boxTest(q, left.lo.xyz, left.hi.xyz, entryLeft);
+            const bool hitRight = boxTest(q, right.lo.xyz, right.hi.xyz, entryRight);
             if (hitLeft && hitRight) {
                 const bool rightFirst = secondChildFirst(q, left, right, entryLeft, entryRight);
                 current = nodeEntry(rightFirst ? right : left);
