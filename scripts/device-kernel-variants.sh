@@ -11,7 +11,9 @@
 # hits files are compared (OUT/hits.txt).
 #   scripts/device-kernel-variants.sh [OUT_DIR]   (default: $OUT)
 # Environment: VARIANTS (names after raypack-cli-, default: every one carried), ROUNDS (default 2),
-# REPEAT (default 10), BUDGET_S (default 420), TRACER (default gpu-single), HITS (default 1).
+# REPEAT (default 10), BUDGET_S (default 420), TRACER (default gpu-single), HITS (default 1),
+# TREE_ARGS (further bench and render flags for the tree, e.g. "--builder sah-split --leaf-size 2",
+# the Sibenik goal's tree; default none: the report's) and INTERSECT (robust or fast, default robust).
 set -u
 source scripts/device-start.sh "$0" "${1:-}"
 variants=${VARIANTS:-$(cd .device/bin && ls raypack-cli-* 2>/dev/null | sed 's/^raypack-cli-//')}
@@ -19,6 +21,8 @@ rounds=${ROUNDS:-2}
 repeat=${REPEAT:-10}
 budget=${BUDGET_S:-420}
 tracer=${TRACER:-gpu-single}
+tree_args=${TREE_ARGS:-}
+intersect=${INTERSECT:-robust}
 width=2; [ "$tracer" = gpu-cwbvh ] && width=8
 start=$(date +%s)
 S=.device/scenes
@@ -28,7 +32,7 @@ S=.device/scenes
   for v in build $variants; do
     cli=.device/bin/raypack-cli; [ "$v" = build ] || cli=.device/bin/raypack-cli-$v
     "$cli" render "$S/$scene" --device gpu --kernel single --bvh-width "$width" --width 1920 --height 1080 \
-      --hits "$out/hits-$name-$v.bin" > /dev/null 2>> "$out/hits.txt" ||
+      --intersect "$intersect" $tree_args --hits "$out/hits-$name-$v.bin" > /dev/null 2>> "$out/hits.txt" ||
       echo "$v $name: render failed" >> "$out/hits.txt"
     if [ "$v" != build ]; then
       if cmp -s "$out/hits-$name-build.bin" "$out/hits-$name-$v.bin"; then echo "$name $v: hits identical" >> "$out/hits.txt"
@@ -42,7 +46,7 @@ for round in $(seq 1 "$rounds"); do
     cli=.device/bin/raypack-cli; [ "$v" = build ] || cli=.device/bin/raypack-cli-$v
     if [ $(( $(date +%s) - start )) -gt "$budget" ]; then echo "$v round $round: skipped (budget)" >> "$out/errors.txt"; continue; fi
     "$cli" bench --suite report --scene-dir .device/scenes --device gpu --kernel single --width 1920 --height 1080 \
-      --repeat "$repeat" --no-embree --no-driver-rt --pipeline-statistics --out "$out/$v-$round.json" > "$out/$v-$round.log" 2>&1 ||
+      --intersect "$intersect" $tree_args --repeat "$repeat" --no-embree --no-driver-rt --pipeline-statistics --out "$out/$v-$round.json" > "$out/$v-$round.log" 2>&1 ||
       echo "$v round $round: bench failed" >> "$out/errors.txt"
   done
 done

@@ -6,6 +6,10 @@
 # compiler -D..., "" for none), linked against the rest of build/'s objects, into
 # /tmp/v-NAME/raypack-cli-NAME. build/ must be a current Release build.
 #   scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO
+# SHADER_REV=COMMIT in the environment compiles trace.comp (and the headers it includes) as that
+# commit has them instead of the working tree's: a kernel variant kept in a commit that was
+# reverted, measured against the build (the host side stays the working tree's, so the commit's
+# bindings and specialization constants must be the build's).
 set -euo pipefail
 [ $# -eq 3 ] || { echo "usage: scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO" >&2; exit 2; }
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -14,15 +18,20 @@ d=/tmp/v-$name; rm -rf $d; mkdir -p $d/shaders
 cp $root/build/libraypack.a $d/libraypack.a
 CXX="/usr/bin/c++ -DGLM_ENABLE_EXPERIMENTAL -DGLM_FORCE_XYZW_ONLY -DRAYPACK_HAVE_EMBREE=1 -I$root -isystem /usr/include/stb -O3 -DNDEBUG -ffp-contract=off -fno-fast-math -std=c++20"
 cd $root
-if [ -n "$sm" ]; then
-  glslangValidator -V --target-env vulkan1.2 -Ishaders $sm --vn trace_spv -o $d/shaders/trace.spv.h shaders/trace.comp > /dev/null
+src=shaders
+if [ -n "${SHADER_REV:-}" ]; then
+  mkdir -p $d/rev && git -C $root archive "$SHADER_REV" shaders | tar -x -C $d/rev
+  src=$d/rev/shaders
+fi
+if [ -n "$sm" ] || [ -n "${SHADER_REV:-}" ]; then
+  glslangValidator -V --target-env vulkan1.2 -I$src $sm --vn trace_spv -o $d/shaders/trace.spv.h $src/trace.comp > /dev/null
   # The module with doubles too: where a device's doubles are fast (the H100 and H200), primary
   # passes run that one (gpu_tracer.cpp, key.float64); without it a variant's primary figures
   # would be the build's own.
-  glslangValidator -V --target-env vulkan1.2 -Ishaders -DRP_FLOAT64=1 $sm --vn trace_f64_spv \
-    -o $d/shaders/trace_f64.spv.h shaders/trace.comp > /dev/null
+  glslangValidator -V --target-env vulkan1.2 -I$src -DRP_FLOAT64=1 $sm --vn trace_f64_spv \
+    -o $d/shaders/trace_f64.spv.h $src/trace.comp > /dev/null
 fi
-if [ -n "$sm" ] || [ -n "$hm" ]; then
+if [ -n "$sm" ] || [ -n "$hm" ] || [ -n "${SHADER_REV:-}" ]; then
   $CXX -I$d/shaders -I$root/build/shaders $hm -c renderer/gpu_tracer.cpp -o $d/gpu_tracer.cpp.o
   (cd $d && ar r libraypack.a gpu_tracer.cpp.o)
 fi
