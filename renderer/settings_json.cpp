@@ -254,7 +254,8 @@ BvhBuildOptions bvhBuildOptionsFromJson(const nlohmann::json& j) {
         o.builder = *parsed;
     }
     readUint(j, "leaf_size", "bvh.", o.leafSize);
-    if (o.leafSize == 0) badKey("bvh.leaf_size", "must be at least 1");
+    if (o.leafSize == 0 || o.leafSize > kMaxLeafPrimitives)
+        badKey("bvh.leaf_size", "must be in 1.." + std::to_string(kMaxLeafPrimitives));
     readFloat(j, "traversal_cost", "bvh.", o.traversalCost);
     readFloat(j, "intersection_cost", "bvh.", o.intersectionCost);
     readUint(j, "bin_count", "bvh.", o.binCount);

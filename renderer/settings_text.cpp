@@ -208,6 +208,12 @@ float parseFiniteFloat(std::string_view what, std::string_view text) {
     return value;
 }
 
+float parsePositiveFloat(std::string_view what, std::string_view text) {
+    float value = 0.0f;
+    if (!parseFloat(text, value) || !(value > 0.0f)) badValue(what, text, "a finite number above 0");
+    return value;
+}
+
 uint32_t parseHybridPacketsPerGroup(std::string_view what, std::string_view text) {
     if (text == "auto") return kAutoPacketsPerGroup;
     uint32_t value = 0;

@@ -70,6 +70,8 @@ glm::vec3 parseVec3(std::string_view what, std::string_view text);
 glm::vec2 parseVec2(std::string_view what, std::string_view text);
 // A finite number.
 float parseFiniteFloat(std::string_view what, std::string_view text);
+// A finite number above 0.
+float parsePositiveFloat(std::string_view what, std::string_view text);
 // An integer 1 .. 2^32 - 1, digits only.
 uint32_t parsePositiveCount(std::string_view what, std::string_view text);
 

@@ -299,9 +299,46 @@ TEST(Cli, BadInputGivesOneClearLineAndExitCodeTwo) {
     std::ofstream(badJson) << R"({"scene": "gen:terrain:1k", "camera": {"fov_y_degrees": "wide"}})";
     expectCleanError(runCli("render --from " + quoted(badJson)), "camera.fov_y_degrees");
     expectCleanError(runCli("frobnicate"), "frobnicate");
+    expectCleanError(runCli("render gen:terrain:1k --view tests --heat-scale 0 --width 8 --height 8"),
+                     "--heat-scale: \"0\" is not a finite number above 0");
+    expectCleanError(runCli("diff a.png"), "see raypack-cli diff --help");
+    // Output names are refused before anything is read or made: the images do not exist.
+    expectCleanError(runCli("diff " + quoted(scratch() / "absent-a.png") + " " + quoted(scratch() / "absent-b.png") +
+                            " --out " + quoted(scratch() / "d.bmp")),
+                     "--out");
+    expectCleanError(runCli("generate gen:nothing:5 " + quoted(scratch() / "scene.obj")), "must end in .ply");
     expectCleanError(runCli("render gen:terrain:1k --device gpu --gpu no-such-device-name "
                             "--width 8 --height 8"),
                      "no-such-device-name");
+}
+
+// The "camera" line of a render's output: "--eye X --at Y ..." and what came from the start view.
+std::string cameraLine(const CliResult& r) {
+    const size_t at = r.output.find("camera     --eye ");
+    return at == std::string::npos ? std::string() : r.output.substr(at, r.output.find('\n', at) - at);
+}
+// The value after `flag` in a camera line ("1,2,3").
+std::string cameraValue(const std::string& line, const std::string& flag) {
+    const size_t at = line.find(flag + " ");
+    if (at == std::string::npos) return {};
+    const size_t begin = at + flag.size() + 1;
+    return line.substr(begin, line.find(' ', begin) - begin);
+}
+
+TEST(Cli, EyeOrAtAloneKeepsTheOtherPointOfTheStartView) {
+    const std::string render = "render gen:terrain:1k --width 8 --height 8";
+    const std::string start = cameraLine(runCli(render));
+    ASSERT_NE(start.find("(start view)"), std::string::npos) << start;
+    const std::string eyeOnly = cameraLine(runCli(render + " --eye 1,2,3"));
+    EXPECT_EQ(cameraValue(eyeOnly, "--eye"), "1,2,3") << eyeOnly;
+    EXPECT_EQ(cameraValue(eyeOnly, "--at"), cameraValue(start, "--at")) << eyeOnly << "\n" << start;
+    EXPECT_NE(eyeOnly.find("(--at of the start view)"), std::string::npos) << eyeOnly;
+    const std::string atOnly = cameraLine(runCli(render + " --at 0,0.5,0"));
+    EXPECT_EQ(cameraValue(atOnly, "--at"), "0,0.5,0") << atOnly;
+    EXPECT_EQ(cameraValue(atOnly, "--eye"), cameraValue(start, "--eye")) << atOnly << "\n" << start;
+    EXPECT_NE(atOnly.find("(--eye of the start view)"), std::string::npos) << atOnly;
+    const std::string both = cameraLine(runCli(render + " --eye 1,2,3 --at 0,0.5,0"));
+    EXPECT_EQ(both.find("start view"), std::string::npos) << both;
 }
 
 TEST(Cli, StatsPrintsTable1AsJson) {
@@ -503,6 +540,7 @@ TEST(SettingsJson, BadValuesNameTheKey) {
     EXPECT_NE(errorOf(R"({"shadows": "yes"})").find("shadows"), std::string::npos);
     EXPECT_NE(errorOf(R"({"bvh": {"builder": "magic"}})").find("bvh.builder"), std::string::npos);
     EXPECT_NE(errorOf(R"({"bvh": {"leaf_size": 0}})").find("bvh.leaf_size"), std::string::npos);
+    EXPECT_NE(errorOf(R"({"bvh": {"leaf_size": 5000}})").find("bvh.leaf_size"), std::string::npos);
     EXPECT_NE(errorOf(R"({"bvh": {"bin_count": 1}})").find("bvh.bin_count"), std::string::npos);
 
     const ScratchDir& dir = scratch();

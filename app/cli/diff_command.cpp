@@ -26,15 +26,25 @@ CommandRunner addDiffCommand(CLI::App& app) {
     command->add_option("B", flags->b, "Second PNG image")->required();
     command->add_option("--out", flags->out,
                         "Write the difference image (differing pixels red, the rest a dimmed grey "
-                        "of A) to this PNG");
+                        "of A) to this file: PNG for .png, JPEG for .jpg or .jpeg; any other extension is "
+                        "refused before the images are read");
     command->add_option("--threshold", flags->threshold, "Largest channel difference (0..255) still counted as equal")
         ->check(CLI::Range(0u, 255u))
         ->capture_default_str();
     return [flags] {
+        if (!flags->out.empty()) {
+            checkOutputPath("--out", flags->out);
+            try {
+                imageFormatFor(flags->out);
+            } catch (const Error& e) {
+                throw Error(std::string("--out ") + e.what());
+            }
+        }
         const Image a = readPng(flags->a);
         const Image b = readPng(flags->b);
         const ImageDiff diff = diffImages(a, b, uint8_t(flags->threshold), flags->a, flags->b);
-        if (!flags->out.empty()) writePng(flags->out, diff.difference);
+        if (!flags->out.empty())
+            writeImage(flags->out, diff.difference.width, diff.difference.height, diff.difference.rgba);
         std::printf("image size         %ux%u\n", a.width, a.height);
         std::printf("differing pixels   %llu of %llu (%.4f %%), threshold %u\n",
                     (unsigned long long)diff.differingPixels, (unsigned long long)diff.pixels,

@@ -2,9 +2,13 @@
 // is how scenes/data/default.ply and the scaling scenes are made.
 #include "app/cli/commands.h"
 #include "app/cli/scene_setup.h"
+#include "renderer/error.h"
+#include "renderer/image.h"
 #include "scenes/load.h"
 
+#include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 namespace raypack::cli {
@@ -19,8 +23,14 @@ CommandRunner addGenerateCommand(CLI::App& app) {
                            "Write the scene SPEC (a generator spec, or any scene file, e.g. to convert it) to OUT as "
                            "binary little-endian PLY. Prints the triangle count and the seconds taken.");
     command->add_option("SPEC", flags->spec, sceneArgumentHelp())->required();
-    command->add_option("OUT", flags->out, "Output .ply file")->required();
+    command->add_option("OUT", flags->out, "Output file, its name ending in .ply (checked before SPEC is made)")
+        ->required();
     return [flags] {
+        checkOutputPath("OUT", flags->out);
+        std::string extension = std::filesystem::path(flags->out).extension().string();
+        for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+        if (extension != ".ply")
+            throw Error("OUT " + flags->out + ": generate writes binary PLY, so the name must end in .ply");
         const LoadedScene loaded = loadSceneTimed(flags->spec);
         savePly(loaded.scene, flags->out);
         std::printf("wrote %s: %zu triangles, %zu vertices (generated in %.3f s)\n", flags->out.c_str(),

@@ -48,6 +48,8 @@ int main(int argc, char** argv) {
     add(addGenerateCommand);
     add(addBenchCommand);
 
+    // The help a usage error points at: the subcommand's where one was named.
+    std::string helpCommand = "raypack-cli --help";
     if (argc > 1 && argv[1][0] != '-') {
         std::string names;
         bool known = false;
@@ -55,6 +57,7 @@ int main(int argc, char** argv) {
             known = known || subcommand->get_name() == argv[1];
             names += (names.empty() ? "" : ", ") + subcommand->get_name();
         }
+        if (known) helpCommand = std::string("raypack-cli ") + argv[1] + " --help";
         if (!known) {
             std::fprintf(stderr, "raypack-cli: unknown subcommand \"%s\" (one of: %s)\n", argv[1], names.c_str());
             return kExitError;
@@ -67,7 +70,7 @@ int main(int argc, char** argv) {
     } catch (const CLI::CallForAllHelp& e) {
         return app.exit(e);
     } catch (const CLI::ParseError& e) {
-        std::fprintf(stderr, "raypack-cli: %s (see raypack-cli --help)\n", e.what());
+        std::fprintf(stderr, "raypack-cli: %s (see %s)\n", e.what(), helpCommand.c_str());
         return kExitError;
     }
     try {

@@ -15,13 +15,13 @@ int main(int argc, char** argv) {
     using namespace raypack;
     CLI::App app{
         "raypack: fly or orbit through a triangle scene, traced interactively on any device (a frame\n"
-        "budget with reduced resolution while moving, refinement when still), by the Vulkan packet or\n"
-        "single-ray kernel or the CPU packet or reference tracer; change the packet shape, kernel and\n"
-        "BVH live, compare with the CPU reference. F1 in the window lists the controls. With --frames N\n"
-        "it runs N frames and exits (scripted runs, tests). Needs a display (xvfb-run without one),\n"
-        "except with --offscreen."};
+        "budget with reduced resolution while moving, refinement when still), by the Vulkan packet,\n"
+        "single-ray or hybrid kernel or the CPU packet or reference tracer; change the packet shape,\n"
+        "kernel and BVH live, compare with the CPU reference. F1 in the window lists the controls.\n"
+        "With --frames N it runs N frames and exits (scripted runs, tests). Needs a display (xvfb-run\n"
+        "without one), except with --offscreen."};
     ui::ViewerOptions options;
-    std::string packet, kernel, view, intersect, builder, eye, at, up, present = "fifo", tracer;
+    std::string packet, kernel, view, intersect, builder, eye, at, up, present = "fifo", tracer, heatScale;
     std::vector<std::string> script;
     float fov = 0.0f;
     bool noShadows = false, noCounters = false;
@@ -50,9 +50,9 @@ int main(int argc, char** argv) {
     app.add_option("--intersect", intersect,
                    "robust (watertight triangles, conservative slabs, accurate hit distances) or fast "
                    "(Moller-Trumbore, plain slabs; may leak through shared edges); docs/trade.md");
-    app.add_option("--heat-scale", options.settings.heatFullScale,
-                   "count shown as full red in the heat maps (default: the frame's 99th percentile)")
-        ->check(CLI::PositiveNumber);
+    app.add_option("--heat-scale", heatScale,
+                   "count shown as full red in the heat maps, a number above 0 (default: the frame's 99th "
+                   "percentile)");
     app.add_option("--light-height", options.settings.lightHeight, "light above the camera, times the scene's height")
         ->capture_default_str();
     app.add_option("--eye", eye, "camera position x,y,z (default: raypack-cli's start view of the scene)");
@@ -97,13 +97,14 @@ int main(int argc, char** argv) {
                    "on exit, write a JSON summary: frames, frames/s while moving and still, resolution scales, "
                    "input-to-photon latency, idle CPU share, time to full resolution and to convergence");
     app.add_flag("--hide-panel", options.hidePanel, "draw no panel");
-    app.add_option("--script", script,
-                   "scripted step FRAME:ACTION[:VALUE], repeatable; ACTION: resize WxH, packet WxH, leaf-size N, "
-                   "builder NAME, shadows on|off, kernel packet|single, intersect robust|fast, tracer NAME, view "
-                   "shaded|nodes|tests, "
-                   "open SCENE, wait, screenshot FILE, window-screenshot FILE, move RIGHT,UP,FORWARD (seconds of "
-                   "flight), look DX,DY (pixels), bookmark N, save-bookmark N, frame-all, scale S, samples N, "
-                   "budget MS, side-by-side TRACER|off");
+    app.add_option(
+        "--script", script,
+        "scripted step FRAME:ACTION[:VALUE], repeatable; ACTION: resize WxH, packet WxH, leaf-size N, "
+        "builder NAME, shadows on|off, kernel packet|single|hybrid, intersect robust|fast, tracer NAME, view "
+        "shaded|nodes|tests, "
+        "open SCENE, wait, screenshot FILE, window-screenshot FILE, move RIGHT,UP,FORWARD (seconds of "
+        "flight), look DX,DY (pixels), bookmark N, save-bookmark N, frame-all, scale S, samples N, "
+        "budget MS, side-by-side TRACER|off");
     CLI11_PARSE(app, argc, argv);
 
     try {
@@ -120,6 +121,7 @@ int main(int argc, char** argv) {
         options.kernelGiven = !kernel.empty();
         if (!intersect.empty()) options.settings.intersect = requireIntersectMode("--intersect", intersect);
         if (!view.empty()) options.settings.view = requireViewMode("--view", view);
+        if (!heatScale.empty()) options.settings.heatFullScale = parsePositiveFloat("--heat-scale", heatScale);
         if (!eye.empty() || !at.empty()) {
             if (eye.empty() || at.empty()) throw Error("--eye and --at go together");
             options.settings.camera.eye = parseVec3("--eye", eye);
