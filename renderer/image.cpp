@@ -1,6 +1,7 @@
 #include "renderer/image.h"
 
 #include "renderer/error.h"
+#include "renderer/file_names.h"
 
 #include <stb/stb_image.h>
 #include <stb/stb_image_write.h>
@@ -41,8 +42,7 @@ void writePng(const std::string& path, uint32_t width, uint32_t height, const st
 }
 
 ImageFormat imageFormatFor(const std::string& path) {
-    std::string extension = std::filesystem::path(path).extension().string();
-    for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
+    const std::string extension = lowercaseExtension(path);
     if (extension == ".png") return ImageFormat::Png;
     if (extension == ".jpg" || extension == ".jpeg") return ImageFormat::Jpeg;
     throw Error(path + ": unknown image format \"" + extension + "\" (the file name must end in .png, .jpg or .jpeg)");

@@ -1,5 +1,6 @@
 // loadScene / openScene: extension dispatch, generator specs, and the file reading shared by the
 // format loaders.
+#include "renderer/file_names.h"
 #include "scenes/formats.h"
 #include "scenes/generators.h"
 
@@ -66,9 +67,7 @@ void reportParsed(LoadProgress* progress, const std::filesystem::path& path, uin
 }
 
 Scene loadScene(const std::filesystem::path& path, LoadProgress* progress) {
-    std::string extension = path.extension().string();
-    std::transform(extension.begin(), extension.end(), extension.begin(),
-                   [](unsigned char c) { return char(std::tolower(c)); });
+    const std::string extension = lowercaseExtension(path);
     if (extension == ".ply") return loadPly(path, progress);
     if (extension == ".obj") return loadObj(path, progress);
     if (extension == ".gltf" || extension == ".glb") return loadGltf(path, progress);

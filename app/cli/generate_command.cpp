@@ -3,12 +3,11 @@
 #include "app/cli/commands.h"
 #include "app/cli/scene_setup.h"
 #include "renderer/error.h"
+#include "renderer/file_names.h"
 #include "renderer/image.h"
 #include "scenes/load.h"
 
-#include <cctype>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 
 namespace raypack::cli {
@@ -27,9 +26,7 @@ CommandRunner addGenerateCommand(CLI::App& app) {
         ->required();
     return [flags] {
         checkOutputPath("OUT", flags->out);
-        std::string extension = std::filesystem::path(flags->out).extension().string();
-        for (char& c : extension) c = char(std::tolower(static_cast<unsigned char>(c)));
-        if (extension != ".ply")
+        if (lowercaseExtension(flags->out) != ".ply")
             throw Error("OUT " + flags->out + ": generate writes binary PLY, so the name must end in .ply");
         const LoadedScene loaded = loadSceneTimed(flags->spec);
         savePly(loaded.scene, flags->out);

@@ -172,14 +172,13 @@ CommandRunner addRenderCommand(CLI::App& app) {
         "Without --eye/--at (and no --from camera) the camera is the scene's start view: the "
         "file's own camera (glTF); else, when the centre of the scene's bounding box lies in a closed "
         "room (rays cast from it in every direction, 6 x 24 x 24: at least 90% hit, at most a fifth of "
-        "the hits on back faces, at most half of them nearer than 2% of the box's diagonal), a view from "
-        "inside: a third of the way along the box's longest horizontal axis, looking along it, fov 70 "
-        "degrees, low enough that the default light stays under the ceiling; else it frames the scene, looking at the "
-        "centre of the bounding box "
-        "from direction (0.5, 0.4, 1.0) (front, right, above), up +y, vertical fov 60 degrees, at the "
-        "distance where the bounding sphere fills the field of view with a 10% margin. --up / --fov "
-        "override their part, and --eye or --at alone its point (the other point stays the start "
-        "view's).");
+        "the hits on back faces, at most half of them nearer than 2% of the box's diagonal), a view "
+        "from inside: a third of the way along the box's longest horizontal axis, looking along it, "
+        "fov 70 degrees, low enough that the default light stays under the ceiling; else it frames "
+        "the scene, looking at the centre of the bounding box from direction (0.5, 0.4, 1.0) (front, "
+        "right, above), up +y, vertical fov 60 degrees, at the distance where the bounding sphere "
+        "fills the field of view with a 10% margin. --up / --fov override their part, and --eye or "
+        "--at alone its point (the other point stays the start view's).");
     o.scene = command->add_option("SCENE", f.scene, sceneArgumentHelp());
     o.width = command->add_option("--width", f.width, "Image width in pixels")
                   ->check(CLI::Range(1u, 16384u))
