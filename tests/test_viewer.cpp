@@ -197,7 +197,9 @@ TEST(Progressive, SamplePatternIsStratifiedAndPrefixStable) {
         EXPECT_LT(o.x, 0.5f);
         EXPECT_GE(o.y, -0.5f);
         EXPECT_LT(o.y, 0.5f);
-        if (k < 4) EXPECT_EQ(o, samplePatternOffset(k, 4)) << "a longer pattern starts with the shorter";
+        if (k < 4) {
+            EXPECT_EQ(o, samplePatternOffset(k, 4)) << "a longer pattern starts with the shorter";
+        }
         sixteen.push_back(o);
     }
     // Stratified: each quarter of the pixel in x holds 4 of the 16 samples (base 2 radical inverse).
@@ -645,7 +647,7 @@ TEST_F(ViewerUnderXvfb, TheSceneMayBeThePositionalArgument) {
     ASSERT_EQ(good.exitCode, 0) << good.output;
     EXPECT_EQ(readJsonFile(summary)["scene"], "gen:sphereflake:1k");
     const CommandRun both = runCommand(viewerCommand("gen:default --scene gen:default --frames 1"));
-    EXPECT_NE(both.exitCode, 0) << both.output;
+    EXPECT_EQ(both.exitCode, 2) << both.output;
 }
 
 TEST_F(ViewerUnderXvfb, F12AndTheScreenshotKeyWriteAPngAndItsSidecar) {
@@ -669,6 +671,33 @@ TEST_F(ViewerUnderXvfb, F12AndTheScreenshotKeyWriteAPngAndItsSidecar) {
     }
     EXPECT_EQ(pngs, 1u) << run.output;
     EXPECT_EQ(sidecars, 1u) << run.output;
+}
+
+// Each of --eye, --at, --up and --fov replaces its part of the start view, as in raypack-cli render.
+TEST_F(ViewerUnderXvfb, ACameraFlagReplacesItsPartOfTheStartView) {
+    const auto cameraOf = [&](const std::string& flags, const std::string& name) {
+        const fs::path shot = dir_ / (name + ".png");
+        const CommandRun run = runCommand(viewerCommand(
+            "gen:default --offscreen --width 64 --height 48 --frames 1 --screenshot " + shot.string() + " " + flags));
+        EXPECT_EQ(run.exitCode, 0) << run.output;
+        return readJsonFile(fs::path(shot).replace_extension(".json"))["camera"];
+    };
+    const nlohmann::json start = cameraOf("", "start");
+    const nlohmann::json eye = cameraOf("--eye 3,2,4", "eye");
+    EXPECT_EQ(eye["eye"], nlohmann::json({3.0, 2.0, 4.0}));
+    EXPECT_EQ(eye["at"], start["at"]);
+    const nlohmann::json at = cameraOf("--at 0,1,0 --fov 30", "at");
+    EXPECT_EQ(at["at"], nlohmann::json({0.0, 1.0, 0.0}));
+    EXPECT_EQ(at["eye"], start["eye"]);
+    EXPECT_EQ(at["fov_y_degrees"], 30.0);
+}
+
+TEST(Viewer, BadArgumentsExitWithTwoAndSaySo) {
+    for (const char* flags : {"--width abc", "--fov 200", "--heat-scale 0", "--frobnicate"}) {
+        const CommandRun run = runCommand(std::string(RAYPACK_VIEWER) + " " + flags + " --frames 1");
+        EXPECT_EQ(run.exitCode, 2) << flags << ":\n" << run.output;
+        EXPECT_NE(run.output.find("raypack: "), std::string::npos) << flags << ":\n" << run.output;
+    }
 }
 
 TEST(Viewer, WithoutADisplayItFailsWithAClearMessage) {

@@ -428,8 +428,17 @@ void takeWorkerResults(Session& s) {
     const Aabb bounds = s.scene->bounds();
     // The start camera is the CLI's start view (the file's camera, the framing, or inside a room),
     // so the viewer and raypack-cli render agree.
-    const Camera camera =
-        (s.firstScene && s.options.cameraGiven) ? s.options.settings.camera : startCamera(*s.scene, hostBvh(s));
+    // Parts given on the command line replace the start view's for the first scene; with both
+    // points given the start view is not needed (nor, after a device build, the host's tree).
+    const ViewerOptions::CameraGiven given = s.firstScene ? s.options.cameraGiven : ViewerOptions::CameraGiven{};
+    Camera camera = s.options.settings.camera;
+    if (!(given.eye && given.at)) {
+        const Camera start = startCamera(*s.scene, hostBvh(s));
+        if (!given.eye) camera.eye = start.eye;
+        if (!given.at) camera.at = start.at;
+        if (!given.up) camera.up = start.up;
+        if (!given.fov) camera.fovYDegrees = start.fovYDegrees;
+    }
     s.firstScene = false;
     s.panel.settings.camera = camera;
     s.fly.reset(camera, bounds);

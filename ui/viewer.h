@@ -25,7 +25,12 @@ struct ViewerOptions {
     std::string screenshot;        // after the last frame: traced image + JSON sidecar
     std::string windowScreenshot;  // after the last frame: the whole window, panel included
     RenderSettings settings;       // width/height are taken from the window
-    bool cameraGiven = false;      // settings.camera holds --eye/--at/--up/--fov
+    // The parts of settings.camera that --eye, --at, --up and --fov gave for the first scene; the
+    // others are its start view's, as raypack-cli render takes them.
+    struct CameraGiven {
+        bool eye = false, at = false, up = false, fov = false;
+    };
+    CameraGiven cameraGiven;
     BvhBuildOptions bvh;
     std::string device;       // as raypack-cli --device
     bool validation = false;  // VK_LAYER_KHRONOS_validation; exit code 3 on any message

@@ -55,10 +55,12 @@ int main(int argc, char** argv) {
                    "percentile)");
     app.add_option("--light-height", options.settings.lightHeight, "light above the camera, times the scene's height")
         ->capture_default_str();
-    app.add_option("--eye", eye, "camera position x,y,z (default: raypack-cli's start view of the scene)");
+    app.add_option("--eye", eye,
+                   "camera position x,y,z (default: raypack-cli's start view of the scene; each of --eye, --at, "
+                   "--up and --fov replaces its part of it)");
     app.add_option("--at", at, "point looked at x,y,z");
     app.add_option("--up", up, "up vector x,y,z");
-    app.add_option("--fov", fov, "vertical field of view in degrees");
+    app.add_option("--fov", fov, "vertical field of view in degrees")->check(CLI::Range(0.001f, 179.999f));
     app.add_option("--device", options.device, "Vulkan device: index or part of its name");
     app.add_flag("--validation", options.validation, "Vulkan validation layer on; exit code 3 on any message");
     app.add_option("--present", present, "fifo, mailbox or immediate (falls back to fifo)")->capture_default_str();
@@ -105,7 +107,15 @@ int main(int argc, char** argv) {
         "open SCENE, wait, screenshot FILE, window-screenshot FILE, move RIGHT,UP,FORWARD (seconds of "
         "flight), look DX,DY (pixels), bookmark N, save-bookmark N, frame-all, scale S, samples N, "
         "budget MS, side-by-side TRACER|off");
-    CLI11_PARSE(app, argc, argv);
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        // A usage error exits with the viewer's own code for bad arguments, not CLI11's.
+        std::fprintf(stderr, "raypack: %s (see raypack --help)\n", e.what());
+        return ui::kViewerExitError;
+    }
 
     try {
         if (!packet.empty()) options.settings.packet = parsePacketShape("--packet", packet);
@@ -122,16 +132,13 @@ int main(int argc, char** argv) {
         if (!intersect.empty()) options.settings.intersect = requireIntersectMode("--intersect", intersect);
         if (!view.empty()) options.settings.view = requireViewMode("--view", view);
         if (!heatScale.empty()) options.settings.heatFullScale = parsePositiveFloat("--heat-scale", heatScale);
-        if (!eye.empty() || !at.empty()) {
-            if (eye.empty() || at.empty()) throw Error("--eye and --at go together");
-            options.settings.camera.eye = parseVec3("--eye", eye);
-            options.settings.camera.at = parseVec3("--at", at);
-            if (!up.empty()) options.settings.camera.up = parseVec3("--up", up);
-            if (fov > 0.0f) options.settings.camera.fovYDegrees = fov;
-            options.cameraGiven = true;
-        } else if (!up.empty() || fov > 0.0f) {
-            throw Error("--up and --fov need --eye and --at");
-        }
+        // Each camera flag replaces its part of the start view.
+        Camera& camera = options.settings.camera;
+        if (!eye.empty()) camera.eye = parseVec3("--eye", eye);
+        if (!at.empty()) camera.at = parseVec3("--at", at);
+        if (!up.empty()) camera.up = parseVec3("--up", up);
+        if (fov > 0.0f) camera.fovYDegrees = fov;
+        options.cameraGiven = {!eye.empty(), !at.empty(), !up.empty(), fov > 0.0f};
         if (present == "fifo")
             options.presentMode = VK_PRESENT_MODE_FIFO_KHR;
         else if (present == "mailbox")
