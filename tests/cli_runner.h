@@ -33,7 +33,13 @@ inline CliResult runCli(const std::string& args) {
     return result;
 }
 
-inline std::string quoted(const std::filesystem::path& path) { return "'" + path.string() + "'"; }
+// Appended, not built with operator+, which GCC 12 warns about wrongly (-Wrestrict).
+inline std::string quoted(const std::filesystem::path& path) {
+    std::string text(1, '\'');
+    text.append(path.string());
+    text.push_back('\'');
+    return text;
+}
 
 // A fresh folder under the system's temporary folder, removed at the end of the program.
 class ScratchDir {

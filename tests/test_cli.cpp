@@ -105,7 +105,9 @@ TEST(Cli, RenderWritesImageHitsAndJsonThatAgreeWithTheReference) {
         const HitRecord again =
             traceClosest(scene, bvh, glm::vec3(h.orgX, h.orgY, h.orgZ), glm::vec3(h.dirX, h.dirY, h.dirZ));
         EXPECT_EQ(again.prim, h.prim) << "pixel " << i;
-        if (h.prim != gpu::kNoHit) EXPECT_EQ(again.t, h.t) << "pixel " << i;
+        if (h.prim != gpu::kNoHit) {
+            EXPECT_EQ(again.t, h.t) << "pixel " << i;
+        }
     }
 
     // JSON: every statistic with its unit, finite.

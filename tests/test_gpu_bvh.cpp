@@ -396,7 +396,9 @@ TEST(GpuPlocRadius, EveryRadiusBuildsAValidTree) {
             const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, options);
             expectValidTree(scene, bvh, 2);
             if (radius == 1) narrowest = bvh.stats.sahCost;
-            if (radius == 64) EXPECT_LE(bvh.stats.sahCost, narrowest * 1.001);
+            if (radius == 64) {
+                EXPECT_LE(bvh.stats.sahCost, narrowest * 1.001);
+            }
         }
         options.plocRadius = 0;
         const Bvh own = buildBvhOnDevice(validatedContext(), scene, options);
@@ -441,7 +443,9 @@ TEST(GpuTreelets, EveryRoundCountBuildsAValidTreeOfNoHigherCost) {
                 const Bvh bvh = buildBvhOnDevice(validatedContext(), scene, options);
                 expectValidTree(scene, bvh, 2);
                 EXPECT_TRUE(std::isfinite(bvh.stats.sahCost));
-                if (rounds > 0) EXPECT_LE(bvh.stats.sahCost, previous * (1.0 + 1e-5));
+                if (rounds > 0) {
+                    EXPECT_LE(bvh.stats.sahCost, previous * (1.0 + 1e-5));
+                }
                 previous = bvh.stats.sahCost;
                 if (rounds == 2) {
                     const Bvh again = buildBvhOnDevice(validatedContext(), scene, options);
@@ -521,7 +525,9 @@ TEST(GpuTopRebuild, EveryThresholdBuildsAValidTreeTheSameOnEveryRun) {
                     EXPECT_EQ(bvh.stats.topRebuildItems, 0u);
                 else
                     EXPECT_GE(bvh.stats.topRebuildItems, 2u);
-                if (threshold == 2) EXPECT_EQ(bvh.stats.topRebuildItems, scene.triangleCount());
+                if (threshold == 2) {
+                    EXPECT_EQ(bvh.stats.topRebuildItems, scene.triangleCount());
+                }
                 if (threshold != 16) continue;
                 if (previous) {
                     EXPECT_EQ(bvh.primIndices, previous->primIndices);

@@ -267,7 +267,9 @@ TEST(FastIntersect, PlainSlabTestAcceptsASubsetOfTheConservativeOne) {
         const bool conservative = intersectBox(ray, lo, hi, kFloatHuge, tConservative);
         const bool plain = intersectBoxFast(ray, lo, hi, kFloatHuge, tPlain);
         ASSERT_TRUE(conservative || !plain) << i;
-        if (plain) EXPECT_EQ(tPlain, tConservative);
+        if (plain) {
+            EXPECT_EQ(tPlain, tConservative);
+        }
         accepted += plain ? 1 : 0;
         differing += conservative != plain ? 1 : 0;
     }

@@ -60,11 +60,13 @@ void expectSameScene(const Scene& a, const Scene& b) {
     ASSERT_EQ(a.triangleMaterial.size(), b.triangleMaterial.size());
     ASSERT_EQ(a.materials.size(), b.materials.size());
     // memcmp of empty vectors would pass null pointers (undefined behaviour UBSan reports).
-    if (!a.positions.empty())
+    if (!a.positions.empty()) {
         EXPECT_EQ(0, std::memcmp(a.positions.data(), b.positions.data(), a.positions.size() * sizeof(glm::vec3)));
+    }
     EXPECT_TRUE(a.triangles == b.triangles);
-    if (!a.normals.empty())
+    if (!a.normals.empty()) {
         EXPECT_EQ(0, std::memcmp(a.normals.data(), b.normals.data(), a.normals.size() * sizeof(glm::vec3)));
+    }
     EXPECT_TRUE(a.triangleMaterial == b.triangleMaterial);
     for (size_t m = 0; m < a.materials.size(); ++m) {
         EXPECT_EQ(a.materials[m].name, b.materials[m].name);

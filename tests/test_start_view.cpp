@@ -80,7 +80,7 @@ TEST(StartView, ObjectsKeepTheFraming) {
     const Bvh solidBvh = buildBvh(solid, BvhBuildOptions{});
     EXPECT_FALSE(centreIsInARoom(solid, solidBvh));
     EXPECT_TRUE(sameCamera(startCamera(solid, solidBvh), frameScene(solid.bounds())));
-    for (const std::string spec :
+    for (const std::string& spec :
          {sharedScene("gltf/BoxTextured/BoxTextured.glb"), sharedScene("gltf/Avocado/glTF/Avocado.gltf"),
           sharedScene("gltf/DamagedHelmet/DamagedHelmet.glb"), sharedScene("gltf/2CylinderEngine/2CylinderEngine.glb"),
           sharedScene("stanford/bun_zipper.ply"), sharedScene("stanford/dragon_vrip_res3.ply"),
