@@ -692,7 +692,7 @@ CommandRunner addBenchCommand(CLI::App& app) {
         ->capture_default_str();
     command->add_option("--only", f.only,
                         "Run only these scenes of the suite, comma-separated names as the suite "
-                        "names them (e.g. \"Sibenik,terrain 10M,Dragon subdiv 3\")");
+                        "names them (e.g. \"Sibenik,Dragon\" of report, \"terrain 10M,Dragon subdiv 3\" of scaling)");
     command->add_option("--packets", f.packets,
                         "Packet shapes of the packet kernel, e.g. 8x4,4x8,5x6,8x8,16x16 (default: "
                         "the suite's; quick: 8x4,5x6)");
