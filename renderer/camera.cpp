@@ -45,18 +45,21 @@ GpuCamera makeGpuCamera(const Camera& camera, uint32_t width, uint32_t height, g
     const glm::vec3 right(rightD);
     const glm::vec3 up(glm::cross(rightD, forwardD));
     const float tanHalfFov = std::tan(glm::radians(camera.fovYDegrees) * 0.5f);
-    const float aspect = float(width) / float(height);
+    // shaders/camera.h's u and v as a step per pixel and the value at pixel 0, each rounded once
+    // from doubles: u = (2(x + 0.5)/W - 1) tan W/H = x step + (1/W - 1) tan W/H, and
+    // v = (1 - 2(y + 0.5)/H) tan = (1 - 1/H) tan - y step, with step = 2 tan / H for both.
+    const double tanD = double(tanHalfFov), w = double(width), h = double(height);
+    const double step = 2.0 * tanD / h;
     GpuCamera gpu;
-    gpu.eye = glm::vec4(camera.eye, tanHalfFov * aspect);
-    // u grows by 2 * jitter.x / W * (tan * aspect) across the image, v falls by 2 * jitter.y / H *
-    // tan (shaders/camera.h): the same offset for every pixel, so it moves the image plane's centre.
+    gpu.eye = glm::vec4(camera.eye, float(step));
+    // u grows by jitter.x steps, v falls by jitter.y steps: the same offset for every pixel, so it
+    // moves the image plane's centre.
     glm::vec3 centre = forward;
     if (pixelJitter != glm::vec2(0.0f))
-        centre += (2.0f * pixelJitter.x / float(width) * tanHalfFov * aspect) * right -
-                  (2.0f * pixelJitter.y / float(height) * tanHalfFov) * up;
-    gpu.forward = glm::vec4(centre, tanHalfFov);
-    gpu.right = glm::vec4(right, float(width));
-    gpu.up = glm::vec4(up, float(height));
+        centre += float(double(pixelJitter.x) * step) * right - float(double(pixelJitter.y) * step) * up;
+    gpu.forward = glm::vec4(centre, float(step));
+    gpu.right = glm::vec4(right, float((1.0 / w - 1.0) * tanD * w / h));
+    gpu.up = glm::vec4(up, float((1.0 - 1.0 / h) * tanD));
     return gpu;
 }
 

@@ -49,7 +49,11 @@ struct Simd {
     static RP_SIMD_INLINE F sub(F a, F b) { return _mm256_sub_ps(a, b); }
     static RP_SIMD_INLINE F mul(F a, F b) { return _mm256_mul_ps(a, b); }
     static RP_SIMD_INLINE F div(F a, F b) { return _mm256_div_ps(a, b); }
-    static RP_SIMD_INLINE F sqrt(F a) { return _mm256_sqrt_ps(a); }
+    // gpu::unitDirection's seed: 0x5f3759df - (bits(a) >> 1), as integers.
+    static RP_SIMD_INLINE F inverseSqrtSeed(F a) {
+        return _mm256_castsi256_ps(
+            _mm256_sub_epi32(_mm256_set1_epi32(0x5f3759df), _mm256_srli_epi32(_mm256_castps_si256(a), 1)));
+    }
     static RP_SIMD_INLINE F glmMin(F x, F y) { return _mm256_min_ps(y, x); }
     static RP_SIMD_INLINE F glmMax(F x, F y) { return _mm256_max_ps(y, x); }
     static RP_SIMD_INLINE F lt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LT_OQ); }
@@ -110,7 +114,9 @@ struct Simd {
     static RP_SIMD_INLINE F sub(F a, F b) { return _mm_sub_ps(a, b); }
     static RP_SIMD_INLINE F mul(F a, F b) { return _mm_mul_ps(a, b); }
     static RP_SIMD_INLINE F div(F a, F b) { return _mm_div_ps(a, b); }
-    static RP_SIMD_INLINE F sqrt(F a) { return _mm_sqrt_ps(a); }
+    static RP_SIMD_INLINE F inverseSqrtSeed(F a) {
+        return _mm_castsi128_ps(_mm_sub_epi32(_mm_set1_epi32(0x5f3759df), _mm_srli_epi32(_mm_castps_si128(a), 1)));
+    }
     static RP_SIMD_INLINE F glmMin(F x, F y) { return _mm_min_ps(y, x); }
     static RP_SIMD_INLINE F glmMax(F x, F y) { return _mm_max_ps(y, x); }
     static RP_SIMD_INLINE F lt(F a, F b) { return _mm_cmplt_ps(a, b); }
@@ -666,20 +672,23 @@ void clearGroup(RayGroup& group) {
 }
 
 // gpu::primaryRayDirection for the lanes' pixels (x, y), operation for operation:
-// u = (2 (x + 0.5) / W - 1) * eye.w, v = (1 - 2 (y + 0.5) / H) * forward.w,
-// d = (forward + u right) + v up, dir = d * (1 / sqrt((d.x d.x + d.y d.y) + d.z d.z)) (glm's
-// normalize, dot and inversesqrt).
+// u = x eye.w + right.w, v = up.w - y forward.w, d = (forward + u right) + v up, and
+// gpu::unitDirection's three Newton steps from its integer seed.
 RP_SIMD_INLINE void primaryDirections(const gpu::GpuCamera& cam, F x, F y, F dir[3]) {
     using S = Simd;
-    const F half = S::set1(0.5f), one = S::set1(1.0f), two = S::set1(2.0f);
-    const F u = S::mul(S::sub(S::div(S::mul(two, S::add(x, half)), S::set1(cam.right.w)), one), S::set1(cam.eye.w));
-    const F v = S::mul(S::sub(one, S::div(S::mul(two, S::add(y, half)), S::set1(cam.up.w))), S::set1(cam.forward.w));
+    const F u = S::add(S::mul(x, S::set1(cam.eye.w)), S::set1(cam.right.w));
+    const F v = S::sub(S::set1(cam.up.w), S::mul(y, S::set1(cam.forward.w)));
     F d[3];
     for (int a = 0; a < 3; ++a)
         d[a] = S::add(S::add(S::set1(cam.forward[a]), S::mul(u, S::set1(cam.right[a]))), S::mul(v, S::set1(cam.up[a])));
     const F length2 = S::add(S::add(S::mul(d[0], d[0]), S::mul(d[1], d[1])), S::mul(d[2], d[2]));
-    const F invLength = S::div(one, S::sqrt(length2));
-    for (int a = 0; a < 3; ++a) dir[a] = S::mul(d[a], invLength);
+    const F half = S::set1(0.5f), threeHalves = S::set1(1.5f);
+    F inverseLength = S::inverseSqrtSeed(length2);
+    for (int step = 0; step < 3; ++step) {
+        const F halfSquare = S::mul(S::mul(S::mul(half, length2), inverseLength), inverseLength);
+        inverseLength = S::mul(inverseLength, S::sub(threeHalves, halfSquare));
+    }
+    for (int a = 0; a < 3; ++a) dir[a] = S::mul(d[a], inverseLength);
 }
 
 // gpu::makeTraceRay(org, dir) for the lanes of `lanes`, into the group (tmax and prim are the

@@ -20,6 +20,7 @@
 
 #define RP_INOUT(T) T&
 #define RP_OUT(T) T&
+#define RP_PRECISE
 #define RP_FUNC inline
 #define RP_BEGIN_NAMESPACE namespace raypack::gpu {
 #define RP_END_NAMESPACE }
@@ -62,6 +63,10 @@ RP_END_NAMESPACE
 
 #define RP_INOUT(T) inout T
 #define RP_OUT(T) out T
+// `precise`: the compiler may not fuse this value's products and sums into multiply-adds, nor
+// reorder them, so it gets the bits the CPU's ISO C++ (-ffp-contract=off) gets. Vulkan rounds +, -
+// and * correctly; division, sqrt and fma it does not promise to.
+#define RP_PRECISE precise
 #define RP_FUNC
 #define RP_BEGIN_NAMESPACE
 #define RP_END_NAMESPACE

@@ -13,18 +13,10 @@
 #define RAYPACK_SHADERS_INTERSECT_H
 #include "common.h"
 
-// `precise` forbids the GLSL compiler from fusing a*b - c*d into an FMA. Watertightness rests on
-// the edge function of a shared edge being computed from the same two rounded products by both
-// triangles (then one triangle's value is exactly the negation of the other's); a fused
-// multiply-add rounds one product differently in each triangle and re-opens the crack. C++ needs
-// nothing: raypack builds as ISO C++ (-ffp-contract=off).
-#ifndef RP_PRECISE
-#ifdef __cplusplus
-#define RP_PRECISE
-#else
-#define RP_PRECISE precise
-#endif
-#endif
+// RP_PRECISE (common.h) forbids the GLSL compiler from fusing a*b - c*d into an FMA. Watertightness
+// rests on the edge function of a shared edge being computed from the same two rounded products by
+// both triangles (then one triangle's value is exactly the negation of the other's); a fused
+// multiply-add rounds one product differently in each triangle and re-opens the crack.
 
 // The per-ray and per-node functions below take a TraceRay (about 100 bytes) by value, as GLSL
 // must; in C++ they are forced inline so that no copy is made per box or triangle test.

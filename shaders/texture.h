@@ -137,7 +137,7 @@ RP_FUNC GpuTexture textureLevel(GpuTexture tex, uint level) {
 }
 
 // The angle one pixel spans vertically: 2 tan(fov / 2) / height (shaders/camera.h's GpuCamera).
-RP_FUNC float pixelSpread(GpuCamera camera) { return 2.0f * camera.forward.w / camera.up.w; }
+RP_FUNC float pixelSpread(GpuCamera camera) { return camera.forward.w; }
 
 // The level of detail at a hit: log2 of the texels the pixel's footprint covers. The footprint is
 // hitT * pixelSpread (the pixel's angle, 2 tan(fov / 2) / height) over the cosine between the ray

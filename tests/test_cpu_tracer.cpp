@@ -462,10 +462,14 @@ TEST(Camera, FrameSceneAndLight) {
     EXPECT_NEAR(glm::distance(light, camera.eye + glm::vec3(0.0f, 1.0f, 0.0f)), 0.0f, 1e-5f);
     // The GPU camera: orthonormal basis and the documented scales.
     const gpu::GpuCamera gpuCamera = makeGpuCamera(camera, 200, 100);
-    EXPECT_NEAR(gpuCamera.forward.w, std::tan(glm::radians(30.0f)), 1e-6f);
-    EXPECT_NEAR(gpuCamera.eye.w, 2.0f * std::tan(glm::radians(30.0f)), 1e-6f);
-    EXPECT_EQ(gpuCamera.right.w, 200.0f);
-    EXPECT_EQ(gpuCamera.up.w, 100.0f);
+    const float tan30 = std::tan(glm::radians(30.0f));
+    EXPECT_NEAR(gpuCamera.eye.w, 2.0f * tan30 / 100.0f, 1e-8f);  // the step of u, and of v
+    EXPECT_EQ(gpuCamera.forward.w, gpuCamera.eye.w);
+    EXPECT_NEAR(gpuCamera.right.w, (1.0f / 200.0f - 1.0f) * 2.0f * tan30, 1e-6f);  // u of column 0
+    EXPECT_NEAR(gpuCamera.up.w, (1.0f - 1.0f / 100.0f) * tan30, 1e-6f);            // v of row 0
+    // The last column's u and row's v are the first's, negated (to the rounding of the sum).
+    EXPECT_NEAR(199.0f * gpuCamera.eye.w + gpuCamera.right.w, -gpuCamera.right.w, 1e-6f);
+    EXPECT_NEAR(gpuCamera.up.w - 99.0f * gpuCamera.forward.w, -gpuCamera.up.w, 1e-6f);
     const glm::vec3 f(gpuCamera.forward), r(gpuCamera.right), u(gpuCamera.up);
     EXPECT_NEAR(glm::dot(f, r), 0.0f, 1e-6f);
     EXPECT_NEAR(glm::dot(f, u), 0.0f, 1e-6f);

@@ -53,9 +53,10 @@ glm::vec2 project(const Camera& camera, uint32_t width, uint32_t height, const g
     const GpuCamera c = makeGpuCamera(camera, width, height);
     const glm::vec3 d = point - glm::vec3(c.eye);
     const float depth = glm::dot(d, glm::vec3(c.forward));
-    const float u = glm::dot(d, glm::vec3(c.right)) / depth / c.eye.w;
-    const float v = glm::dot(d, glm::vec3(c.up)) / depth / c.forward.w;
-    return {(u + 1.0f) * 0.5f * float(width), (1.0f - v) * 0.5f * float(height)};
+    const float u = glm::dot(d, glm::vec3(c.right)) / depth;
+    const float v = glm::dot(d, glm::vec3(c.up)) / depth;
+    // shaders/camera.h: u = x step + u0 (eye.w, right.w), v = v0 - y step (up.w, forward.w).
+    return {(u - c.right.w) / c.eye.w + 0.5f, (c.up.w - v) / c.forward.w + 0.5f};
 }
 
 float viewPitch(const Camera& camera) {
