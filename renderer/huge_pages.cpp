@@ -31,7 +31,8 @@ namespace {
 constexpr size_t kHugePageBytes = size_t(2) << 20;
 constexpr std::align_val_t kLargeAlignment{64};
 
-size_t mappedBytes(size_t bytes) { return (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1); }
+// Unused where the mappings are off (under AddressSanitizer).
+[[maybe_unused]] size_t mappedBytes(size_t bytes) { return (bytes + kHugePageBytes - 1) & ~(kHugePageBytes - 1); }
 
 // Under AddressSanitizer the storage stays operator new's, which the sanitizer checks.
 #if defined(__SANITIZE_ADDRESS__)
@@ -129,7 +130,7 @@ void* allocateLarge(size_t bytes) {
     return ::operator new(bytes, kLargeAlignment);
 }
 
-void freeLarge(void* data, size_t bytes) noexcept {
+void freeLarge(void* data, [[maybe_unused]] size_t bytes) noexcept {
     if (!data) return;
 #if defined(RAYPACK_LARGE_MAPPINGS)
     if (bytes >= kHugePageBytes) {
