@@ -6,10 +6,10 @@
 # compiler -D..., "" for none), linked against the rest of build/'s objects, into
 # /tmp/v-NAME/raypack-cli-NAME. build/ must be a current Release build.
 #   scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO
-# SHADER_REV=COMMIT in the environment compiles trace.comp (and the headers it includes) as that
-# commit has them instead of the working tree's: a kernel variant kept in a commit that was
-# reverted, measured against the build (the host side stays the working tree's, so the commit's
-# bindings and specialization constants must be the build's).
+# SHADER_REV=COMMIT in the environment compiles the working tree's shaders with that commit's own
+# changes to shaders/ applied (git diff COMMIT^ COMMIT): a kernel variant kept in a commit that was
+# reverted, measured against the build as it is now (the host side stays the working tree's, so
+# the change may not touch bindings or specialization constants).
 set -euo pipefail
 [ $# -eq 3 ] || { echo "usage: scripts/variant-cli.sh NAME SHADER_MACRO HOST_MACRO" >&2; exit 2; }
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,7 +20,10 @@ CXX="/usr/bin/c++ -DGLM_ENABLE_EXPERIMENTAL -DGLM_FORCE_XYZW_ONLY -DRAYPACK_HAVE
 cd $root
 src=shaders
 if [ -n "${SHADER_REV:-}" ]; then
-  mkdir -p $d/rev && git -C $root archive "$SHADER_REV" shaders | tar -x -C $d/rev
+  mkdir -p $d/rev && cp -r $root/shaders $d/rev/
+  git -C $root diff "$SHADER_REV^" "$SHADER_REV" -- shaders > $d/rev/variant.diff
+  [ -s $d/rev/variant.diff ] || { echo "variant-cli: $SHADER_REV changes nothing under shaders/" >&2; exit 2; }
+  (cd $d/rev && git apply variant.diff) || { echo "variant-cli: $SHADER_REV's change does not apply to the working tree's shaders" >&2; exit 2; }
   src=$d/rev/shaders
 fi
 if [ -n "$sm" ] || [ -n "${SHADER_REV:-}" ]; then
