@@ -74,6 +74,15 @@ void checkOutputPath(const std::string& flag, const std::string& path) {
     if (::access(folder.c_str(), W_OK) != 0) throw Error(what + "the folder " + folder.string() + " is not writable");
 }
 
+void checkImageOutputPath(const std::string& flag, const std::string& path) {
+    checkOutputPath(flag, path);
+    try {
+        imageFormatFor(path);
+    } catch (const Error& e) {
+        throw Error(flag + " " + e.what());
+    }
+}
+
 void writePng(const std::string& path, const Image& image) { writePng(path, image.width, image.height, image.rgba); }
 
 namespace {

@@ -31,6 +31,8 @@ void writeImage(const std::string& path, uint32_t width, uint32_t height, const 
 // Checks, before any work is done, that a file can be created at `path`: its folder exists, is a
 // folder and is writable, and `path` is not a folder. Throws raypack::Error ("FLAG PATH: why").
 void checkOutputPath(const std::string& flag, const std::string& path);
+// checkOutputPath, and that writeImage takes the name (imageFormatFor); the error names the flag.
+void checkImageOutputPath(const std::string& flag, const std::string& path);
 
 // Reads any PNG (grey, grey+alpha, RGB, RGBA; 8 bit) as RGBA8. Throws raypack::Error naming the
 // file when it is missing, not a PNG (other formats are refused, whatever the name), not a

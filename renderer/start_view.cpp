@@ -100,4 +100,13 @@ Camera startCamera(const Scene& scene, const Bvh& bvh) {
     return inside;
 }
 
+Camera withStartView(const Camera& given, CameraParts parts, const Camera& start) {
+    Camera camera = given;
+    if (!parts.eye) camera.eye = start.eye;
+    if (!parts.at) camera.at = start.at;
+    if (!parts.up) camera.up = start.up;
+    if (!parts.fov) camera.fovYDegrees = start.fovYDegrees;
+    return camera;
+}
+
 }  // namespace raypack

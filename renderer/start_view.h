@@ -49,4 +49,15 @@ bool centreIsInARoom(const Scene& scene, const Bvh& bvh);
 //     above, but at least a tenth of the way up from the floor found straight below.
 Camera startCamera(const Scene& scene, const Bvh& bvh);
 
+// The parts of a camera that were given (command-line flags, a settings file's camera); the others
+// come from the start view. With both points given the start view is not needed.
+struct CameraParts {
+    bool eye = false, at = false, up = false, fov = false;
+    bool bothPoints() const { return eye && at; }
+};
+
+// `given` with each part that `parts` does not name taken from `start` (startCamera): how
+// raypack-cli render and the viewer combine their camera flags with the start view.
+Camera withStartView(const Camera& given, CameraParts parts, const Camera& start);
+
 }  // namespace raypack

@@ -430,15 +430,10 @@ void takeWorkerResults(Session& s) {
     // so the viewer and raypack-cli render agree.
     // Parts given on the command line replace the start view's for the first scene; with both
     // points given the start view is not needed (nor, after a device build, the host's tree).
-    const ViewerOptions::CameraGiven given = s.firstScene ? s.options.cameraGiven : ViewerOptions::CameraGiven{};
-    Camera camera = s.options.settings.camera;
-    if (!(given.eye && given.at)) {
-        const Camera start = startCamera(*s.scene, hostBvh(s));
-        if (!given.eye) camera.eye = start.eye;
-        if (!given.at) camera.at = start.at;
-        if (!given.up) camera.up = start.up;
-        if (!given.fov) camera.fovYDegrees = start.fovYDegrees;
-    }
+    const CameraParts given = s.firstScene ? s.options.cameraGiven : CameraParts{};
+    const Camera camera = given.bothPoints()
+                              ? s.options.settings.camera
+                              : withStartView(s.options.settings.camera, given, startCamera(*s.scene, hostBvh(s)));
     s.firstScene = false;
     s.panel.settings.camera = camera;
     s.fly.reset(camera, bounds);

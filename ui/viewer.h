@@ -5,6 +5,7 @@
 // ui/screenshot.h); this file only passes values between them once per frame.
 #include "renderer/bvh.h"
 #include "renderer/settings.h"
+#include "renderer/start_view.h"
 #include "ui/frame_loop.h"
 #include "ui/script.h"
 
@@ -26,11 +27,8 @@ struct ViewerOptions {
     std::string windowScreenshot;  // after the last frame: the whole window, panel included
     RenderSettings settings;       // width/height are taken from the window
     // The parts of settings.camera that --eye, --at, --up and --fov gave for the first scene; the
-    // others are its start view's, as raypack-cli render takes them.
-    struct CameraGiven {
-        bool eye = false, at = false, up = false, fov = false;
-    };
-    CameraGiven cameraGiven;
+    // others are its start view's (withStartView), as raypack-cli render takes them.
+    CameraParts cameraGiven;
     BvhBuildOptions bvh;
     std::string device;       // as raypack-cli --device
     bool validation = false;  // VK_LAYER_KHRONOS_validation; exit code 3 on any message

@@ -32,14 +32,7 @@ CommandRunner addDiffCommand(CLI::App& app) {
         ->check(CLI::Range(0u, 255u))
         ->capture_default_str();
     return [flags] {
-        if (!flags->out.empty()) {
-            checkOutputPath("--out", flags->out);
-            try {
-                imageFormatFor(flags->out);
-            } catch (const Error& e) {
-                throw Error(std::string("--out ") + e.what());
-            }
-        }
+        if (!flags->out.empty()) checkImageOutputPath("--out", flags->out);
         const Image a = readPng(flags->a);
         const Image b = readPng(flags->b);
         const ImageDiff diff = diffImages(a, b, uint8_t(flags->threshold), flags->a, flags->b);

@@ -65,9 +65,10 @@ bool given(const CLI::Option* option) { return option->count() > 0; }
 // on top of it, then the start view (startCamera) when neither gave a camera.
 // `cpuKernelFromFile`: the --from file is a CPU render's (device_kind "cpu"), so its kernel and
 // packet are what that render traced.
-RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cameraGiven, bool& cpuKernelFromFile) {
+RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, CameraParts& cameraGiven,
+                         bool& cpuKernelFromFile) {
     RenderSetup setup;
-    cameraGiven = false;
+    cameraGiven = CameraParts{};
     cpuKernelFromFile = false;
     if (!f.from.empty()) {
         const nlohmann::json json = readJsonFile(f.from);
@@ -76,7 +77,7 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
         } catch (const Error& e) {
             throw Error(f.from + ": " + e.what());
         }
-        cameraGiven = json.is_object() && json.contains("camera");
+        if (json.is_object() && json.contains("camera")) cameraGiven = CameraParts{true, true, true, true};
         cpuKernelFromFile = json.is_object() && json.value("device_kind", "") == "cpu" && json.contains("kernel");
     }
     if (given(o.scene)) setup.scene = f.scene;
@@ -110,8 +111,11 @@ RenderSetup resolveSetup(const RenderFlags& f, const RenderOptions& o, bool& cam
     if (given(o.at)) s.camera.at = parseVec3("--at", f.at);
     if (given(o.up)) s.camera.up = parseVec3("--up", f.up);
     if (given(o.fov)) s.camera.fovYDegrees = f.fov;
-    // One of --eye and --at alone takes the other from the start view (the run below).
-    cameraGiven = cameraGiven || (given(o.eye) && given(o.at));
+    // A flag's part replaces the file's or the start view's (withStartView, in the run below).
+    cameraGiven.eye = cameraGiven.eye || given(o.eye);
+    cameraGiven.at = cameraGiven.at || given(o.at);
+    cameraGiven.up = cameraGiven.up || given(o.up);
+    cameraGiven.fov = cameraGiven.fov || given(o.fov);
     if (given(o.spp)) setup.samples = f.spp;
     if (given(o.heatScale)) s.heatFullScale = parsePositiveFloat("--heat-scale", f.heatScale);
     if (given(o.scale)) setup.resolutionScale = f.scale;
@@ -322,7 +326,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
 
     return [flags, options] {
         const RenderFlags& f = *flags;
-        bool cameraGiven = false;
+        CameraParts cameraGiven;
         bool cpuKernelFromFile = false;
         RenderSetup setup = resolveSetup(f, *options, cameraGiven, cpuKernelFromFile);
         RenderSettings& settings = setup.settings;
@@ -359,14 +363,7 @@ CommandRunner addRenderCommand(CLI::App& app) {
             throw Error("--hit-distance applies to --device gpu only (the CPU tracers take 64-bit floats)");
         // Output paths are checked before the scene is loaded: a typo fails at once, not after
         // the render.
-        if (!f.out.empty()) {
-            checkOutputPath("--out", f.out);
-            try {
-                imageFormatFor(f.out);
-            } catch (const Error& e) {
-                throw Error(std::string("--out ") + e.what());
-            }
-        }
+        if (!f.out.empty()) checkImageOutputPath("--out", f.out);
         if (!f.hits.empty()) checkOutputPath("--hits", f.hits);
         if (!f.json.empty()) checkOutputPath("--json", f.json);
         checkFrameMemory(settings, f.device == "gpu");
@@ -376,16 +373,12 @@ CommandRunner addRenderCommand(CLI::App& app) {
         // A device builder on --device gpu builds in the GPU tracer's own buffers (issue 13: no tree
         // on the host, no second Vulkan device, no download and upload again). The start view
         // traces the tree on the host, so without a camera the tree is built and downloaded first.
-        const bool buildInTracer = gpu && isGpuBvhBuilder(setup.bvh.builder) && cameraGiven && settings.bvhWidth == 2;
+        const bool buildInTracer =
+            gpu && isGpuBvhBuilder(setup.bvh.builder) && cameraGiven.bothPoints() && settings.bvhWidth == 2;
         std::optional<Bvh> bvh;
         if (!buildInTracer) bvh = buildSceneBvh(loaded.scene, setup.bvh, f.gpu);
-        if (!cameraGiven) {
-            const Camera framed = startCamera(loaded.scene, *bvh);
-            if (!given(options->eye)) settings.camera.eye = framed.eye;
-            if (!given(options->at)) settings.camera.at = framed.at;
-            if (!given(options->up)) settings.camera.up = framed.up;
-            if (!given(options->fov)) settings.camera.fovYDegrees = framed.fovYDegrees;
-        }
+        if (!cameraGiven.bothPoints())
+            settings.camera = withStartView(settings.camera, cameraGiven, startCamera(loaded.scene, *bvh));
         makeGpuCamera(settings.camera, settings.width, settings.height);  // throws if degenerate
 
         const bool wantImage = !f.out.empty();
@@ -477,10 +470,10 @@ CommandRunner addRenderCommand(CLI::App& app) {
                 std::printf("distance   accurate hit distance in %s (%s)\n",
                             *math == "fp64" ? "64-bit floats" : "float pairs", why.c_str());
             }
-        printCamera(settings.camera, cameraGiven           ? ""
-                                     : given(options->eye) ? " (--at of the start view)"
-                                     : given(options->at)  ? " (--eye of the start view)"
-                                                           : " (start view)");
+        printCamera(settings.camera, cameraGiven.bothPoints() ? ""
+                                     : cameraGiven.eye        ? " (--at of the start view)"
+                                     : cameraGiven.at         ? " (--eye of the start view)"
+                                                              : " (start view)");
         printTable1(stdout, loaded.info, bvhStats, setup.bvh);
         printTable2(stdout, measured.stats);
 
