@@ -204,6 +204,8 @@ void drawTracerSection(PanelState& state, const PanelInfo& info, PanelActions&) 
     ImGui::SameLine();
     ImGui::RadioButton("hybrid", &kernel, 2);
     s.kernel = kernel == 0 ? KernelKind::Packet : kernel == 1 ? KernelKind::Single : KernelKind::Hybrid;
+    // A CPU tracer keeps drawing: the buttons pick the kernel a switch to Vulkan starts with.
+    if (isCpuTracer(state.tracer)) ImGui::TextDisabled("the Vulkan kernel: a CPU tracer draws now");
     if (s.kernel == KernelKind::Hybrid) {
         // The split rules (docs/gpu.md): each value is a pipeline of its own, built on first use.
         int minRays = int(s.hybrid.minRays);
